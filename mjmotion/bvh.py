@@ -1,0 +1,545 @@
+"""Read and write BVH files (seed 004 §6.3.5; the Biovision format as exporters write it).
+
+Reading accepts any number of joints; per joint any subset of the six channels in any order
+(differing per joint); position channels add to ``OFFSET``; End Sites (zero-length too); any
+whitespace, tabs, CRLF and a UTF-8 byte-order mark; ``Frame Time: .0083333``; ``Frames:``
+followed by a tab. Every problem is a :class:`~mjmotion.errors.BvhError` naming the file, the
+line and what was expected. The hierarchy is parsed without recursion, so deep files are fine.
+
+Writing is lossless for forward kinematics: each joint keeps its channel order, offsets are
+written with ten significant digits and motion values with six decimals.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import rotations as rot
+from .errors import BvhError, MjmotionError
+from .skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton, detect_scale, up_matrix
+
+_KNOWN_CHANNELS = set(POSITION_CHANNELS) | set(ROTATION_CHANNELS)
+_CHANNEL_CASE = {c.lower(): c for c in _KNOWN_CHANNELS}
+#: Tolerance (degrees, file units) below which a value a joint has no channel for counts as zero.
+_WIDEN_TOL = 1e-6
+
+
+@dataclass
+class _Node:
+    name: str
+    parent: int
+    line: int
+    offset: np.ndarray | None = None
+    channels: tuple[str, ...] | None = None
+    is_end: bool = False
+
+
+def read(
+    path: str | os.PathLike[str],
+    scale: float | None = None,
+    up: str = "y",
+    max_bytes: int | None = None,
+) -> Motion:
+    """Load a BVH file into a :class:`Motion` in metres and the Z-up world.
+
+    Args:
+        path: the file.
+        scale: metres per file unit; ``None`` detects it from the skeleton's extent
+            (centimetres, metres, millimetres or CMU's ASF unit).
+        up: the file's up axis, ``"y"`` (the BVH norm) or ``"z"``.
+        max_bytes: refuse files larger than this (``None``: no limit).
+    """
+    p = str(path)
+    try:
+        size = os.path.getsize(p)
+        if max_bytes is not None and size > max_bytes:
+            raise BvhError(p, None, f"file is {size} bytes, larger than the limit of {max_bytes}")
+        with open(p, "rb") as fh:
+            raw = fh.read()
+    except FileNotFoundError:
+        raise BvhError(p, None, "no such file") from None
+    except IsADirectoryError:
+        raise BvhError(p, None, "is a directory, expected a .bvh file") from None
+    except PermissionError:
+        raise BvhError(p, None, "permission denied") from None
+    except OSError as e:
+        raise BvhError(p, None, f"cannot read: {e.strerror or e}") from None
+    motion = parse(raw, p, scale=scale, up=up)
+    return motion.replace(name=Path(p).stem)
+
+
+def parse(data: bytes | str, path: str = "<string>", scale: float | None = None, up: str = "y") -> Motion:
+    """Parse BVH text (``bytes`` or ``str``); ``path`` only names the source in errors."""
+    text = _decode(data, path)
+    lines = text.split("\n")
+    nodes, motion_line = _parse_hierarchy(lines, path)
+    frames, frame_time, first_data_line = _parse_motion_header(lines, motion_line, path)
+    joints = [n for n in nodes if not n.is_end]
+    n_channels = sum(len(n.channels or ()) for n in joints)
+    values = _parse_values(lines, first_data_line, n_channels, frames, path)
+    skel = _build_skeleton(nodes, path, scale, up)
+    return _to_motion(skel, values, 1.0 / frame_time, path)
+
+
+# --- decoding ------------------------------------------------------------------------------
+def _decode(data: bytes | str, path: str) -> str:
+    if isinstance(data, str):
+        text = data
+    else:
+        if data.startswith(b"\xef\xbb\xbf"):
+            data = data[3:]
+        nul = data.find(b"\x00")
+        if nul >= 0:
+            raise BvhError(path, data.count(b"\n", 0, nul) + 1, "binary data (a NUL byte); expected a text BVH file")
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError as e:
+            line = data.count(b"\n", 0, e.start) + 1
+            raise BvhError(path, line, f"invalid UTF-8 (byte 0x{data[e.start]:02x}); expected a text BVH file") from None
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    if not text.strip():
+        raise BvhError(path, 1, "file is empty; expected 'HIERARCHY'")
+    return text
+
+
+# --- hierarchy -----------------------------------------------------------------------------
+def _parse_float(tok: str, path: str, line: int, what: str) -> float:
+    try:
+        v = float(tok)
+    except ValueError:
+        raise BvhError(path, line, f"{what}: {tok!r} is not a number") from None
+    if not np.isfinite(v):
+        raise BvhError(path, line, f"{what}: {tok!r} is not a finite number")
+    return v
+
+
+def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
+    """Nodes in file order (joints and End Sites) and the 0-based index of the MOTION line."""
+    nodes: list[_Node] = []
+    stack: list[int] = []  # open braces: node indices
+    pending: int | None = None  # node declared, its '{' not seen yet
+    seen_header = False
+    seen_root = False
+    names: dict[str, int] = {}
+    i = 0
+    n_lines = len(lines)
+    while i < n_lines:
+        toks = lines[i].split()
+        ln = i + 1
+        i += 1
+        k = 0
+        while k < len(toks):
+            t = toks[k]
+            if not seen_header:
+                if t != "HIERARCHY":
+                    raise BvhError(path, ln, f"expected 'HIERARCHY' at the start of the file, found {t[:40]!r}")
+                seen_header = True
+                k += 1
+                continue
+            if t in ("ROOT", "JOINT"):
+                if pending is not None:
+                    raise BvhError(path, ln, f"expected '{{' after {nodes[pending].name!r}, found {t!r}")
+                rest = toks[k + 1 :]
+                brace = bool(rest) and rest[-1] == "{"
+                name = " ".join(rest[:-1] if brace else rest)
+                if not name:
+                    raise BvhError(path, ln, f"{t} needs a joint name")
+                if t == "ROOT":
+                    if seen_root:
+                        raise BvhError(path, ln, "a second ROOT; expected one hierarchy per file")
+                    if stack:
+                        raise BvhError(path, ln, "ROOT inside another joint; expected 'JOINT'")
+                    parent = -1
+                    seen_root = True
+                else:
+                    if not stack or nodes[stack[-1]].is_end:
+                        raise BvhError(path, ln, "JOINT outside a joint's braces")
+                    parent = stack[-1]
+                if name in names:
+                    raise BvhError(path, ln, f"duplicate joint name {name!r} (first on line {names[name]})")
+                names[name] = ln
+                nodes.append(_Node(name, parent, ln))
+                pending = len(nodes) - 1
+                if brace:
+                    stack.append(pending)
+                    pending = None
+                k = len(toks)
+            elif t == "End":
+                if pending is not None:
+                    raise BvhError(path, ln, f"expected '{{' after {nodes[pending].name!r}, found 'End'")
+                if k + 1 >= len(toks) or toks[k + 1] != "Site":
+                    raise BvhError(path, ln, "expected 'End Site'")
+                if not stack or nodes[stack[-1]].is_end:
+                    raise BvhError(path, ln, "End Site outside a joint's braces")
+                nodes.append(_Node(f"{nodes[stack[-1]].name}/End", stack[-1], ln, is_end=True))
+                pending = len(nodes) - 1
+                k += 2
+            elif t == "{":
+                if pending is None:
+                    raise BvhError(path, ln, "unexpected '{' (expected it after ROOT, JOINT or End Site)")
+                stack.append(pending)
+                pending = None
+                k += 1
+            elif t == "}":
+                if pending is not None:
+                    raise BvhError(path, ln, f"expected '{{' after {nodes[pending].name!r}, found '}}'")
+                if not stack:
+                    raise BvhError(path, ln, "unbalanced '}': no open brace to close")
+                node = nodes[stack.pop()]
+                if node.offset is None:
+                    raise BvhError(path, ln, f"{node.name!r} (line {node.line}) has no OFFSET")
+                if node.channels is None and not node.is_end:
+                    raise BvhError(path, ln, f"joint {node.name!r} (line {node.line}) has no CHANNELS")
+                k += 1
+            elif t == "OFFSET":
+                cur = _current(nodes, stack, pending, path, ln, "OFFSET")
+                if len(toks) - k - 1 < 3:
+                    raise BvhError(path, ln, f"OFFSET needs 3 numbers, found {len(toks) - k - 1}")
+                if cur.offset is not None:
+                    raise BvhError(path, ln, f"a second OFFSET for {cur.name!r}")
+                cur.offset = np.array([_parse_float(x, path, ln, "OFFSET") for x in toks[k + 1 : k + 4]])
+                k += 4
+            elif t == "CHANNELS":
+                cur = _current(nodes, stack, pending, path, ln, "CHANNELS")
+                if cur.is_end:
+                    raise BvhError(path, ln, "an End Site cannot have CHANNELS")
+                if cur.channels is not None:
+                    raise BvhError(path, ln, f"a second CHANNELS for {cur.name!r}")
+                if k + 1 >= len(toks):
+                    raise BvhError(path, ln, "CHANNELS needs a count")
+                try:
+                    count = int(toks[k + 1])
+                except ValueError:
+                    raise BvhError(path, ln, f"CHANNELS count {toks[k + 1]!r} is not a whole number") from None
+                names_ = toks[k + 2 :]
+                if count < 0 or count > 6 or len(names_) != count:
+                    raise BvhError(
+                        path, ln, f"CHANNELS says {count} but lists {len(names_)} channel names; expected 0 to 6 matching names"
+                    )
+                chans = []
+                for c in names_:
+                    canon = _CHANNEL_CASE.get(c.lower())
+                    if canon is None:
+                        raise BvhError(path, ln, f"unknown channel {c!r}; expected X/Y/Z position or rotation")
+                    chans.append(canon)
+                if len(set(chans)) != len(chans):
+                    raise BvhError(path, ln, "a channel is listed twice")
+                cur.channels = tuple(chans)
+                k = len(toks)
+            elif t == "MOTION":
+                if pending is not None or stack:
+                    open_ = nodes[stack[-1]] if stack else nodes[pending]  # type: ignore[index]
+                    raise BvhError(path, ln, f"unbalanced braces: {open_.name!r} (line {open_.line}) is not closed before MOTION")
+                if not seen_root:
+                    raise BvhError(path, ln, "MOTION before any ROOT joint")
+                return nodes, i - 1
+            else:
+                raise BvhError(path, ln, f"unexpected {t[:40]!r} in the HIERARCHY section")
+    if not seen_header:
+        raise BvhError(path, 1, "expected 'HIERARCHY'")
+    if stack:
+        node = nodes[stack[-1]]
+        raise BvhError(path, n_lines, f"unbalanced braces: {node.name!r} (line {node.line}) is never closed")
+    raise BvhError(path, n_lines, "no MOTION section; expected 'MOTION' after the hierarchy")
+
+
+def _current(nodes: list[_Node], stack: list[int], pending: int | None, path: str, ln: int, what: str) -> _Node:
+    if pending is not None:
+        raise BvhError(path, ln, f"expected '{{' before {what}")
+    if not stack:
+        raise BvhError(path, ln, f"{what} outside a joint's braces")
+    return nodes[stack[-1]]
+
+
+def _parse_motion_header(lines: list[str], motion_idx: int, path: str) -> tuple[int, float, int]:
+    """``(frames, frame_time, 0-based index of the first data line)``."""
+    toks_after = lines[motion_idx].split()
+    if toks_after != ["MOTION"]:
+        raise BvhError(path, motion_idx + 1, "expected 'MOTION' alone on its line")
+    i = motion_idx + 1
+    header: list[tuple[int, str]] = []
+    while i < len(lines) and len(header) < 2:
+        s = lines[i].strip()
+        if s:
+            header.append((i + 1, s))
+        i += 1
+    if len(header) < 1:
+        raise BvhError(path, motion_idx + 1, "MOTION is not followed by 'Frames: N'")
+    ln, s = header[0]
+    if not s.startswith("Frames:"):
+        raise BvhError(path, ln, f"expected 'Frames: N', found {s[:40]!r}")
+    val = s[len("Frames:") :].strip()
+    try:
+        frames = int(val)
+    except ValueError:
+        raise BvhError(path, ln, f"Frames: {val[:40]!r} is not a whole number") from None
+    if frames < 1:
+        raise BvhError(path, ln, f"Frames: {frames}; expected at least one frame")
+    if len(header) < 2:
+        raise BvhError(path, ln + 1, "expected 'Frame Time: SECONDS'")
+    ln, s = header[1]
+    if not s.startswith("Frame Time:"):
+        raise BvhError(path, ln, f"expected 'Frame Time: SECONDS', found {s[:40]!r}")
+    val = s[len("Frame Time:") :].strip()
+    ft = _parse_float(val, path, ln, "Frame Time")
+    if ft <= 0:
+        raise BvhError(path, ln, f"Frame Time {val}; expected a positive number of seconds")
+    return frames, ft, i
+
+
+def _parse_values(lines: list[str], start: int, n_channels: int, frames: int, path: str) -> np.ndarray:
+    """Motion values ``(frames, n_channels)``; checked: counts per line, numbers, finiteness."""
+    body = "\n".join(lines[start:])
+    if n_channels == 0:
+        rows = sum(1 for line in lines[start:] if line.strip())
+        if rows:
+            raise BvhError(path, start + 1, "the skeleton declares no channels but the motion section has values")
+        return np.zeros((frames, 0))
+    try:
+        values = np.loadtxt(io.StringIO(body), dtype=float, comments=None, ndmin=2)
+    except ValueError:
+        values = None  # the slow path below finds the line and says what is wrong
+    if values is None or values.shape[1] != n_channels:
+        _diagnose_values(lines, start, n_channels, path)
+        raise BvhError(path, start + 1, "motion values could not be read")  # pragma: no cover
+    if values.shape[0] != frames:
+        where = start + 1 + _nonempty_line_offset(lines, start, min(values.shape[0], frames))
+        raise BvhError(
+            path,
+            where,
+            f"'Frames: {frames}' but the motion section has {values.shape[0]} lines of values",
+        )
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row, col = map(int, np.argwhere(bad)[0])
+        ln = start + 1 + _nonempty_line_offset(lines, start, row)
+        raise BvhError(path, ln, f"value {col + 1} is {values[row, col]}; expected a finite number")
+    return values
+
+
+def _nonempty_line_offset(lines: list[str], start: int, row: int) -> int:
+    """Offset from ``start`` of the ``row``-th non-empty line (or one past the last)."""
+    seen = 0
+    for off, line in enumerate(lines[start:]):
+        if line.strip():
+            if seen == row:
+                return off
+            seen += 1
+    return len(lines) - start
+
+
+def _diagnose_values(lines: list[str], start: int, n_channels: int, path: str) -> None:
+    for off, line in enumerate(lines[start:]):
+        toks = line.split()
+        if not toks:
+            continue
+        ln = start + off + 1
+        if len(toks) != n_channels:
+            raise BvhError(path, ln, f"{len(toks)} values on a motion line; expected {n_channels} (one per channel)")
+        for c, tok in enumerate(toks):
+            try:
+                float(tok)
+            except ValueError:
+                raise BvhError(path, ln, f"value {c + 1} {tok[:40]!r} is not a number") from None
+
+
+# --- building the data model ----------------------------------------------------------------
+def _build_skeleton(nodes: list[_Node], path: str, scale: float | None, up: str) -> Skeleton:
+    index: dict[int, int] = {}
+    names, parents, offsets, channels = [], [], [], []
+    end_parents, end_offsets = [], []
+    for i, n in enumerate(nodes):
+        off = n.offset if n.offset is not None else np.zeros(3)
+        if n.is_end:
+            end_parents.append(index[n.parent])
+            end_offsets.append(off)
+            continue
+        index[i] = len(names)
+        names.append(n.name)
+        parents.append(index[n.parent] if n.parent >= 0 else -1)
+        offsets.append(off)
+        channels.append(n.channels or ())
+    c = up_matrix(up)
+    offs = np.asarray(offsets)
+    ends = np.asarray(end_offsets).reshape(-1, 3)
+    if scale is None:
+        file_skel = Skeleton(tuple(names), np.asarray(parents), offs, tuple(channels), np.asarray(end_parents, dtype=int), ends)
+        try:
+            scale = detect_scale(file_skel.height())
+        except MjmotionError as e:
+            raise BvhError(path, None, str(e)) from None
+    elif not (np.isfinite(scale) and scale > 0):
+        raise BvhError(path, None, f"scale must be a positive number of metres per unit, got {scale}")
+    return Skeleton(
+        tuple(names),
+        np.asarray(parents),
+        offs @ c.T * scale,
+        tuple(channels),
+        np.asarray(end_parents, dtype=int),
+        ends @ c.T * scale,
+        scale=float(scale),
+        up=up,
+    )
+
+
+def _rotation_axes(channels: tuple[str, ...]) -> str:
+    return "".join(c[0] for c in channels if c in ROTATION_CHANNELS)
+
+
+def _to_motion(skel: Skeleton, values: np.ndarray, fps: float, path: str) -> Motion:
+    t = values.shape[0]
+    j_count = skel.n_joints
+    c = up_matrix(skel.up)
+    q_c = rot.from_matrix(c)
+    file_offsets = skel.offsets @ c / skel.scale  # back to file axes and units (C is orthonormal)
+    local_file = np.broadcast_to(file_offsets, (t, j_count, 3)).copy()
+    quats = np.empty((t, j_count, 4))
+    groups: dict[str, list[tuple[int, list[int]]]] = {}
+    col = 0
+    for j, chans in enumerate(skel.channels):
+        rot_cols = []
+        for ch in chans:
+            if ch in POSITION_CHANNELS:
+                local_file[:, j, "XYZ".index(ch[0])] += values[:, col]
+            else:
+                rot_cols.append(col)
+            col += 1
+        groups.setdefault(_rotation_axes(chans), []).append((j, rot_cols))
+    for axes, members in groups.items():
+        js = [m[0] for m in members]
+        if not axes:
+            quats[:, js] = rot.IDENTITY
+            continue
+        cols = np.array([m[1] for m in members])  # (n, k)
+        ang = values[:, cols].reshape(-1, len(axes))  # (t*n, k)
+        quats[:, js] = rot.euler_to_quat(ang, axes).reshape(t, len(js), 4)
+    # Conjugate into the Z-up world: R_world = C R_file Cᵀ.
+    quats = rot.multiply(rot.multiply(q_c, quats), rot.conjugate(q_c))
+    local = local_file @ c.T * skel.scale
+    inner_pos = any(skel.has_positions(j) for j in range(1, j_count))
+    return Motion(
+        skeleton=skel,
+        fps=fps,
+        root_positions=local[:, 0].copy(),
+        rotations=quats,
+        translations=local if inner_pos else None,
+    )
+
+
+# --- writing -------------------------------------------------------------------------------
+def format_motion(motion: Motion) -> str:
+    """BVH text for ``motion`` in its skeleton's file units and axes.
+
+    Each joint keeps its channel order. Where a joint's motion cannot be expressed by its
+    channels (a rotation about an axis it has no channel for, or a translation of a joint
+    without position channels), the missing channels are appended to that joint so nothing is
+    lost.
+    """
+    skel = motion.skeleton
+    if not np.all(np.isfinite(motion.rotations)) or not np.all(np.isfinite(motion.root_positions)):
+        raise MjmotionError("motion has non-finite values (NaN or inf); refusing to write it")
+    if motion.translations is not None and not np.all(np.isfinite(motion.translations)):
+        raise MjmotionError("motion has non-finite translations; refusing to write it")
+    c = up_matrix(skel.up)
+    q_c = rot.from_matrix(c)
+    t = motion.n_frames
+    file_offsets = skel.offsets @ c / skel.scale
+    file_ends = skel.end_offsets @ c / skel.scale
+    local_file = motion.local_translations() @ c / skel.scale  # (T, J, 3)
+    q_file = rot.multiply(rot.multiply(rot.conjugate(q_c), motion.rotations), q_c)
+    columns: list[np.ndarray] = []
+    channels_out: list[tuple[str, ...]] = []
+    for j, chans in enumerate(skel.channels):
+        chans = list(chans)
+        disp = local_file[:, j] - file_offsets[j]
+        pos_axes = [ch[0] for ch in chans if ch in POSITION_CHANNELS]
+        missing_pos = [a for a in "XYZ" if a not in pos_axes]
+        if missing_pos and np.max(np.abs(disp[:, ["XYZ".index(a) for a in missing_pos]]), initial=0.0) > _WIDEN_TOL:
+            chans = [f"{a}position" for a in missing_pos] + chans
+        rot_axes = _rotation_axes(tuple(chans))
+        euler: dict[str, np.ndarray] = {}
+        if rot_axes or not np.allclose(rot.angle_between(q_file[:, j], rot.IDENTITY), 0.0, atol=1e-9):
+            full = rot_axes + "".join(a for a in "XYZ" if a not in rot_axes)
+            ang = rot.quat_to_euler(q_file[:, j], full)
+            extra = ang[:, len(rot_axes) :]
+            if extra.size and np.max(np.abs(_wrap_degrees(extra))) > _WIDEN_TOL:
+                chans = chans + [f"{a}rotation" for a in full[len(rot_axes) :]]
+                rot_axes = full
+            euler = {a: ang[:, i] for i, a in enumerate(full)}
+        for ch in chans:
+            if ch in POSITION_CHANNELS:
+                columns.append(disp[:, "XYZ".index(ch[0])])
+            else:
+                columns.append(euler[ch[0]])
+        channels_out.append(tuple(chans))
+    out = io.StringIO()
+    out.write("HIERARCHY\n")
+    _write_hierarchy(out, skel, channels_out, file_offsets, file_ends)
+    out.write("MOTION\n")
+    out.write(f"Frames: {t}\n")
+    out.write(f"Frame Time: {1.0 / motion.fps:.10g}\n")
+    if columns:
+        data = np.column_stack(columns)
+        data = np.where(np.abs(data) < 5e-7, 0.0, data)  # no "-0.000000"
+        np.savetxt(out, data, fmt="%.6f", delimiter=" ")
+    else:
+        out.write("\n" * t)
+    return out.getvalue()
+
+
+def _wrap_degrees(a: np.ndarray) -> np.ndarray:
+    return (a + 180.0) % 360.0 - 180.0
+
+
+def _write_hierarchy(
+    out: io.StringIO,
+    skel: Skeleton,
+    channels: list[tuple[str, ...]],
+    offsets: np.ndarray,
+    ends: np.ndarray,
+) -> None:
+    children: list[list[int]] = [[] for _ in range(skel.n_joints)]
+    for j in range(1, skel.n_joints):
+        children[int(skel.parents[j])].append(j)
+    end_of: list[list[int]] = [[] for _ in range(skel.n_joints)]
+    for e, p in enumerate(skel.end_parents):
+        end_of[int(p)].append(e)
+
+    def fmt(v: np.ndarray) -> str:
+        return " ".join(f"{0.0 if abs(x) < 1e-12 else x:.10g}" for x in v)
+
+    # Iterative depth-first walk (deep hierarchies would overflow recursion).
+    stack: list[tuple[str, int, int]] = [("open", 0, 0)]
+    while stack:
+        kind, j, depth = stack.pop()
+        ind = "\t" * depth
+        if kind == "close":
+            out.write(f"{ind}}}\n")
+            continue
+        if kind == "end":
+            out.write(f"{ind}End Site\n{ind}{{\n{ind}\tOFFSET {fmt(ends[j])}\n{ind}}}\n")
+            continue
+        word = "ROOT" if j == 0 else "JOINT"
+        out.write(f"{ind}{word} {skel.names[j]}\n{ind}{{\n")
+        out.write(f"{ind}\tOFFSET {fmt(offsets[j])}\n")
+        out.write(f"{ind}\tCHANNELS {len(channels[j])}{''.join(' ' + c for c in channels[j])}\n")
+        stack.append(("close", j, depth))
+        for e in reversed(end_of[j]):
+            stack.append(("end", e, depth + 1))
+        for c in reversed(children[j]):
+            stack.append(("open", c, depth + 1))
+
+
+def write(motion: Motion, path: str | os.PathLike[str]) -> None:
+    """Write ``motion`` as BVH to ``path`` (atomically: a temporary file renamed into place)."""
+    from .outputs import write_text_atomic
+
+    write_text_atomic(path, format_motion(motion))

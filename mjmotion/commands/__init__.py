@@ -1,0 +1,1 @@
+"""One module per CLI verb: ``NAME``, ``HELP``, optional ``DESCRIPTION``, ``add_arguments``, ``run``."""

@@ -1,0 +1,47 @@
+"""``mjmotion convert``: rescale, resample or cut a BVH file."""
+
+from __future__ import annotations
+
+import argparse
+
+from .. import bvh
+from ..errors import MjmotionError
+from ._common import add_input_options, load, output_path, parse_frames
+
+NAME = "convert"
+HELP = "write a BVH file again, optionally rescaled, resampled or cut"
+DESCRIPTION = """Write a clip again with the same skeleton, channel orders and units, optionally changed.
+
+--scale S multiplies every written length by S (0.01 turns a centimetre file into metres);
+--fps F resamples (slerp of rotations); --frames A:B keeps frames A..B-1 (before resampling).
+
+examples:
+  mjmotion convert walk.bvh walk_30fps.bvh --fps 30
+  mjmotion convert walk.bvh walk_m.bvh --scale 0.01 --frames 100:400
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("input", help="the .bvh file to read")
+    p.add_argument("output", help="the .bvh file to write")
+    p.add_argument("--scale", type=float, metavar="S", help="multiply written lengths by S")
+    p.add_argument("--fps", type=float, metavar="F", help="resample to F frames per second")
+    p.add_argument("--frames", metavar="A:B", help="keep frames A to B-1 (Python slice, negatives allowed)")
+    p.add_argument("--force", action="store_true", help="replace OUTPUT if it exists")
+    add_input_options(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    out = output_path(args, args.input)
+    m = load(args.input, args)
+    if args.frames:
+        m = m[parse_frames(args.frames, m.n_frames)]
+    if args.fps is not None:
+        m = m.resample(args.fps)
+    if args.scale is not None:
+        if not (args.scale > 0 and args.scale < float("inf")):
+            raise MjmotionError(f"--scale {args.scale}: expected a positive number")
+        m = m.replace(skeleton=m.skeleton.replace_scale(m.skeleton.scale / args.scale))
+    bvh.write(m, out)
+    print(f"wrote {out} ({m.n_frames} frames at {m.fps:.4g} fps)")
+    return 0

@@ -1,0 +1,65 @@
+"""``mjmotion fk``: world joint (and site) positions of a clip, through MuJoCo."""
+
+from __future__ import annotations
+
+import argparse
+import io
+
+import numpy as np
+
+from .. import kinematics, mjcf
+from ..outputs import write_bytes_atomic
+from ._common import add_input_options, load, output_path
+
+NAME = "fk"
+HELP = "forward kinematics of a BVH clip to an .npz of world positions (metres, Z-up)"
+DESCRIPTION = """Run forward kinematics through the compiled MuJoCo model and save arrays:
+  joint_names (J,), positions (T, J, 3) metres in the model's world frame (Z up), fps;
+with --prop also site_names (S,) and site_positions (T, S, 3) (grip, sweet spot, tip).
+
+examples:
+  mjmotion fk walk.bvh -o walk_fk.npz
+  mjmotion fk swing.bvh --prop club -o swing_fk.npz
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", help="a .bvh file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.npz", help="the .npz file to write")
+    p.add_argument("--force", action="store_true", help="replace the output if it exists")
+    p.add_argument("--prop", action="append", default=[], metavar="KIND[:JOINT]", help="attach a prop and export its sites")
+    add_input_options(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    out = output_path(args, args.file)
+    m = load(args.file, args)
+    props = tuple(_prop(m, text) for text in args.prop)
+    compiled = mjcf.compile(m.skeleton, props)
+    pose = kinematics.forward(compiled, m)
+    arrays = {
+        "joint_names": np.array(m.skeleton.names),
+        "positions": pose.joint_positions,
+        "fps": np.array(m.fps),
+    }
+    if props:
+        keep = [i for i, n in enumerate(pose.site_names) if any(n.startswith(f"{p.name}/") for p in props)]
+        arrays["site_names"] = np.array([pose.site_names[i] for i in keep])
+        arrays["site_positions"] = pose.site_positions[:, keep]
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    write_bytes_atomic(out, buf.getvalue())
+    print(f"wrote {out}: positions {pose.joint_positions.shape}" + (f", {len(arrays['site_names'])} sites" if props else ""))
+    return 0
+
+
+def _prop(motion, text: str) -> mjcf.Prop:
+    """A prop from ``--prop``; the club on a golf swing is fitted to both hands when that module exists."""
+    kind = text.partition(":")[0]
+    if kind == "club" and ":" not in text:
+        try:
+            from ..hitpoint import fit_club
+        except ImportError:
+            return mjcf.parse_prop_option(motion.skeleton, text)
+        return fit_club(motion)
+    return mjcf.parse_prop_option(motion.skeleton, text)

@@ -1,0 +1,68 @@
+"""``mjmotion info``: what a BVH file holds."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from ._common import add_input_options, load
+
+NAME = "info"
+HELP = "joints, frames, fps, duration, channel layout and detected scale of a BVH file"
+DESCRIPTION = """Describe a BVH file.
+
+examples:
+  mjmotion info walk.bvh
+  mjmotion info walk.bvh --json > walk.json
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", help="a .bvh file")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    add_input_options(p)
+
+
+def describe(path: str, args: argparse.Namespace) -> dict:
+    m = load(path, args)
+    s = m.skeleton
+    return {
+        "file": path,
+        "joints": s.n_joints,
+        "end_sites": int(len(s.end_parents)),
+        "channels": s.n_channels,
+        "frames": m.n_frames,
+        "fps": m.fps,
+        "frame_time": 1.0 / m.fps,
+        "duration_s": m.duration,
+        "scale_m_per_unit": s.scale,
+        "up": s.up,
+        "stature_m": round(s.stature(), 4),
+        "feet": {k: [s.names[a], None if t is None else s.names[t]] for k, (a, t) in s.feet().items()},
+        "hands": {k: s.names[v] for k, v in s.hands().items()},
+        "joint_list": [
+            {"name": n, "parent": None if p < 0 else s.names[p], "channels": list(c)}
+            for n, p, c in zip(s.names, s.parents.tolist(), s.channels)
+        ],
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    d = describe(args.file, args)
+    if args.json:
+        print(json.dumps(d, indent=2))
+        return 0
+    print(f"{d['file']}")
+    print(f"  joints      {d['joints']} (+{d['end_sites']} End Sites), {d['channels']} channels")
+    print(f"  frames      {d['frames']} at {d['fps']:.4g} fps ({d['duration_s']:.3f} s)")
+    print(f"  units       {d['scale_m_per_unit']:.6g} m per file unit, up axis {d['up']}; stature ≈ {d['stature_m']:.2f} m")
+    print(f"  feet        {d['feet']}")
+    print(f"  hands       {d['hands']}")
+    layouts: dict[tuple[str, ...], list[str]] = {}
+    for j in d["joint_list"]:
+        layouts.setdefault(tuple(j["channels"]), []).append(j["name"])
+    print("  channel layouts:")
+    for chans, names in layouts.items():
+        shown = ", ".join(names[:6]) + (f", … ({len(names)} joints)" if len(names) > 6 else "")
+        print(f"    {' '.join(chans) or '(none)'}: {shown}")
+    return 0

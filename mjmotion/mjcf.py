@@ -1,0 +1,478 @@
+"""Compile a :class:`~mjmotion.skeleton.Skeleton` to a MuJoCo model with ``mujoco.MjSpec``.
+
+Each BVH joint becomes a body named exactly like the joint, carrying a **ball joint** (the root
+a free joint). Ball joints, not hinge triplets: a BVH joint may list its Euler channels in any
+order, and a quaternion ``qpos`` is that rotation exactly, with no gimbal lock and no order to
+remember; per-joint freedoms (a 1-DOF elbow) are the IK layer's parametrisation, on top.
+Joints that carry position channels also get three slide joints (x, y, z of the parent frame)
+before the ball joint, so every BVH motion has a ``qpos``.
+
+Geometry: a capsule along every bone (radius from its length), a box under each foot and toe
+for ground contact, masses from one density chosen so the total is a realistic body mass for
+the character's size. Body geoms collide with the floor, props' geoms and the ball, not with
+each other. The world has a checker floor (z = 0), lights and a camera tracking the character.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from . import rotations as rot
+from .errors import MjmotionError
+from .skeleton import Skeleton
+
+#: Names of the elements mjmotion adds; a skeleton may not use them for its joints.
+FLOOR = "floor"
+BALL = "ball"
+TRACK_CAMERA = "track"
+#: Body mass index used to give the character a realistic mass for its size (kg / m²).
+BODY_MASS_INDEX = 21.5
+
+
+@dataclass(frozen=True)
+class Prop:
+    """A rigid stick held by a joint: a bat, a club, a racket handle.
+
+    The prop's frame sits at the grip; its +z axis points from the grip to the head.
+
+    Attributes:
+        name: body and site prefix (``"club"``, ``"bat"``).
+        joint: the skeleton joint that holds it.
+        pos: ``(3,)`` grip position in the joint's body frame, metres.
+        quat: ``(4,)`` wxyz orientation of the prop frame in the joint's body frame.
+        length: grip to tip, metres.
+        radius: shaft radius, metres.
+        sweet_spot: distance from the grip to the sweet spot along +z, metres.
+        mass: kg (used by the ball-launch simulation).
+    """
+
+    name: str
+    joint: str
+    pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+    length: float = 1.0
+    radius: float = 0.02
+    sweet_spot: float = 0.9
+    mass: float = 0.4
+
+    @property
+    def site(self) -> str:
+        """Name of the sweet-spot site (the effector)."""
+        return f"{self.name}/sweet_spot"
+
+
+#: Standard props: length, shaft radius, sweet spot from the grip, mass.
+PROP_PRESETS: dict[str, dict[str, float]] = {
+    "club": dict(length=1.10, radius=0.012, sweet_spot=1.06, mass=0.35),  # a driver-length golf club
+    "bat": dict(length=0.86, radius=0.035, sweet_spot=0.68, mass=1.2),  # a cricket bat
+}
+
+
+@dataclass(frozen=True)
+class Ball:
+    """A free ball. ``radius`` in metres (cricket 0.036, golf 0.0214), ``mass`` in kg."""
+
+    position: tuple[float, float, float] = (1.0, 0.0, 0.5)
+    radius: float = 0.036
+    mass: float = 0.16
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledModel:
+    """A compiled character model and the map from skeleton joints to ``qpos``.
+
+    Attributes:
+        skeleton: the source skeleton.
+        spec: the ``MjSpec`` it was built from (writable to XML).
+        model: the ``MjModel``.
+        body_ids: ``(J,)`` body id of each joint.
+        qpos_adr: ``(J,)`` ``qpos`` address of each joint's rotation (root: the free joint's
+            quaternion; others: the ball joint).
+        dof_adr: ``(J,)`` first ``qvel`` index of each joint's rotation (3 per joint).
+        slide_adr: ``(J,)`` ``qpos`` address of the first of three slide joints, or -1.
+        site_names: names of all sites (End Sites ``JOINT/end``, ``JOINT/end1``…, prop sites).
+        props: the props compiled in.
+        ball: the ball, if any; ``ball_qpos_adr`` its free joint's address.
+    """
+
+    skeleton: Skeleton
+    spec: mujoco.MjSpec
+    model: mujoco.MjModel
+    body_ids: np.ndarray
+    qpos_adr: np.ndarray
+    dof_adr: np.ndarray
+    slide_adr: np.ndarray
+    site_names: tuple[str, ...]
+    props: tuple[Prop, ...] = ()
+    ball: Ball | None = None
+    ball_qpos_adr: int = -1
+    foot_geoms: dict[str, tuple[int, ...]] = field(default_factory=dict)
+
+    @property
+    def body_geom_ids(self) -> np.ndarray:
+        """Ids of the character's own geoms (bones and feet; not props, ball or floor)."""
+        ids = set(int(b) for b in self.body_ids)
+        gb = self.model.geom_bodyid
+        return np.array([g for g in range(self.model.ngeom) if int(gb[g]) in ids], dtype=int)
+
+    def site_id(self, name: str) -> int:
+        i = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, name)
+        if i < 0:
+            raise MjmotionError(f"no site named {name!r}; sites are: {', '.join(self.site_names[:12])}…")
+        return int(i)
+
+    def to_xml(self) -> str:
+        return self.spec.to_xml()
+
+    def save_xml(self, path: str | os.PathLike[str]) -> None:
+        from .outputs import write_text_atomic
+
+        write_text_atomic(path, self.to_xml())
+
+
+def default_prop(skeleton: Skeleton, kind: str, joint: str) -> Prop:
+    """A ``kind`` prop (``club`` or ``bat``) held at the end of ``joint``'s bone, along it.
+
+    The grip sits where the bone ends (its first child or End Site in the rest pose) and the
+    shaft continues the bone's direction. Fitting a club to both hands is
+    :func:`mjmotion.hitpoint.fit_club`'s job; this is the plain one-hand attachment.
+    """
+    if kind not in PROP_PRESETS:
+        raise MjmotionError(f"unknown prop {kind!r}; expected one of {', '.join(PROP_PRESETS)}")
+    j = skeleton.index(joint)
+    tips = [skeleton.offsets[c] for c in skeleton.children(j)]
+    tips += [skeleton.end_offsets[e] for e in np.flatnonzero(skeleton.end_parents == j)]
+    tips = [t for t in tips if np.linalg.norm(t) > 1e-6]
+    if tips:
+        tip = np.asarray(tips[0])
+        direction = tip / np.linalg.norm(tip)
+    else:
+        tip = np.zeros(3)
+        direction = np.array([0.0, 0.0, -1.0])
+    quat = _quat_z_to(direction)
+    return Prop(name=kind, joint=joint, pos=tuple(tip), quat=tuple(quat), **PROP_PRESETS[kind])  # type: ignore[arg-type]
+
+
+def parse_prop_option(skeleton: Skeleton, text: str) -> Prop:
+    """A prop from the CLI form ``KIND:JOINT`` (``club:lwrist``); ``KIND`` alone picks the right hand."""
+    kind, _, joint = text.partition(":")
+    if not joint:
+        hands = skeleton.hands()
+        if "right" not in hands:
+            raise MjmotionError(f"--prop {text}: no right hand found by name; say which joint, e.g. {kind}:JOINT")
+        joint = skeleton.names[hands["right"]]
+    return default_prop(skeleton, kind, joint)
+
+
+def _quat_z_to(direction: np.ndarray) -> np.ndarray:
+    """Quaternion rotating +z onto the unit vector ``direction``."""
+    z = np.array([0.0, 0.0, 1.0])
+    d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    axis = np.cross(z, d)
+    s = np.linalg.norm(axis)
+    if s < 1e-12:
+        return np.array([1.0, 0, 0, 0]) if d[2] > 0 else np.array([0.0, 1.0, 0, 0])
+    angle = np.arctan2(s, float(np.dot(z, d)))
+    return rot.exp(axis / s * angle)
+
+
+def _look_quat(forward: np.ndarray) -> np.ndarray:
+    """Orientation of a camera looking along ``forward`` with the world's +z up (cameras look along -z)."""
+    z = -forward / np.linalg.norm(forward)
+    x = np.cross([0.0, 0.0, 1.0], z)
+    x /= np.linalg.norm(x)
+    return rot.from_matrix(np.column_stack([x, np.cross(z, x), z]))
+
+
+def _bone_radius(length: float, height: float) -> float:
+    return float(np.clip(0.12 * length, 0.018, 0.07)) * height / 1.75
+
+
+def compile(
+    skeleton: Skeleton,
+    props: tuple[Prop, ...] | list[Prop] = (),
+    ball: Ball | None = None,
+    total_mass: float | None = None,
+) -> CompiledModel:
+    """Build and compile the MuJoCo model of ``skeleton`` with optional props and a ball.
+
+    Args:
+        skeleton: the character.
+        props: sticks attached to joints (see :class:`Prop`).
+        ball: a free ball, or ``None``.
+        total_mass: the character's mass in kg; default ``BODY_MASS_INDEX × height²``.
+    """
+    reserved = {FLOOR, BALL} | {p.name for p in props}
+    clash = reserved.intersection(skeleton.names)
+    if clash:
+        raise MjmotionError(f"joint name(s) {sorted(clash)} clash with names mjmotion adds; rename the joint")
+    height = float(np.clip(skeleton.stature(), 0.3, 3.0))
+    mass = total_mass if total_mass is not None else BODY_MASS_INDEX * height**2
+    spec = mujoco.MjSpec()
+    spec.modelname = "mjmotion"
+    spec.option.timestep = 0.002
+    _add_world(spec)
+    bodies: list[mujoco.MjsBody] = []
+    site_names: list[str] = []
+    foot_geoms: dict[str, list[str]] = {}
+    feet = skeleton.feet()
+    foot_boxes = _foot_boxes(skeleton, feet)
+    for j, name in enumerate(skeleton.names):
+        parent = spec.worldbody if j == 0 else bodies[int(skeleton.parents[j])]
+        body = parent.add_body(name=name, pos=[0.0, 0.0, 0.0] if j == 0 else skeleton.offsets[j].tolist())
+        bodies.append(body)
+        if j == 0:
+            body.add_freejoint(name=name)
+            body.add_camera(
+                name=TRACK_CAMERA,
+                mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM,
+                pos=[0.0, -4.0 * height / 1.75, 0.3],
+                quat=_look_quat(np.array([0.0, 1.0, -0.05])).tolist(),
+            )
+        else:
+            if skeleton.has_positions(j):
+                for axis, label in zip(np.eye(3), "xyz"):
+                    body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, name=f"{name}/slide_{label}", axis=axis.tolist())
+            body.add_joint(type=mujoco.mjtJoint.mjJNT_BALL, name=name)
+        tips = [(skeleton.offsets[c], None) for c in skeleton.children(j)]
+        ends = np.flatnonzero(skeleton.end_parents == j)
+        for k, e in enumerate(ends):
+            site = f"{name}/end" if k == 0 else f"{name}/end{k}"
+            body.add_site(name=site, pos=skeleton.end_offsets[e].tolist(), size=[0.01, 0, 0], group=3)
+            site_names.append(site)
+            tips.append((skeleton.end_offsets[e], None))
+        n_geoms = 0
+        for tip, _ in tips:
+            length = float(np.linalg.norm(tip))
+            if length < 0.01 * height / 1.75:
+                continue
+            body.add_geom(
+                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                fromto=[0.0, 0.0, 0.0, *tip.tolist()],
+                size=[_bone_radius(length, height), 0, 0],
+                contype=1,
+                conaffinity=0,
+                rgba=[0.75, 0.6, 0.5, 1.0],
+                group=1,
+            )
+            n_geoms += 1
+        for label, (pos, quat, half) in foot_boxes.get(j, {}).items():
+            body.add_geom(
+                name=label,
+                type=mujoco.mjtGeom.mjGEOM_BOX,
+                pos=pos.tolist(),
+                quat=quat.tolist(),
+                size=half.tolist(),
+                contype=1,
+                conaffinity=0,
+                rgba=[0.3, 0.3, 0.35, 1.0],
+                group=1,
+            )
+            foot_geoms.setdefault(label.split("/")[1], []).append(label)
+            n_geoms += 1
+        if n_geoms == 0:
+            # A zero-length bone (a hip joint, a twist bone): a tiny explicit inertia keeps MuJoCo valid.
+            body.mass = 1e-4
+            body.inertia = [1e-8, 1e-8, 1e-8]
+            body.explicitinertial = True
+    for prop in props:
+        j = skeleton.index(prop.joint)
+        pb = bodies[j].add_body(name=prop.name, pos=list(prop.pos), quat=list(prop.quat))
+        pb.add_geom(
+            name=prop.name,
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            fromto=[0.0, 0.0, 0.0, 0.0, 0.0, prop.length],
+            size=[prop.radius, 0, 0],
+            contype=1,
+            conaffinity=0,
+            mass=prop.mass,
+            rgba=[0.55, 0.35, 0.15, 1.0],
+        )
+        for sname, z in (("grip", 0.0), ("sweet_spot", prop.sweet_spot), ("tip", prop.length)):
+            pb.add_site(name=f"{prop.name}/{sname}", pos=[0.0, 0.0, z], size=[0.015, 0, 0], rgba=[1, 0.9, 0.1, 1])
+            site_names.append(f"{prop.name}/{sname}")
+    if ball is not None:
+        bb = spec.worldbody.add_body(name=BALL, pos=list(ball.position))
+        bb.add_freejoint(name=BALL)
+        bb.add_geom(
+            name=BALL,
+            type=mujoco.mjtGeom.mjGEOM_SPHERE,
+            size=[ball.radius, 0, 0],
+            mass=ball.mass,
+            contype=1,
+            conaffinity=1,
+            rgba=[0.85, 0.1, 0.1, 1.0],
+        )
+    # Two passes: compile at unit density, then scale the density to reach the target mass.
+    body_geoms = [g for b in bodies for g in b.geoms if g.name not in {p.name for p in props}]
+    for g in body_geoms:
+        g.density = 1000.0
+    model = spec.compile()
+    char_mass = float(sum(model.body_mass[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n)] for n in skeleton.names))
+    for g in body_geoms:
+        g.density = 1000.0 * mass / char_mass
+    model = spec.compile()
+    return _index(skeleton, spec, model, tuple(site_names), tuple(props), ball, foot_geoms)
+
+
+def _add_world(spec: mujoco.MjSpec) -> None:
+    spec.add_texture(
+        name="grid",
+        type=mujoco.mjtTexture.mjTEXTURE_2D,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+        rgb1=[0.22, 0.26, 0.30],
+        rgb2=[0.17, 0.20, 0.24],
+        width=512,
+        height=512,
+        mark=mujoco.mjtMark.mjMARK_EDGE,
+        markrgb=[0.45, 0.5, 0.55],
+    )
+    mat = spec.add_material(name="grid", texrepeat=[1, 1], texuniform=True, reflectance=0.05)
+    mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
+    spec.worldbody.add_geom(
+        name=FLOOR,
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[0.0, 0.0, 0.05],
+        material="grid",
+        contype=0,
+        conaffinity=1,
+    )
+    spec.worldbody.add_light(name="key", pos=[2.0, -2.0, 5.0], dir=[-0.3, 0.3, -1.0], castshadow=True)
+    spec.worldbody.add_light(name="fill", pos=[-3.0, 3.0, 4.0], dir=[0.5, -0.5, -1.0], castshadow=False)
+    spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
+    spec.visual.global_.offwidth = 1920
+    spec.visual.global_.offheight = 1080
+
+
+def _foot_boxes(skeleton: Skeleton, feet: dict[str, tuple[int, int | None]]) -> dict[int, dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]]:
+    """Per joint, box geoms ``{name: (pos, quat, half_sizes)}`` in that joint's body frame.
+
+    Built in the rest pose, where body frames are aligned with the world: the box runs from a
+    heel behind the ankle to the toe tip, its sole at the lowest toe point along the
+    skeleton's rest "up" (feet → head; a rest pose need not be upright).
+    """
+    if not feet:
+        return {}
+    rest = skeleton.rest_positions()
+    ends = skeleton.rest_end_positions()
+    height = float(np.clip(skeleton.stature(), 0.3, 3.0))
+    ankles = np.array([rest[a] for a, _ in feet.values()])
+    head = _head_position(skeleton, rest)
+    up = head - ankles.mean(axis=0)
+    if np.linalg.norm(up) < 1e-9:
+        return {}
+    up /= np.linalg.norm(up)
+    out: dict[int, dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+    for side, (ankle, toe) in feet.items():
+        # The toe tip: the farthest End Site or joint below the ankle.
+        below = [c for c in _subtree(skeleton, ankle) if c != ankle]
+        pts = [rest[c] for c in below] + [ends[e] for e in range(len(ends)) if skeleton.end_parents[e] in below + [ankle]]
+        if not pts:
+            continue
+        pts_arr = np.asarray(pts)
+        a = rest[ankle]
+        horiz = (pts_arr - a) - np.outer((pts_arr - a) @ up, up)
+        tip = pts_arr[int(np.argmax(np.linalg.norm(horiz, axis=1)))]
+        fwd = (tip - a) - np.dot(tip - a, up) * up
+        flen = float(np.linalg.norm(fwd))
+        if flen < 1e-6:
+            continue
+        fwd /= flen
+        side_axis = np.cross(up, fwd)
+        frame = np.column_stack([fwd, side_axis, up])
+        quat = rot.from_matrix(frame)
+        sole = min(float(np.dot(p - a, up)) for p in pts_arr)
+        top = min(0.0, sole + 0.09 * height / 1.75)
+        half_w = 0.045 * height / 1.75
+        if toe is None:
+            lo, hi = -0.25 * flen, flen
+            center = a + fwd * (lo + hi) / 2 + up * (sole + top) / 2
+            half = np.array([(hi - lo) / 2, half_w, max((top - sole) / 2, 0.01)])
+            out.setdefault(ankle, {})[f"foot/{side}"] = (center - a, quat, half)
+        else:
+            t = rest[toe]
+            tdist = float(np.dot(t - a, fwd))
+            lo, hi = -0.25 * flen, tdist
+            center = a + fwd * (lo + hi) / 2 + up * (sole + top) / 2
+            half = np.array([max((hi - lo) / 2, 0.01), half_w, max((top - sole) / 2, 0.01)])
+            out.setdefault(ankle, {})[f"foot/{side}"] = (center - a, quat, half)
+            t_sole = float(np.dot(a - t, up)) + sole  # the same sole plane, from the toe
+            t_top = min(0.0, t_sole + 0.04 * height / 1.75)
+            tlen = max(flen - tdist, 0.02)
+            center_t = t + fwd * tlen / 2 + up * (t_sole + t_top) / 2
+            half_t = np.array([tlen / 2, half_w, max((t_top - t_sole) / 2, 0.008)])
+            out.setdefault(toe, {})[f"toe/{side}"] = (center_t - t, quat, half_t)
+    return out
+
+
+def _subtree(skeleton: Skeleton, j: int) -> list[int]:
+    out = [j]
+    for c in range(j + 1, skeleton.n_joints):
+        if skeleton.parents[c] in out:
+            out.append(c)
+    return out
+
+
+def _head_position(skeleton: Skeleton, rest: np.ndarray) -> np.ndarray:
+    for j, n in enumerate(skeleton.names):
+        if "head" in n.lower() and "end" not in n.lower():
+            return rest[j]
+    # No head by name: the joint farthest from the feet along the spine is as good.
+    return rest[int(np.argmax(np.linalg.norm(rest - rest[0], axis=1)))]
+
+
+def _index(
+    skeleton: Skeleton,
+    spec: mujoco.MjSpec,
+    model: mujoco.MjModel,
+    site_names: tuple[str, ...],
+    props: tuple[Prop, ...],
+    ball: Ball | None,
+    foot_geoms: dict[str, list[str]],
+) -> CompiledModel:
+    j_count = skeleton.n_joints
+    body_ids = np.empty(j_count, dtype=int)
+    qpos_adr = np.empty(j_count, dtype=int)
+    dof_adr = np.empty(j_count, dtype=int)
+    slide_adr = np.full(j_count, -1, dtype=int)
+    for j, name in enumerate(skeleton.names):
+        body_ids[j] = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        adr = int(model.jnt_qposadr[jid])
+        qpos_adr[j] = adr + 3 if j == 0 else adr
+        dof_adr[j] = int(model.jnt_dofadr[jid]) + (3 if j == 0 else 0)
+        if j > 0 and skeleton.has_positions(j):
+            sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"{name}/slide_x")
+            slide_adr[j] = int(model.jnt_qposadr[sid])
+    ball_adr = -1
+    if ball is not None:
+        ball_adr = int(model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, BALL)])
+    geoms = {
+        side: tuple(int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n)) for n in names)
+        for side, names in foot_geoms.items()
+    }
+    return CompiledModel(
+        skeleton=skeleton,
+        spec=spec,
+        model=model,
+        body_ids=body_ids,
+        qpos_adr=qpos_adr,
+        dof_adr=dof_adr,
+        slide_adr=slide_adr,
+        site_names=site_names,
+        props=props,
+        ball=ball,
+        ball_qpos_adr=ball_adr,
+        foot_geoms=geoms,
+    )
+
+
+def with_ball(compiled: CompiledModel, ball: Ball) -> CompiledModel:
+    """Recompile ``compiled``'s skeleton and props with ``ball`` added."""
+    return compile(compiled.skeleton, compiled.props, ball)
+
+

@@ -1,0 +1,193 @@
+"""Unit-quaternion helpers, stored ``(w, x, y, z)`` as MuJoCo does.
+
+SciPy's :class:`~scipy.spatial.transform.Rotation` stores ``(x, y, z, w)``; the two conversion
+functions here are the only places that reorder. Every function broadcasts over leading axes.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
+
+
+def to_scipy(q: np.ndarray) -> Rotation:
+    """``q: (..., 4)`` wxyz → a flat SciPy ``Rotation`` of ``prod(...)`` rotations."""
+    q = np.asarray(q, dtype=float).reshape(-1, 4)
+    return Rotation.from_quat(q[:, [1, 2, 3, 0]])
+
+
+def from_scipy(r: Rotation, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """A SciPy ``Rotation`` → wxyz quaternions ``(*shape, 4)`` (``(N, 4)`` by default)."""
+    q = np.atleast_2d(r.as_quat())[:, [3, 0, 1, 2]]
+    return q.reshape(*(shape if shape is not None else (-1,)), 4)
+
+
+def normalize(q: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``(..., 4)``; zero-length inputs become the identity."""
+    q = np.asarray(q, dtype=float)
+    n = np.linalg.norm(q, axis=-1, keepdims=True)
+    out = np.where(n > 1e-12, q / np.where(n > 1e-12, n, 1.0), IDENTITY)
+    return out
+
+
+def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product ``a ⊗ b`` (apply ``b`` first, then ``a``), shapes ``(..., 4)``."""
+    aw, ax, ay, az = np.moveaxis(np.asarray(a, dtype=float), -1, 0)
+    bw, bx, by, bz = np.moveaxis(np.asarray(b, dtype=float), -1, 0)
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        axis=-1,
+    )
+
+
+def conjugate(q: np.ndarray) -> np.ndarray:
+    """Inverse of unit quaternions ``(..., 4)``."""
+    q = np.asarray(q, dtype=float)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors ``v: (..., 3)`` by unit quaternions ``q: (..., 4)``."""
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
+    w = q[..., :1]
+    u = q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)``."""
+    q = np.asarray(q, dtype=float)
+    return to_scipy(q).as_matrix().reshape(*q.shape[:-1], 3, 3)
+
+
+def from_matrix(m: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``(..., 4)`` (w ≥ 0) of rotation matrices ``(..., 3, 3)``."""
+    m = np.asarray(m, dtype=float)
+    q = from_scipy(Rotation.from_matrix(m.reshape(-1, 3, 3)), m.shape[:-2])
+    return positive_w(q)
+
+
+def positive_w(q: np.ndarray) -> np.ndarray:
+    """The same rotations with ``w ≥ 0`` (the canonical hemisphere)."""
+    q = np.asarray(q, dtype=float)
+    return np.where(q[..., :1] < 0, -q, q)
+
+
+def make_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Flip signs along ``axis`` (time) so consecutive quaternions have a positive dot product.
+
+    ``q: (T, ..., 4)``. Needed before PCA, averaging or interpolation of a sequence.
+    """
+    q = np.moveaxis(np.array(q, dtype=float), axis, 0)
+    if q.shape[0] > 1:
+        dots = np.sum(q[1:] * q[:-1], axis=-1)
+        flips = np.cumprod(np.where(dots < 0, -1.0, 1.0), axis=0)
+        q[1:] *= flips[..., None]
+    return np.moveaxis(q, 0, axis)
+
+
+def slerp(a: np.ndarray, b: np.ndarray, t: np.ndarray | float) -> np.ndarray:
+    """Spherical interpolation from ``a`` to ``b`` by fraction ``t`` along the short arc.
+
+    ``a, b: (..., 4)``; ``t`` broadcasts against ``(...)``.
+    """
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    t = np.asarray(t, dtype=float)[..., None]
+    dot = np.sum(a * b, axis=-1, keepdims=True)
+    b = np.where(dot < 0, -b, b)
+    dot = np.abs(dot)
+    theta = np.arccos(np.clip(dot, -1.0, 1.0))
+    sin = np.sin(theta)
+    small = sin < 1e-9
+    safe = np.where(small, 1.0, sin)
+    wa = np.where(small, 1.0 - t, np.sin((1.0 - t) * theta) / safe)
+    wb = np.where(small, t, np.sin(t * theta) / safe)
+    return normalize(wa * a + wb * b)
+
+
+def log(q: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``(..., 3)`` (axis × angle, angle ≤ π) of unit quaternions ``(..., 4)``."""
+    q = positive_w(q)
+    v = q[..., 1:]
+    s = np.linalg.norm(v, axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(s, q[..., :1])
+    scale = np.where(s > 1e-12, angle / np.where(s > 1e-12, s, 1.0), 2.0)
+    return v * scale
+
+
+def exp(r: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``(..., 4)`` of rotation vectors ``r: (..., 3)``."""
+    r = np.asarray(r, dtype=float)
+    angle = np.linalg.norm(r, axis=-1, keepdims=True)
+    half = 0.5 * angle
+    k = np.where(angle > 1e-12, np.sin(half) / np.where(angle > 1e-12, angle, 1.0), 0.5)
+    return np.concatenate([np.cos(half), r * k], axis=-1)
+
+
+def angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Rotation angle (radians) taking ``a`` to ``b``, shapes ``(..., 4)`` → ``(...)``."""
+    dot = np.abs(np.sum(np.asarray(a) * np.asarray(b), axis=-1))
+    return 2.0 * np.arccos(np.clip(dot, -1.0, 1.0))
+
+
+def weighted_average(q: np.ndarray, weights: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Weighted mean rotation of quaternions stacked along ``axis``.
+
+    The principal eigenvector of ``Σ wᵢ qᵢ qᵢᵀ`` (Markley et al. 2007): independent of the
+    signs of the inputs and exact for two rotations' geodesic midpoint at equal weights.
+    ``q: (..., N, ..., 4)`` with ``N`` on ``axis``; ``weights: (N,)`` or broadcastable to the
+    leading shape; returns ``q`` without ``axis``.
+    """
+    q = np.moveaxis(np.asarray(q, dtype=float), axis, -2)  # (..., N, 4)
+    w = np.asarray(weights, dtype=float)
+    if w.ndim == 1:
+        w = np.broadcast_to(w, q.shape[:-1])
+    else:
+        w = np.moveaxis(w, axis, -1) if w.ndim == q.ndim - 1 else w
+    m = np.einsum("...n,...ni,...nj->...ij", w, q, q)
+    _, vecs = np.linalg.eigh(m)
+    out = vecs[..., :, -1]
+    return positive_w(out)
+
+
+def euler_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
+    """BVH Euler channels → quaternions.
+
+    ``angles_deg: (N, k)`` in the order the channels are listed; ``axes`` like ``"ZXY"``.
+    BVH composes in the listed order acting on column vectors (``R = Rz·Rx·Ry``): the
+    product of one axis quaternion per channel, left to right (SciPy's intrinsic convention,
+    written out here because it is several times faster for long clips).
+    """
+    angles = np.radians(np.asarray(angles_deg, dtype=float))
+    out = np.zeros((angles.shape[0], 4))
+    out[:, 0] = 1.0
+    for k, axis in enumerate(axes.upper()):
+        half = 0.5 * angles[:, k]
+        q = np.zeros_like(out)
+        q[:, 0] = np.cos(half)
+        q[:, 1 + "XYZ".index(axis)] = np.sin(half)
+        out = multiply(out, q)
+    return out
+
+
+def quat_to_euler(q: np.ndarray, axes: str) -> np.ndarray:
+    """Quaternions ``(N, 4)`` → Euler angles ``(N, 3)`` in degrees for a 3-axis order like ``"ZYX"``.
+
+    Angles are unwrapped over the sequence so that no channel jumps by 360°.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # gimbal lock: any valid solution is exact for FK
+        ang = to_scipy(q).as_euler(axes.upper(), degrees=False)
+    return np.degrees(np.unwrap(ang, axis=0))

@@ -1,0 +1,392 @@
+"""The data model: :class:`Skeleton` and :class:`Motion`.
+
+Conventions (``shared/docs/DESIGN.md``): metres, seconds, MuJoCo's Z-up world, unit
+quaternions ``(w, x, y, z)``. The axis change and unit scale from the file happen once, at
+the BVH boundary, and are remembered here (``Skeleton.scale``, ``Skeleton.up``) so that a
+written BVH is back in the file's own units and axes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import rotations as rot
+from .errors import MjmotionError, SkeletonMismatchError
+
+#: Known metres-per-unit scales, detected from a skeleton's rest extent (see ``detect_scale``).
+CM = 0.01
+METRE = 1.0
+ASF_UNIT = 0.0254 / 0.45  # CMU's ASF length unit: 1/0.45 inch = 5.6444 cm
+MM = 0.001
+
+#: Channel names the BVH format defines.
+POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
+ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
+
+
+def up_matrix(up: str) -> np.ndarray:
+    """Rotation ``(3, 3)`` from a file's axes (``up`` = ``"y"`` or ``"z"``) to the Z-up world.
+
+    Y-up files map cyclically, ``(x, y, z) → (z, x, y)``: up stays up and a character facing
+    the file's +Z faces MuJoCo's +X.
+    """
+    if up == "y":
+        return np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    if up == "z":
+        return np.eye(3)
+    raise MjmotionError(f"up axis must be 'y' or 'z', got {up!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class Skeleton:
+    """A joint hierarchy in the Z-up world, metres.
+
+    Attributes:
+        names: joint names ``(J,)``, unique, in file order.
+        parents: ``(J,) int``; ``parents[0] == -1`` (the root) and ``parents[j] < j``.
+        offsets: ``(J, 3)`` metres; each joint's rest translation from its parent (root: its
+            own rest position).
+        channels: per joint, the BVH channel names in file order (``"Zrotation"``, …).
+        end_parents: ``(E,) int``, the joint each End Site hangs from.
+        end_offsets: ``(E, 3)`` metres, End Site offsets (zero-length ones kept).
+        scale: metres per file unit (``0.01`` for centimetres).
+        up: the file's up axis, ``"y"`` or ``"z"``.
+    """
+
+    names: tuple[str, ...]
+    parents: np.ndarray
+    offsets: np.ndarray
+    channels: tuple[tuple[str, ...], ...]
+    end_parents: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    end_offsets: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    scale: float = 1.0
+    up: str = "z"
+
+    def __post_init__(self) -> None:
+        parents = np.asarray(self.parents, dtype=int)
+        object.__setattr__(self, "parents", parents)
+        object.__setattr__(self, "offsets", np.asarray(self.offsets, dtype=float).reshape(-1, 3))
+        object.__setattr__(self, "end_parents", np.asarray(self.end_parents, dtype=int).reshape(-1))
+        object.__setattr__(self, "end_offsets", np.asarray(self.end_offsets, dtype=float).reshape(-1, 3))
+        object.__setattr__(self, "names", tuple(self.names))
+        object.__setattr__(self, "channels", tuple(tuple(c) for c in self.channels))
+        n = len(self.names)
+        if n == 0:
+            raise MjmotionError("a skeleton needs at least one joint")
+        if parents.shape != (n,) or self.offsets.shape != (n, 3) or len(self.channels) != n:
+            raise MjmotionError("skeleton arrays disagree on the number of joints")
+        if parents[0] != -1 or np.any(parents[1:] < 0) or np.any(parents[1:] >= np.arange(1, n)):
+            raise MjmotionError("skeleton parents must be topologically ordered with one root first")
+        if len(set(self.names)) != n:
+            dup = sorted({x for x in self.names if self.names.count(x) > 1})
+            raise MjmotionError(f"duplicate joint names: {', '.join(dup)}")
+
+    # --- structure -------------------------------------------------------------------------
+    @property
+    def n_joints(self) -> int:
+        return len(self.names)
+
+    @property
+    def n_channels(self) -> int:
+        return sum(len(c) for c in self.channels)
+
+    def index(self, name: str) -> int:
+        """Index of the joint called ``name``; a clear error lists near matches if absent."""
+        try:
+            return self.names.index(name)
+        except ValueError:
+            close = [n for n in self.names if name.lower() in n.lower()][:5]
+            hint = f" (did you mean {', '.join(close)}?)" if close else ""
+            raise MjmotionError(f"no joint named {name!r} in the skeleton{hint}") from None
+
+    def children(self, j: int) -> list[int]:
+        return [int(c) for c in np.flatnonzero(self.parents == j)]
+
+    def has_positions(self, j: int) -> bool:
+        """Whether joint ``j`` carries position channels (its translation varies per frame)."""
+        return any(c in POSITION_CHANNELS for c in self.channels[j])
+
+    def chain(self, start: int, end: int) -> list[int]:
+        """Joint indices from ``start`` down to its descendant ``end`` inclusive."""
+        path = [end]
+        while path[-1] != start:
+            p = int(self.parents[path[-1]])
+            if p < 0:
+                raise MjmotionError(f"{self.names[end]!r} is not below {self.names[start]!r}")
+            path.append(p)
+        return path[::-1]
+
+    def same_topology(self, other: Skeleton) -> bool:
+        """Same joint count, names and parents (bone lengths may differ)."""
+        return self.names == other.names and np.array_equal(self.parents, other.parents)
+
+    def require_same_topology(self, other: Skeleton, what: str = "clips") -> None:
+        if not self.same_topology(other):
+            raise SkeletonMismatchError(
+                f"{what} have different skeleton topologies ({self.n_joints} joints "
+                f"starting {self.names[:3]} vs {other.n_joints} joints starting {other.names[:3]}); "
+                "they cannot be combined"
+            )
+
+    # --- rest pose -------------------------------------------------------------------------
+    def rest_positions(self) -> np.ndarray:
+        """World positions ``(J, 3)`` with every rotation at identity (the rest pose)."""
+        pos = np.zeros((self.n_joints, 3))
+        for j in range(self.n_joints):
+            p = self.parents[j]
+            pos[j] = self.offsets[j] + (pos[p] if p >= 0 else 0.0)
+        return pos
+
+    def rest_end_positions(self) -> np.ndarray:
+        """World positions ``(E, 3)`` of the End Sites in the rest pose."""
+        return self.rest_positions()[self.end_parents] + self.end_offsets
+
+    def height(self) -> float:
+        """Largest extent of the rest pose in metres (≈ stature or arm span for a T-pose)."""
+        pts = np.vstack([self.rest_positions(), self.rest_end_positions()])
+        return float(np.max(np.ptp(pts, axis=0)))
+
+    def stature(self) -> float:
+        """Standing height estimate in metres: head top to toe tip along the bones.
+
+        The path runs through the lowest common ancestor of head and foot, so a separate
+        "bone root" above the pelvis does not count. Falls back to :meth:`height` when no head
+        or foot is found by name.
+        """
+        feet = self.feet()
+        head = next((j for j, n in enumerate(self.names) if "head" in n.lower() and "end" not in n.lower()), None)
+        if head is None or not feet:
+            return self.height()
+        lengths = np.linalg.norm(self.offsets, axis=1)
+        ankle, toe = next(iter(feet.values()))
+
+        def tip_len(j: int) -> float:
+            ends = np.flatnonzero(self.end_parents == j)
+            return float(np.linalg.norm(self.end_offsets[ends[0]])) if len(ends) else 0.0
+
+        def ancestors(j: int) -> list[int]:
+            out = [j]
+            while self.parents[out[-1]] >= 0:
+                out.append(int(self.parents[out[-1]]))
+            return out
+
+        foot_tip = toe if toe is not None else ankle
+        up_path, down_path = ancestors(head), ancestors(foot_tip)
+        common = next(j for j in up_path if j in down_path)
+        total = sum(lengths[j] for j in up_path[: up_path.index(common)])
+        total += sum(lengths[j] for j in down_path[: down_path.index(common)])
+        return float(total + tip_len(head) + 0.5 * tip_len(foot_tip))
+
+    # --- named parts -----------------------------------------------------------------------
+    def feet(self) -> dict[str, tuple[int, int | None]]:
+        """``{"left": (ankle, toe or None), "right": (…)}`` found by name.
+
+        Recognises CMU ASF (``lfoot``/``ltoes``), cgspeed (``LeftAnkle``/``LeftToe``,
+        ``lFoot``), iClone (``CC_Base_L_Foot``/``CC_Base_L_ToeBase``) and the bundled
+        skeleton (``LeftFoot``/``LeftToe``).
+        """
+        out: dict[str, tuple[int, int | None]] = {}
+        for side in ("left", "right"):
+            ankle = self._find_side(side, ("foot", "ankle"))
+            if ankle is None:
+                continue
+            toe = None
+            for c in self._descendants(ankle):
+                if re.search("toe|ball", self.names[c], re.IGNORECASE):
+                    toe = c
+                    break
+            out[side] = (ankle, toe)
+        return out
+
+    def hands(self) -> dict[str, int]:
+        """``{"left": wrist/hand joint, "right": …}`` found by name (the joint nearest the arm's end)."""
+        out: dict[str, int] = {}
+        for side in ("left", "right"):
+            j = self._find_side(side, ("wrist", "hand"))
+            if j is not None:
+                out[side] = j
+        return out
+
+    def _descendants(self, j: int) -> list[int]:
+        out = []
+        stack = self.children(j)
+        while stack:
+            c = stack.pop(0)
+            out.append(c)
+            stack = self.children(c) + stack
+        return out
+
+    def _find_side(self, side: str, words: tuple[str, ...]) -> int | None:
+        for word in words:
+            for j, name in enumerate(self.names):
+                if word in name.lower() and side_of(name) == side:
+                    return j
+        return None
+
+    def replace_scale(self, scale: float) -> Skeleton:
+        """The same skeleton written with ``scale`` metres per file unit (lengths in metres unchanged)."""
+        if not (np.isfinite(scale) and scale > 0):
+            raise MjmotionError(f"scale must be a positive number of metres per unit, got {scale}")
+        return dataclasses.replace(self, scale=float(scale))
+
+    def with_offsets(self, offsets: np.ndarray) -> Skeleton:
+        return dataclasses.replace(self, offsets=np.asarray(offsets, dtype=float))
+
+
+_PARTS = (
+    "hip|femur|tibia|foot|toe|clavicle|humerus|radius|wrist|hand|finger|thumb|shldr|shoulder|forearm|"
+    "arm|thigh|shin|leg|collar|knee|ankle|elbow|eye|index|mid|ring|pinky|buttock|upleg|ear|ball|up|low"
+)
+_SIDE_PATTERNS = {
+    side: (
+        re.compile(rf"{word}", re.IGNORECASE),
+        re.compile(rf"(^|[_:.\s]){letter}([_:.\s]|$)", re.IGNORECASE),
+        re.compile(rf"^{letter}_?({_PARTS})", re.IGNORECASE),
+    )
+    for side, word, letter in (("left", "left", "l"), ("right", "right", "r"))
+}
+
+
+def side_of(name: str) -> str | None:
+    """``"left"``, ``"right"`` or ``None`` from a joint name.
+
+    Understands ``LeftHand``, ``lhand``, ``lHand``, ``CC_Base_L_Hand``, ``l_hand``; a leading
+    ``l``/``r`` counts only before a body-part word (so ``lowerback`` and ``root`` have no side).
+    """
+    for side, pats in _SIDE_PATTERNS.items():
+        if pats[0].search(name) or pats[1].search(name):
+            return side
+    for side, pats in _SIDE_PATTERNS.items():
+        if pats[2].match(name) and not re.match(r"^lower|^root|^ribs?", name, re.IGNORECASE):
+            return side
+    return None
+
+
+def detect_scale(extent: float) -> float:
+    """Metres per file unit from a skeleton's rest extent in file units (a human is 1.2–2.2 m).
+
+    Ranges: metres 0.4–3; CMU ASF units 8–45; centimetres 45–300; millimetres 400–3000.
+    """
+    for lo, hi, s in ((0.4, 3.0, METRE), (8.0, 45.0, ASF_UNIT), (45.0, 300.0, CM), (400.0, 3000.0, MM)):
+        if lo <= extent <= hi:
+            return s
+    raise MjmotionError(
+        f"cannot tell the unit of a skeleton {extent:g} units across; pass the scale "
+        "explicitly (metres per file unit, e.g. --scale 0.01 for centimetres)"
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class Motion:
+    """A clip: a skeleton animated over ``T`` frames.
+
+    Attributes:
+        skeleton: the :class:`Skeleton`.
+        fps: frames per second.
+        root_positions: ``(T, 3)`` metres, world position of the root joint.
+        rotations: ``(T, J, 4)`` unit quaternions wxyz, each joint's rotation relative to its
+            parent (the root's is its world orientation).
+        translations: ``(T, J, 3)`` metres or ``None``; per-frame local translations for skeletons
+            whose inner joints carry position channels (offset plus channel values). Row 0 is
+            unused (the root's position is ``root_positions``). ``None`` means every joint sits
+            at its offset.
+        name: a label (the file stem for loaded clips).
+    """
+
+    skeleton: Skeleton
+    fps: float
+    root_positions: np.ndarray
+    rotations: np.ndarray
+    translations: np.ndarray | None = None
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        rp = np.asarray(self.root_positions, dtype=float)
+        q = np.asarray(self.rotations, dtype=float)
+        object.__setattr__(self, "root_positions", rp)
+        object.__setattr__(self, "rotations", q)
+        t = q.shape[0] if q.ndim == 3 else -1
+        if rp.shape != (t, 3) or q.shape != (t, self.skeleton.n_joints, 4):
+            raise MjmotionError(
+                f"motion arrays have shapes root {rp.shape}, rotations {q.shape}; expected "
+                f"(T, 3) and (T, {self.skeleton.n_joints}, 4)"
+            )
+        if self.translations is not None:
+            tr = np.asarray(self.translations, dtype=float)
+            if tr.shape != (t, self.skeleton.n_joints, 3):
+                raise MjmotionError(f"translations have shape {tr.shape}, expected {(t, self.skeleton.n_joints, 3)}")
+            object.__setattr__(self, "translations", tr)
+        if not (np.isfinite(self.fps) and self.fps > 0):
+            raise MjmotionError(f"fps must be a positive number, got {self.fps}")
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.rotations.shape[0])
+
+    @property
+    def duration(self) -> float:
+        """Seconds from the first frame to the last."""
+        return (self.n_frames - 1) / self.fps
+
+    @property
+    def times(self) -> np.ndarray:
+        """``(T,)`` seconds of each frame."""
+        return np.arange(self.n_frames) / self.fps
+
+    def local_translations(self) -> np.ndarray:
+        """``(T, J, 3)`` local translation of every joint, the root's being its world position."""
+        if self.translations is None:
+            out = np.broadcast_to(self.skeleton.offsets, (self.n_frames, self.skeleton.n_joints, 3)).copy()
+        else:
+            out = self.translations.copy()
+        out[:, 0] = self.root_positions
+        return out
+
+    def replace(self, **changes: object) -> Motion:
+        """A copy with some fields changed (the input is never mutated)."""
+        return dataclasses.replace(self, **changes)
+
+    def __getitem__(self, key: slice) -> Motion:
+        """Frames ``key`` (a slice) as a new motion."""
+        if not isinstance(key, slice):
+            raise TypeError("index a Motion with a slice of frames")
+        sl = self.rotations[key]
+        if sl.shape[0] == 0:
+            raise MjmotionError(f"frame range {key.start}:{key.stop} of a {self.n_frames}-frame clip is empty")
+        step = key.step or 1
+        return self.replace(
+            root_positions=self.root_positions[key].copy(),
+            rotations=sl.copy(),
+            translations=None if self.translations is None else self.translations[key].copy(),
+            fps=self.fps / abs(step),
+        )
+
+    def sample(self, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Pose at fractional frame indices ``frames: (N,)`` (clamped to the clip).
+
+        Returns ``(root_positions (N, 3), rotations (N, J, 4), translations (N, J, 3) | None)``:
+        linear interpolation of positions, slerp of rotations.
+        """
+        f = np.clip(np.asarray(frames, dtype=float), 0.0, self.n_frames - 1)
+        i0 = np.floor(f).astype(int)
+        i1 = np.minimum(i0 + 1, self.n_frames - 1)
+        a = (f - i0)[:, None]
+        root = self.root_positions[i0] * (1 - a) + self.root_positions[i1] * a
+        q = rot.slerp(self.rotations[i0], self.rotations[i1], np.broadcast_to(a, (len(f), self.skeleton.n_joints)))
+        tr = None
+        if self.translations is not None:
+            tr = self.translations[i0] * (1 - a[:, :, None]) + self.translations[i1] * a[:, :, None]
+        return root, q, tr
+
+    def resample(self, fps: float) -> Motion:
+        """The same motion at another frame rate (slerp of rotations, linear positions)."""
+        if not (np.isfinite(fps) and fps > 0):
+            raise MjmotionError(f"fps must be a positive number, got {fps}")
+        n = int(np.floor(self.duration * fps + 1e-9)) + 1
+        frames = np.arange(n) * (self.fps / fps)
+        root, q, tr = self.sample(frames)
+        return self.replace(root_positions=root, rotations=q, translations=tr, fps=float(fps))

@@ -1,0 +1,91 @@
+"""Shared fixtures: the real-mocap directory (``MJMOTION_DATA``) and small random skeletons."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjmotion import rotations as rot
+from mjmotion.skeleton import Motion, Skeleton
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def data_dir() -> Path | None:
+    """The real mocap directory: ``MJMOTION_DATA``, else ``../shared/mocap`` beside the repo."""
+    env = os.environ.get("MJMOTION_DATA")
+    cand = Path(env) if env else REPO.parent / "shared" / "mocap"
+    return cand if cand.is_dir() else None
+
+
+def require_data() -> Path:
+    """The data directory, or skip (fail when ``MJMOTION_REQUIRE_DATA=1``, as in CI)."""
+    d = data_dir()
+    if d is None:
+        msg = "real mocap not found: set MJMOTION_DATA to the shared/mocap directory"
+        if os.environ.get("MJMOTION_REQUIRE_DATA") == "1":
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return d
+
+
+def all_clips() -> list[Path]:
+    d = data_dir()
+    return sorted(d.glob("*/*.bvh")) if d else []
+
+
+@pytest.fixture
+def mocap() -> Path:
+    """Path of the real mocap directory (skips or fails per ``MJMOTION_REQUIRE_DATA``)."""
+    return require_data()
+
+
+def clip_params():
+    """``pytest.mark.parametrize`` values over every shared clip (one 'missing' case if none)."""
+    clips = all_clips()
+    if not clips:
+        return [pytest.param(None, id="no-data")]
+    return [pytest.param(c, id=f"{c.parent.name}/{c.stem}") for c in clips]
+
+
+def random_skeleton(rng: np.random.Generator, n_joints: int = 12, inner_positions: bool = True) -> Skeleton:
+    """A random tree with random channel orders per joint, some inner joints with 6 channels."""
+    parents = [-1] + [int(rng.integers(0, j)) for j in range(1, n_joints)]
+    offsets = rng.normal(0.0, 0.15, (n_joints, 3))
+    offsets[0] = [0.0, 0.0, 0.9]
+    channels = []
+    for j in range(n_joints):
+        rots = [f"{a}rotation" for a in rng.permutation(list("XYZ"))]
+        pos = [f"{a}position" for a in rng.permutation(list("XYZ"))]
+        if j == 0 or (inner_positions and rng.random() < 0.25):
+            chans = pos + rots if rng.random() < 0.7 else rots + pos
+        else:
+            chans = rots
+        channels.append(tuple(chans))
+    leaves = [j for j in range(n_joints) if j not in parents]
+    return Skeleton(
+        names=tuple(f"j{j}" for j in range(n_joints)),
+        parents=np.array(parents),
+        offsets=offsets,
+        channels=tuple(channels),
+        end_parents=np.array(leaves),
+        end_offsets=rng.normal(0.0, 0.1, (len(leaves), 3)),
+        scale=1.0,
+        up="z",
+    )
+
+
+def random_motion(rng: np.random.Generator, skeleton: Skeleton, n_frames: int = 20) -> Motion:
+    j = skeleton.n_joints
+    q = rot.normalize(rng.normal(size=(n_frames, j, 4)))
+    root = rng.normal(0.0, 0.3, (n_frames, 3)) + [0.0, 0.0, 1.0]
+    tr = None
+    if any(skeleton.has_positions(k) for k in range(1, j)):
+        tr = np.broadcast_to(skeleton.offsets, (n_frames, j, 3)).copy()
+        for k in range(1, j):
+            if skeleton.has_positions(k):
+                tr[:, k] += rng.normal(0.0, 0.05, (n_frames, 3))
+    return Motion(skeleton, 60.0, root, q, tr, name="random")
