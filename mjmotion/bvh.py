@@ -7,7 +7,7 @@ followed by a tab. Every problem is a :class:`~mjmotion.errors.BvhError` naming 
 line and what was expected. The hierarchy is parsed without recursion, so deep files are fine.
 
 Writing is lossless for forward kinematics: each joint keeps its channel order, offsets are
-written with ten significant digits and motion values with six decimals.
+written with ten significant digits, angles with six decimals and positions to 5 nm.
 """
 
 from __future__ import annotations
@@ -456,6 +456,9 @@ def format_motion(motion: Motion) -> str:
     local_file = motion.local_translations() @ c / skel.scale  # (T, J, 3)
     q_file = rot.multiply(rot.multiply(rot.conjugate(q_c), motion.rotations), q_c)
     columns: list[np.ndarray] = []
+    # Decimals per column: 6 for degrees; positions fine enough for 5 nm in metres (≥ 6).
+    pos_decimals = max(6, int(np.ceil(8 + np.log10(skel.scale))))
+    decimals: list[int] = []
     channels_out: list[tuple[str, ...]] = []
     for j, chans in enumerate(skel.channels):
         chans = list(chans)
@@ -477,8 +480,10 @@ def format_motion(motion: Motion) -> str:
         for ch in chans:
             if ch in POSITION_CHANNELS:
                 columns.append(disp[:, "XYZ".index(ch[0])])
+                decimals.append(pos_decimals)
             else:
                 columns.append(euler[ch[0]])
+                decimals.append(6)
         channels_out.append(tuple(chans))
     out = io.StringIO()
     out.write("HIERARCHY\n")
@@ -488,8 +493,9 @@ def format_motion(motion: Motion) -> str:
     out.write(f"Frame Time: {1.0 / motion.fps:.10g}\n")
     if columns:
         data = np.column_stack(columns)
-        data = np.where(np.abs(data) < 5e-7, 0.0, data)  # no "-0.000000"
-        np.savetxt(out, data, fmt="%.6f", delimiter=" ")
+        dec = np.array(decimals)
+        data = np.where(np.abs(data) < 0.5 * 10.0 ** (-dec), 0.0, data)  # no "-0.000000"
+        np.savetxt(out, data, fmt=[f"%.{d}f" for d in decimals], delimiter=" ")
     else:
         out.write("\n" * t)
     return out.getvalue()

@@ -16,6 +16,7 @@ each other. The world has a checker floor (z = 0), lights and a camera tracking 
 from __future__ import annotations
 
 import os
+from xml.etree import ElementTree
 from dataclasses import dataclass, field
 
 import mujoco
@@ -126,12 +127,37 @@ class CompiledModel:
         return int(i)
 
     def to_xml(self) -> str:
-        return self.spec.to_xml()
+        """MJCF text that loads to the same kinematics.
+
+        MuJoCo's writer keeps six significant digits; body and site frames are written again
+        here at full precision so that joint and site positions are reproduced exactly.
+        """
+        root = ElementTree.fromstring(self.spec.to_xml())
+        bodies = {b.name: b for b in self.spec.bodies}
+        sites = {s.name: s for s in self.spec.sites}
+        for el in root.iter("body"):
+            b = bodies.get(el.get("name", ""))
+            if b is not None:
+                _set_vec(el, "pos", b.pos, default=(0.0, 0.0, 0.0))
+                _set_vec(el, "quat", b.quat, default=(1.0, 0.0, 0.0, 0.0))
+        for el in root.iter("site"):
+            st = sites.get(el.get("name", ""))
+            if st is not None:
+                _set_vec(el, "pos", st.pos, default=(0.0, 0.0, 0.0))
+        ElementTree.indent(root, "  ")
+        return ElementTree.tostring(root, encoding="unicode") + "\n"
 
     def save_xml(self, path: str | os.PathLike[str]) -> None:
         from .outputs import write_text_atomic
 
         write_text_atomic(path, self.to_xml())
+
+
+def _set_vec(el: ElementTree.Element, attr: str, value: np.ndarray, default: tuple[float, ...]) -> None:
+    v = np.asarray(value, dtype=float)
+    if np.allclose(v, default, rtol=0.0, atol=0.0) and attr not in el.attrib:
+        return
+    el.set(attr, " ".join(repr(float(x)) for x in v))
 
 
 def default_prop(skeleton: Skeleton, kind: str, joint: str) -> Prop:

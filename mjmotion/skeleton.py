@@ -126,11 +126,12 @@ class Skeleton:
 
     def require_same_topology(self, other: Skeleton, what: str = "clips") -> None:
         if not self.same_topology(other):
-            raise SkeletonMismatchError(
-                f"{what} have different skeleton topologies ({self.n_joints} joints "
-                f"starting {self.names[:3]} vs {other.n_joints} joints starting {other.names[:3]}); "
-                "they cannot be combined"
-            )
+            if self.n_joints != other.n_joints:
+                diff = f"{self.n_joints} joints vs {other.n_joints}"
+            else:
+                k = next(i for i in range(self.n_joints) if self.names[i] != other.names[i] or self.parents[i] != other.parents[i])
+                diff = f"joint {k} is {self.names[k]!r} vs {other.names[k]!r}"
+            raise SkeletonMismatchError(f"{what} have different skeleton topologies ({diff}); they cannot be combined")
 
     # --- rest pose -------------------------------------------------------------------------
     def rest_positions(self) -> np.ndarray:
@@ -196,7 +197,9 @@ class Skeleton:
                 continue
             toe = None
             for c in self._descendants(ankle):
-                if re.search("toe|ball", self.names[c], re.IGNORECASE):
+                name = self.names[c]
+                # Helper bones (iClone's "ShareBone", twist bones) are not the toe.
+                if re.search("toe|ball", name, re.IGNORECASE) and not re.search("share|twist", name, re.IGNORECASE):
                     toe = c
                     break
             out[side] = (ankle, toe)

@@ -52,8 +52,14 @@ def clip_params():
 
 
 def random_skeleton(rng: np.random.Generator, n_joints: int = 12, inner_positions: bool = True) -> Skeleton:
-    """A random tree with random channel orders per joint, some inner joints with 6 channels."""
-    parents = [-1] + [int(rng.integers(0, j)) for j in range(1, n_joints)]
+    """A random tree in depth-first order (as BVH files are), random channel orders per joint,
+    some inner joints with 6 channels."""
+    parents = [-1]
+    path = [0]
+    for j in range(1, n_joints):
+        depth = int(rng.integers(0, len(path)))
+        parents.append(path[depth])
+        path = path[: depth + 1] + [j]
     offsets = rng.normal(0.0, 0.15, (n_joints, 3))
     offsets[0] = [0.0, 0.0, 0.9]
     channels = []

@@ -1,0 +1,93 @@
+"""The MJCF compiler: structure, masses, feet, props, the ball, names, and the XML round trip."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+from conftest import clip_params, random_motion, random_skeleton, require_data
+
+from mjmotion import bvh, kinematics, mjcf
+from mjmotion.errors import MjmotionError
+from mjmotion.skeleton import Skeleton
+
+
+@pytest.mark.parametrize("path", clip_params())
+def test_every_shared_clip_compiles_with_realistic_mass_and_feet(path):
+    if path is None:
+        require_data()
+    m = bvh.read(path)
+    c = mjcf.compile(m.skeleton)
+    mass = float(c.model.body_mass[c.body_ids].sum())
+    assert 40.0 < mass < 110.0
+    assert c.model.nq == 7 + 4 * (m.skeleton.n_joints - 1)
+    assert set(c.foot_geoms) == {"left", "right"}
+
+
+def test_xml_round_trip_has_same_kinematics_with_hostile_names(tmp_path):
+    rng = np.random.default_rng(4)
+    skel = random_skeleton(rng, 9)
+    names = ('root <&> "x"', "joint:with:colons", "has space", "tab'quote", "ünïcode", "a/b", "x&y", "<z>", "j8")
+    skel = Skeleton(names, skel.parents, skel.offsets, skel.channels, skel.end_parents, skel.end_offsets, 1.0, "z")
+    motion = random_motion(rng, skel, 6)
+    compiled = mjcf.compile(skel, [mjcf.default_prop(skel, "bat", names[4])], mjcf.Ball())
+    path = tmp_path / "model.xml"
+    compiled.save_xml(path)
+    loaded = mujoco.MjModel.from_xml_path(str(path))
+    assert loaded.nq == compiled.model.nq and loaded.nbody == compiled.model.nbody
+    q = kinematics.qpos(compiled, motion)
+    d1, d2 = mujoco.MjData(compiled.model), mujoco.MjData(loaded)
+    for row in q:
+        d1.qpos[:] = row
+        d2.qpos[:] = row
+        mujoco.mj_kinematics(compiled.model, d1)
+        mujoco.mj_kinematics(loaded, d2)
+        assert np.allclose(d1.xpos, d2.xpos, atol=1e-9)
+        assert np.allclose(d1.site_xpos, d2.site_xpos, atol=1e-9)
+    for n in names:
+        assert mujoco.mj_name2id(loaded, mujoco.mjtObj.mjOBJ_BODY, n) >= 0
+
+
+def test_prop_sweet_spot_follows_the_hand(mocap):
+    m = bvh.read(mocap / "cmu_asfamc_converted" / "64_01.bvh")[:50]
+    prop = mjcf.default_prop(m.skeleton, "club", "rwrist")
+    c = mjcf.compile(m.skeleton, [prop])
+    pose = kinematics.forward(c, m)
+    j = m.skeleton.index("rwrist")
+    grip = pose.site("club/grip")
+    sweet = pose.site("club/sweet_spot")
+    # The grip stays a fixed distance from the wrist and the sweet spot a fixed distance along the shaft.
+    d_grip = np.linalg.norm(grip - pose.joint_positions[:, j], axis=1)
+    assert np.ptp(d_grip) < 1e-9
+    assert np.allclose(np.linalg.norm(sweet - grip, axis=1), prop.sweet_spot)
+
+
+def test_foot_boxes_sit_on_the_sole_in_the_rest_pose(mocap):
+    m = bvh.read(mocap / "cmu_asfamc_converted" / "16_15.bvh")
+    skel = m.skeleton
+    c = mjcf.compile(skel)
+    d = mujoco.MjData(c.model)
+    d.qpos[:] = c.model.qpos0
+    mujoco.mj_kinematics(c.model, d)
+    ankle, toe = skel.feet()["left"]
+    toe_tip = skel.rest_end_positions()[list(skel.end_parents).index(toe)]
+    g = c.foot_geoms["left"][0]
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * c.model.geom_size[g]
+    world = d.geom_xpos[g] + corners @ d.geom_xmat[g].reshape(3, 3).T
+    # Rest pose: the skeleton stands nearly along z, so the box bottom is at the toe tip's height.
+    assert world[:, 2].min() == pytest.approx(toe_tip[2], abs=0.01)
+    assert world[:, 2].max() <= skel.rest_positions()[ankle][2] + 0.01
+
+
+def test_name_clash_with_added_elements_is_refused():
+    skel = Skeleton(("root", "ball"), np.array([-1, 0]), np.zeros((2, 3)), (("Xrotation",), ("Xrotation",)))
+    with pytest.raises(MjmotionError, match="clash"):
+        mjcf.compile(skel)
+
+
+def test_unknown_prop_kind_is_refused(mocap):
+    m = bvh.read(mocap / "cmu_asfamc_converted" / "64_01.bvh")
+    with pytest.raises(MjmotionError, match="unknown prop"):
+        mjcf.parse_prop_option(m.skeleton, "racket:rwrist")
+    with pytest.raises(MjmotionError, match="no joint named"):
+        mjcf.parse_prop_option(m.skeleton, "club:nowhere")

@@ -1,0 +1,51 @@
+"""Quaternion helpers against SciPy and against their own algebra."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from mjmotion import rotations as rot
+
+
+def _random(n, seed=0):
+    return rot.normalize(np.random.default_rng(seed).normal(size=(n, 4)))
+
+
+def test_multiply_and_rotate_agree_with_scipy():
+    a, b = _random(50, 1), _random(50, 2)
+    v = np.random.default_rng(3).normal(size=(50, 3))
+    ab = rot.to_scipy(a) * rot.to_scipy(b)
+    assert np.allclose(np.abs(np.sum(rot.multiply(a, b) * rot.from_scipy(ab), -1)), 1.0)
+    assert np.allclose(rot.rotate(a, v), rot.to_scipy(a).apply(v))
+
+
+def test_euler_round_trip_in_every_bvh_order():
+    ang = np.random.default_rng(5).uniform(-170, 170, (200, 3))
+    ang[:, 1] = np.clip(ang[:, 1], -80, 80)  # away from gimbal lock: angles unique
+    for order in ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"):
+        q = rot.euler_to_quat(ang, order)
+        ref = Rotation.from_euler(order, ang, degrees=True)
+        assert np.allclose(np.abs(np.sum(q * rot.from_scipy(ref), -1)), 1.0)
+        back = rot.quat_to_euler(q, order)
+        assert np.allclose(rot.euler_to_quat(back, order) * np.sign(np.sum(q * rot.euler_to_quat(back, order), -1))[:, None], q)
+
+
+def test_log_exp_inverse_and_continuity():
+    q = _random(100, 7)
+    assert np.allclose(np.abs(np.sum(rot.exp(rot.log(q)) * q, -1)), 1.0)
+    flipped = q.copy()
+    flipped[1::2] *= -1
+    seq = rot.slerp(q[:1], q[1:2], np.linspace(0, 1, 20)[:, None])[:, 0]
+    seq[::3] *= -1
+    cont = rot.make_continuous(seq)
+    assert np.all(np.sum(cont[1:] * cont[:-1], -1) > 0)
+
+
+def test_weighted_average_is_sign_invariant_and_geodesic_midpoint():
+    a, b = _random(1, 8)[0], _random(1, 9)[0]
+    mid = rot.weighted_average(np.stack([a, -b]), np.array([0.5, 0.5]))
+    expect = rot.slerp(a, b, 0.5)
+    assert np.allclose(abs(np.dot(mid, expect)), 1.0)
+    one = rot.weighted_average(np.stack([a, b]), np.array([1.0, 0.0]))
+    assert np.allclose(abs(np.dot(one, a)), 1.0)

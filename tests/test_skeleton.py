@@ -1,0 +1,107 @@
+"""The data model: slicing, sampling, resampling, scale detection and named parts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import random_motion, random_skeleton
+
+from mjmotion import bvh
+from mjmotion import rotations as rot
+from mjmotion.errors import MjmotionError
+from mjmotion.skeleton import ASF_UNIT, CM, METRE, MM, Motion, detect_scale, side_of
+
+
+def _motion(n=30, fps=30.0):
+    rng = np.random.default_rng(0)
+    skel = random_skeleton(rng, 6, inner_positions=False)
+    return random_motion(rng, skel, n).replace(fps=fps)
+
+
+def test_slice_keeps_frames_and_fps():
+    m = _motion()
+    s = m[5:15]
+    assert s.n_frames == 10 and s.fps == m.fps
+    assert np.array_equal(s.rotations, m.rotations[5:15])
+    assert m[::2].fps == m.fps / 2
+    with pytest.raises(MjmotionError, match="empty"):
+        m[20:10]
+
+
+def test_sample_at_integer_frames_is_exact_and_midpoints_are_geodesic():
+    m = _motion()
+    root, q, _ = m.sample(np.arange(m.n_frames, dtype=float))
+    assert np.allclose(root, m.root_positions)
+    assert np.allclose(np.abs(np.sum(q * m.rotations, -1)), 1.0)
+    _, mid, _ = m.sample(np.array([3.5]))
+    a, b = m.rotations[3], m.rotations[4]
+    # The midpoint is equally far (in angle) from both ends and half the total angle.
+    da, db = rot.angle_between(mid[0], a), rot.angle_between(mid[0], b)
+    assert np.allclose(da, db) and np.allclose(da + db, rot.angle_between(a, b))
+
+
+def test_resample_preserves_duration_and_poses_at_shared_times():
+    m = _motion(n=31, fps=30.0)
+    up = m.resample(60.0)
+    assert up.n_frames == 61 and up.fps == 60.0
+    assert np.allclose(up.root_positions[::2], m.root_positions)
+    assert np.allclose(np.abs(np.sum(up.rotations[::2] * m.rotations, -1)), 1.0)
+    down = m.resample(10.0)
+    assert down.n_frames == 11
+    assert np.allclose(down.root_positions, m.root_positions[::3])
+
+
+def test_motion_validates_shapes_and_fps():
+    m = _motion()
+    with pytest.raises(MjmotionError):
+        Motion(m.skeleton, 30.0, m.root_positions[:-1], m.rotations)
+    with pytest.raises(MjmotionError, match="fps"):
+        m.replace(fps=0.0)
+
+
+@pytest.mark.parametrize(
+    "extent, scale",
+    [(1.7, METRE), (30.0, ASF_UNIT), (170.0, CM), (1700.0, MM)],
+)
+def test_detect_scale(extent, scale):
+    assert detect_scale(extent) == scale
+
+
+def test_detect_scale_refuses_ambiguous_sizes():
+    with pytest.raises(MjmotionError, match="--scale"):
+        detect_scale(5.0)
+
+
+def test_detected_units_of_shared_flavours(mocap):
+    assert bvh.read(mocap / "cmu_asfamc_converted" / "16_15.bvh").skeleton.scale == CM
+    assert bvh.read(mocap / "cmu_cgspeed_max" / "131_01.bvh").skeleton.scale == ASF_UNIT
+    assert bvh.read(mocap / "cmu_cgspeed_max" / "scaled_131_01.bvh").skeleton.scale == METRE
+    # The same motion in ASF units and in metres gives the same world positions.
+    a = bvh.read(mocap / "cmu_cgspeed_max" / "131_01.bvh")
+    b = bvh.read(mocap / "cmu_cgspeed_max" / "scaled_131_01.bvh")
+    assert np.allclose(a.skeleton.offsets, b.skeleton.offsets, atol=2e-5)
+
+
+@pytest.mark.parametrize(
+    "name, side",
+    [("LeftHand", "left"), ("lhumerus", "left"), ("lHand", "left"), ("CC_Base_L_Foot", "left"),
+     ("RightAnkle", "right"), ("rtibia", "right"), ("rShldr", "right"), ("lowerback", None), ("root", None),
+     ("Hips", None), ("RHipJoint", "right")],
+)  # fmt: skip
+def test_side_of(name, side):
+    assert side_of(name) == side
+
+
+def test_feet_and_hands_on_every_flavour(mocap):
+    expect = {
+        "cmu_asfamc_converted/16_15": ("lfoot", "ltoes", "rwrist"),
+        "cmu_cgspeed_daz/07_01": ("lFoot", None, "rHand"),
+        "cmu_cgspeed_max/131_01": ("LeftAnkle", "LeftToe", "RightWrist"),
+        "cmu_iclone_ccrig/002_05": ("CC_Base_L_Foot", "CC_Base_L_ToeBase", "CC_Base_R_Hand"),
+    }
+    for clip, (ankle, toe, hand) in expect.items():
+        s = bvh.read(mocap / f"{clip}.bvh").skeleton
+        a, t = s.feet()["left"]
+        assert s.names[a] == ankle and (t is None if toe is None else s.names[t] == toe)
+        assert s.names[s.hands()["right"]] == hand
+        assert 1.4 < s.stature() < 2.0
