@@ -140,6 +140,15 @@ class CompiledModel:
             if b is not None:
                 _set_vec(el, "pos", b.pos, default=(0.0, 0.0, 0.0))
                 _set_vec(el, "quat", b.quat, default=(1.0, 0.0, 0.0, 0.0))
+                if b.explicitinertial and el.find("inertial") is None:
+                    # MuJoCo's writer drops explicit inertials; zero-length bones need theirs.
+                    inertial = ElementTree.Element(
+                        "inertial",
+                        pos="0 0 0",
+                        mass=repr(float(b.mass)),
+                        diaginertia=" ".join(repr(float(x)) for x in b.inertia),
+                    )
+                    el.insert(0, inertial)
         for el in root.iter("site"):
             st = sites.get(el.get("name", ""))
             if st is not None:

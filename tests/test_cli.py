@@ -1,0 +1,94 @@
+"""The foundation verbs end to end: info, convert, compile, fk."""
+
+from __future__ import annotations
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjmotion import bvh, kinematics, mjcf
+from mjmotion.cli import main
+
+
+@pytest.fixture
+def walk(mocap):
+    return mocap / "cmu_asfamc_converted" / "16_15.bvh"
+
+
+def test_info_json_describes_the_clip(walk, capsys):
+    assert main(["info", str(walk), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["joints"] == 31 and d["frames"] == 471 and d["fps"] == pytest.approx(120.0, rel=1e-5)
+    assert d["scale_m_per_unit"] == 0.01
+    assert d["joint_list"][0]["channels"][:3] == ["Xposition", "Yposition", "Zposition"]
+
+
+def test_info_table_is_readable(walk, capsys):
+    assert main(["info", str(walk)]) == 0
+    out = capsys.readouterr().out
+    assert "471 at 120 fps" in out and "Zrotation Yrotation Xrotation" in out
+
+
+def test_fk_npz_matches_kinematics(walk, tmp_path):
+    out = tmp_path / "fk.npz"
+    assert main(["fk", str(walk), "-o", str(out)]) == 0
+    z = np.load(out)
+    m = bvh.read(walk)
+    assert list(z["joint_names"]) == list(m.skeleton.names)
+    assert z["positions"].shape == (m.n_frames, m.skeleton.n_joints, 3)
+    assert np.allclose(z["positions"], kinematics.joint_positions(m))
+    assert float(z["fps"]) == pytest.approx(m.fps)
+
+
+def test_fk_with_prop_exports_sites(walk, tmp_path):
+    out = tmp_path / "fk.npz"
+    assert main(["fk", str(walk), "--prop", "bat:rwrist", "-o", str(out)]) == 0
+    z = np.load(out)
+    assert list(z["site_names"]) == ["bat/grip", "bat/sweet_spot", "bat/tip"]
+    grip, sweet = z["site_positions"][:, 0], z["site_positions"][:, 1]
+    assert np.allclose(np.linalg.norm(sweet - grip, axis=1), mjcf.PROP_PRESETS["bat"]["sweet_spot"])
+
+
+def test_compile_writes_loadable_model(walk, tmp_path):
+    out = tmp_path / "m.xml"
+    assert main(["compile", str(walk), "-o", str(out), "--prop", "club:rwrist", "--ball"]) == 0
+    model = mujoco.MjModel.from_xml_path(str(out))
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "club/sweet_spot") >= 0
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "ball") >= 0
+
+
+def test_convert_scale_fps_frames_keep_the_motion(walk, tmp_path):
+    out = tmp_path / "c.bvh"
+    assert main(["convert", str(walk), str(out), "--scale", "0.01", "--fps", "60", "--frames", "100:300"]) == 0
+    a = bvh.read(walk)[100:300]
+    b = bvh.read(out)
+    assert b.skeleton.scale == 1.0  # written in metres now
+    assert b.n_frames == 100 and b.fps == pytest.approx(60.0)
+    pa = kinematics.joint_positions(a)[::2]
+    pb = kinematics.joint_positions(b)
+    # The file's frame time is 0.00833333 s, not 1/120: 60 fps samples drift by < 1e-4 frames.
+    assert np.abs(pa - pb).max() < 1e-5
+    assert "OFFSET" in out.read_text() and "Frame Time: 0.01666666667" in out.read_text()
+
+
+def test_outputs_are_protected(walk, tmp_path, capsys):
+    out = tmp_path / "o.bvh"
+    out.write_text("precious")
+    assert main(["convert", str(walk), str(out)]) == 2
+    assert "already exists" in capsys.readouterr().err
+    assert out.read_text() == "precious"
+    assert main(["convert", str(walk), str(walk), "--force"]) == 2
+    assert "is an input" in capsys.readouterr().err
+    assert main(["convert", str(walk), str(out), "--force"]) == 0
+    assert out.read_text().startswith("HIERARCHY")
+
+
+def test_bad_frames_and_missing_file_are_one_line_errors(walk, tmp_path, capsys):
+    assert main(["convert", str(walk), str(tmp_path / "x.bvh"), "--frames", "900:1000"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: --frames 900:1000")
+    assert main(["info", str(tmp_path / "missing.bvh")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "missing.bvh" in err and "Traceback" not in err
