@@ -1,0 +1,530 @@
+"""Shot variations along new paths through a clip's PCA space (seed 003 §3).
+
+A :class:`ScorePath` is a sequence of score vectors in the source's PCA space (``style.PoseSpace``)
+plus, for each of its frames, the source frames it stands for (used for the detail the top ``k``
+components do not carry, and for where the feet and the second hand belong). From the source's
+own path:
+
+* :func:`scaled_path` — exaggerate (factor > 1) or mute (< 1) by scaling the path about its
+  centre, or about the centre of a named segment with tapered ends (§3.2.3, Figure 3.7 red/green);
+* :func:`aborted_path` — follow the source to frame ``f``, then leave for the rest pose's scores
+  over ``N`` frames (§3.2.3, Figure 3.7 orange);
+* :func:`explicit_path` — a user's own scores (CSV/NPY).
+
+:func:`synthesise` turns a path into a motion with ``P = (L S)ᵀ ⊙ D + M``; :func:`clean_up` repairs
+the artefacts §3.3 names: feet that slide or float (held to the source's foot placement with
+two-bone leg IK) and a second hand that leaves the bat/club (returned to its source placement
+relative to the first hand with two-bone arm IK).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from . import kinematics, mjcf
+from . import rotations as rot
+from .errors import MjmotionError
+from .skeleton import Motion, Skeleton
+from .style import PoseSpace
+
+#: Fraction of a named segment (at each end) over which exaggeration fades in and out.
+SEGMENT_TAPER = 0.25
+#: Foot height (m) under which the source's foot placement is held (METRICS.md h_c = 0.05 plus margin).
+PLANT_HEIGHT = 0.08
+#: Seconds over which a foot or hand correction fades in and out at the ends of a plant.
+FADE_S = 0.1
+
+
+@dataclass(frozen=True, eq=False)
+class ScorePath:
+    """A path through a PCA space.
+
+    Attributes:
+        scores: ``(T', C)`` scores on every component of the space; the first ``k`` are the
+            path the user controls, the rest carry the source's detail (zero for pure paths).
+        k: number of controlled components.
+        frame_a, frame_b: ``(T',) int`` source frames each frame stands for …
+        weight: ``(T',)`` … as ``(1 − w)·frame_a + w·frame_b``.
+        label: a name for plots and reports.
+    """
+
+    scores: np.ndarray
+    k: int
+    frame_a: np.ndarray
+    frame_b: np.ndarray
+    weight: np.ndarray
+    label: str = ""
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.scores.shape[0])
+
+    @property
+    def controlled(self) -> np.ndarray:
+        """``(T', k)`` the scores of the controlled components."""
+        return self.scores[:, : self.k]
+
+
+def source_path(space: PoseSpace, k: int, detail: bool = True) -> ScorePath:
+    """The source's own path with ``k`` controlled components (detail: the remaining scores kept)."""
+    k = space._check_k(k)
+    s = space.source_scores.copy()
+    if not detail:
+        s[:, k:] = 0.0
+    t = np.arange(s.shape[0])
+    return ScorePath(s, k, t, t, np.zeros(len(t)), "source")
+
+
+def segment_weights(n_frames: int, segment: tuple[int, int] | None, taper: float = SEGMENT_TAPER) -> np.ndarray:
+    """``(T,)`` 1 inside ``segment = (a, b)`` (half-open), cosine tapers of ``taper·(b−a)`` frames at its ends, 0 outside.
+
+    ``None`` → 1 everywhere (the whole path is scaled, §3.2.3).
+    """
+    if segment is None:
+        return np.ones(n_frames)
+    a, b = _check_segment(segment, n_frames)
+    w = np.zeros(n_frames)
+    n = b - a
+    ramp = max(1, int(round(taper * n)))
+    u = np.arange(n, dtype=float)
+    up = np.clip((u + 1) / (ramp + 1), 0.0, 1.0)
+    down = np.clip((n - u) / (ramp + 1), 0.0, 1.0)
+    w[a:b] = np.sin(0.5 * np.pi * np.minimum(up, down)) ** 2
+    return w
+
+
+def _check_segment(segment: tuple[int, int], n_frames: int) -> tuple[int, int]:
+    a, b = (int(x) for x in segment)
+    if a < 0:
+        a += n_frames
+    if b < 0:
+        b += n_frames
+    if not (0 <= a < b <= n_frames) or b - a < 3:
+        raise MjmotionError(f"segment {segment[0]}:{segment[1]} must select at least 3 of the clip's {n_frames} frames")
+    return a, b
+
+
+def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None = None) -> ScorePath:
+    """Exaggerate (``factor`` > 1) or mute (< 1) ``path`` (§3.2.3, Figure 3.7).
+
+    The controlled scores move away from (or toward) the centre ``c`` (mean over the segment,
+    or the whole path): ``s' = s + w(t)(factor − 1)(s − c)`` with ``w`` from :func:`segment_weights`.
+    """
+    if not (np.isfinite(factor) and factor > 0):
+        raise MjmotionError(f"scale factor must be a positive number, got {factor}")
+    w = segment_weights(path.n_frames, segment)
+    s = path.scores.copy()
+    ctrl = s[:, : path.k]
+    sel = w > 0.999 if segment is not None else slice(None)
+    centre = ctrl[sel].mean(axis=0)
+    s[:, : path.k] = ctrl + (w * (factor - 1.0))[:, None] * (ctrl - centre)
+    return replace(path, scores=s, label=f"scale {factor:g}")
+
+
+def default_abort_frames(path: ScorePath, frame: int, rest_frame: int, fps: float) -> int:
+    """Frames to reach the rest pose: the source's mean speed through the space, at least 0.25 s.
+
+    The return leg covers the distance ``|S_rest − S_f|`` at the average speed of the source's
+    path, so joint speeds stay within those of the source (§3.2.3 "heads straight to the rest pose").
+    """
+    ctrl = path.controlled
+    speed = np.linalg.norm(np.diff(ctrl, axis=0), axis=1)
+    mean_speed = float(np.mean(speed)) if speed.size else 0.0
+    dist = float(np.linalg.norm(ctrl[rest_frame] - ctrl[frame]))
+    need = int(np.ceil(1.5 * dist / mean_speed)) if mean_speed > 0 else 0
+    return max(need, int(round(0.25 * fps)), 2)
+
+
+def aborted_path(
+    path: ScorePath, frame: int, n_frames: int | None = None, rest_frame: int = -1, fps: float = 120.0
+) -> ScorePath:
+    """Follow ``path`` up to ``frame``, then head for the rest pose's scores over ``n_frames`` (§3.2.3, Figure 3.7).
+
+    The return leg is a cubic Hermite from the score (and score velocity) at ``frame`` to the
+    rest pose's score at rest, so the motion neither jerks at ``frame`` nor at the end. The
+    detail components fade from frame ``frame``'s to the rest frame's with the same timing.
+    Output: ``frame + 1 + n_frames`` frames, the last one the rest pose.
+    """
+    t = path.n_frames
+    if not (0 < frame < t - 1):
+        raise MjmotionError(f"abort frame must be between 1 and {t - 2} for a {t}-frame clip, got {frame}")
+    rest = rest_frame + t if rest_frame < 0 else rest_frame
+    if not (0 <= rest < t):
+        raise MjmotionError(f"rest frame {rest_frame} is outside the clip's {t} frames")
+    n = default_abort_frames(path, frame, rest, fps) if n_frames is None else int(n_frames)
+    if n < 1:
+        raise MjmotionError(f"abort needs at least 1 frame to reach the rest pose, got {n_frames}")
+    p0 = path.scores[frame]
+    p1 = path.scores[rest]
+    v0 = np.zeros_like(p0)
+    v0[: path.k] = path.scores[frame, : path.k] - path.scores[frame - 1, : path.k]  # score velocity per frame
+    u = (np.arange(1, n + 1) / n)[:, None]
+    h00, h10, h01 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2
+    leg = h00 * p0 + h10 * (n * v0) + h01 * p1
+    scores = np.vstack([path.scores[: frame + 1], leg])
+    w = np.concatenate([np.zeros(frame + 1), h01[:, 0]])
+    fa = np.concatenate([path.frame_a[: frame + 1], np.full(n, path.frame_a[frame])])
+    fb = np.concatenate([path.frame_b[: frame + 1], np.full(n, path.frame_b[rest])])
+    return ScorePath(scores, path.k, fa, fb, w, f"abort at {frame}")
+
+
+def explicit_path(space: PoseSpace, scores: np.ndarray, detail: bool = True) -> ScorePath:
+    """A user's path ``scores: (T', k)``; ``k`` = its number of columns.
+
+    The source frames it stands for are spread proportionally over the source; when it has the
+    source's length and ``detail``, the source's detail components are kept frame by frame.
+    """
+    s = np.asarray(scores, dtype=float)
+    if s.ndim == 1:
+        s = s[:, None]
+    if s.ndim != 2 or s.shape[0] < 2:
+        raise MjmotionError(f"a score path must be a (frames, components) array with at least 2 frames, got shape {s.shape}")
+    if not np.all(np.isfinite(s)):
+        raise MjmotionError("the score path contains NaN or infinity")
+    k = space._check_k(s.shape[1])
+    t_src = space.source_scores.shape[0]
+    full = np.zeros((s.shape[0], space.n_components))
+    full[:, :k] = s
+    if detail and s.shape[0] == t_src:
+        full[:, k:] = space.source_scores[:, k:]
+    pos = np.linspace(0.0, t_src - 1, s.shape[0])
+    fa = np.floor(pos).astype(int)
+    fb = np.minimum(fa + 1, t_src - 1)
+    return ScorePath(full, k, fa, fb, pos - fa, "scores")
+
+
+def read_scores(path: str | Path) -> np.ndarray:
+    """A score path from ``.npy`` (a ``(T, k)`` array) or ``.csv`` (one row per frame, commas; a header row is skipped)."""
+    p = Path(path)
+    if not p.is_file():
+        raise MjmotionError(f"{p}: score file not found")
+    suffix = p.suffix.lower()
+    try:
+        if suffix == ".npy":
+            arr = np.load(p, allow_pickle=False)
+        elif suffix in (".csv", ".txt"):
+            text = p.read_text(encoding="utf-8").splitlines()
+            rows = [r for r in text if r.strip() and not r.lstrip().startswith("#")]
+            try:
+                float(rows[0].split(",")[0])
+            except (ValueError, IndexError):
+                rows = rows[1:]
+            arr = np.array([[float(v) for v in r.split(",")] for r in rows])
+        else:
+            raise MjmotionError(f"{p}: expected a .npy or .csv score path")
+    except ValueError as exc:
+        raise MjmotionError(f"{p}: cannot read scores ({exc}); expected rows of numbers, one column per component") from None
+    arr = np.asarray(arr, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2 or arr.shape[0] < 2:
+        raise MjmotionError(f"{p}: expected a (frames, components) table with at least 2 rows, got shape {arr.shape}")
+    return arr
+
+
+def synthesise(space: PoseSpace, path: ScorePath, name: str = "") -> Motion:
+    """The motion of ``path``: frame ``t`` is the pose ``P = (L S_t)ᵀ ⊙ D + M`` (§3.2.1)."""
+    return space.motion(path.scores, name=name or f"{space.template.name} {path.label}".strip())
+
+
+# --- cleanup (§3.3) ----------------------------------------------------------------------------
+def _source_at(source_values: np.ndarray, path: ScorePath) -> np.ndarray:
+    """Per path frame, the source's ``values`` at the frames it stands for (linear blend)."""
+    w = path.weight.reshape(-1, *([1] * (source_values.ndim - 1)))
+    return (1.0 - w) * source_values[path.frame_a] + w * source_values[path.frame_b]
+
+
+def _quat_source_at(source_q: np.ndarray, path: ScorePath) -> np.ndarray:
+    w = np.broadcast_to(path.weight.reshape(-1, *([1] * (source_q.ndim - 2))), source_q[path.frame_a].shape[:-1])
+    return rot.slerp(source_q[path.frame_a], source_q[path.frame_b], w)
+
+
+def _fade(mask: np.ndarray, n_fade: int) -> np.ndarray:
+    """``(T,)`` 1 where ``mask`` holds, easing to 0 over ``n_fade`` frames either side."""
+    if not mask.any():
+        return np.zeros(mask.shape)
+    idx = np.flatnonzero(mask)
+    t = np.arange(mask.size)
+    # distance in frames to the nearest masked frame
+    pos = np.searchsorted(idx, t)
+    left = np.abs(t - idx[np.clip(pos - 1, 0, idx.size - 1)])
+    right = np.abs(idx[np.clip(pos, 0, idx.size - 1)] - t)
+    d = np.minimum(left, right)
+    u = np.clip(1.0 - d / (n_fade + 1), 0.0, 1.0)
+    return np.sin(0.5 * np.pi * u) ** 2
+
+
+def _axis_angle_quat(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    return rot.exp(axis * angle[..., None])
+
+
+def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Shortest rotations ``(T, 4)`` taking directions ``a`` onto ``b`` (``(T, 3)``)."""
+    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
+    q = np.concatenate([1.0 + np.sum(a * b, axis=-1, keepdims=True), np.cross(a, b)], axis=-1)
+    return rot.normalize(q)
+
+
+def two_bone_ik(
+    skeleton: Skeleton,
+    world_pos: np.ndarray,
+    world_rot: np.ndarray,
+    local_rot: np.ndarray,
+    end: int,
+    target_pos: np.ndarray,
+    target_rot: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Analytic IK placing joint ``end`` (ankle, wrist) at ``target_pos`` with world orientation ``target_rot``.
+
+    The middle joint (knee, elbow) bends in its current plane to get the right reach, then the
+    upper joint (hip, shoulder) swings the limb onto the target; the end joint's local rotation
+    gives it the target orientation. Reach is clamped to the limb's length.
+
+    Args:
+        world_pos: ``(T, J, 3)`` and ``world_rot: (T, J, 4)``, forward kinematics of the pose.
+        local_rot: ``(T, J, 4)`` the pose's local rotations (a modified copy is returned).
+        target_pos: ``(T, 3)``; target_rot: ``(T, 4)`` world.
+    Returns:
+        ``(local_rot, reach_error)``: updated rotations and ``(T,)`` metres the target stays out of reach.
+    """
+    mid = int(skeleton.parents[end])
+    top = int(skeleton.parents[mid])
+    above = int(skeleton.parents[top])
+    h, k, a = world_pos[:, top], world_pos[:, mid], world_pos[:, end]
+    l1 = np.linalg.norm(k - h, axis=-1)
+    l2 = np.linalg.norm(a - k, axis=-1)
+    u, v = k - h, a - k
+    n = np.cross(u, v)
+    nn = np.linalg.norm(n, axis=-1)
+    # the bend axis in the upper bone's frame, borrowed from bent frames where the limb is straight
+    q_top = world_rot[:, top]
+    n_local = rot.rotate(rot.conjugate(q_top), n / np.maximum(nn, 1e-12)[:, None])
+    good = nn > 1e-4 * l1 * l2
+    if good.any():
+        ref = n_local[good].mean(axis=0)
+    else:
+        ref = np.array([1.0, 0.0, 0.0])
+    ref = ref / max(np.linalg.norm(ref), 1e-12)
+    n_unit = np.where(good[:, None], n / np.maximum(nn, 1e-12)[:, None], rot.rotate(q_top, ref))
+    bend = np.arctan2(np.sum(np.cross(u, v) * n_unit, axis=-1), np.sum(u * v, axis=-1))
+    d_raw = np.linalg.norm(target_pos - h, axis=-1)
+    d = np.clip(d_raw, np.abs(l1 - l2) + 1e-6, l1 + l2 - 1e-6)
+    cos_inner = np.clip((l1**2 + l2**2 - d**2) / (2 * l1 * l2), -1.0, 1.0)
+    new_bend = np.pi - np.arccos(cos_inner)
+    r_knee = _axis_angle_quat(n_unit, new_bend - bend)
+    v_new = rot.rotate(r_knee, v)
+    r_hip = _rotation_between(u + v_new, target_pos - h)
+    q_top_new = rot.multiply(r_hip, q_top)
+    q_mid_new = rot.multiply(r_hip, rot.multiply(r_knee, world_rot[:, mid]))
+    out = local_rot.copy()
+    q_above = world_rot[:, above] if above >= 0 else np.broadcast_to(rot.IDENTITY, q_top.shape)
+    out[:, top] = rot.multiply(rot.conjugate(q_above), q_top_new)
+    out[:, mid] = rot.multiply(rot.conjugate(q_top_new), q_mid_new)
+    out[:, end] = rot.multiply(rot.conjugate(q_mid_new), target_rot)
+    return out, np.abs(d_raw - d)
+
+
+def _blend_local(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
+    return rot.slerp(a, b, np.broadcast_to(w[:, None], a.shape[:2]))
+
+
+def _descendants(skeleton: Skeleton, j: int) -> list[int]:
+    return [c for c in range(j + 1, skeleton.n_joints) if _is_below(skeleton, c, j)]
+
+
+def _is_below(skeleton: Skeleton, c: int, j: int) -> bool:
+    while c > j:
+        c = int(skeleton.parents[c])
+    return c == j
+
+
+@dataclass(frozen=True)
+class CleanupReport:
+    """What :func:`clean_up` did: the frames it held per foot and the leftover errors (metres)."""
+
+    held_frames: dict[str, int]
+    foot_reach_error_m: float
+    grip_hands: tuple[str, str] | None
+    grip_reach_error_m: float
+
+
+def hold_source_feet(
+    source: Motion, motion: Motion, path: ScorePath, plant_height: float = PLANT_HEIGHT
+) -> tuple[Motion, dict[str, int], float]:
+    """Feet that slide or float (§3.3) put back on the source's footprints with two-bone leg IK.
+
+    Where the source's foot (ankle or toe) is within ``plant_height`` of the floor at the
+    frames a path frame stands for, the ankle follows the source's ankle (position and world
+    orientation, toes as in the source) shifted by the variant's mean horizontal offset over
+    that plant; corrections fade in and out over ``FADE_S``. Returns the motion, frames held per
+    foot and the largest distance a target stayed out of reach.
+    """
+    skel = source.skeleton
+    feet = skel.feet()
+    if not feet:
+        return motion, {}, 0.0
+    compiled = mjcf.compile(skel)
+    src = kinematics.forward(compiled, source)
+    var = kinematics.forward(compiled, motion)
+    local = motion.rotations.copy()
+    held: dict[str, int] = {}
+    worst = 0.0
+    n_fade = max(1, int(round(FADE_S * motion.fps)))
+    for side, (ankle, toe) in feet.items():
+        pts = [ankle] + ([toe] if toe is not None else [])
+        low_src = np.min(src.joint_positions[:, pts, 2], axis=1) < plant_height
+        low = np.where(path.weight < 0.5, low_src[path.frame_a], low_src[path.frame_b])
+        if not low.any() or skel.parents[skel.parents[ankle]] < 0:
+            continue
+        target = _source_at(src.joint_positions[:, ankle], path)
+        # one horizontal shift per plant: the foot stays planted where the variant put it
+        for a, b in _runs(low):
+            shift = var.joint_positions[a, ankle, :2] - target[a, :2]  # planted where it touched down
+            target[a:b, :2] += shift
+        target_rot = _quat_source_at(src.joint_rotations[:, ankle], path)
+        solved, err = two_bone_ik(skel, var.joint_positions, var.joint_rotations, local, ankle, target, target_rot)
+        if toe is not None:
+            for j in [toe, *_descendants(skel, toe)]:
+                solved[:, j] = _quat_source_at(source.rotations[:, j], path)
+        w = _fade(low, n_fade)
+        chain = [int(skel.parents[skel.parents[ankle]]), int(skel.parents[ankle]), ankle]
+        chain += [j for j in ([toe, *_descendants(skel, toe)] if toe is not None else [])]
+        local[:, chain] = _blend_local(local[:, chain], solved[:, chain], w)
+        held[side] = int(low.sum())
+        worst = max(worst, float(np.max(err[low])))
+    return motion.replace(rotations=local), held, worst
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """Half-open ``(start, stop)`` of the runs of True in ``mask``."""
+    m = np.concatenate([[False], mask, [False]]).astype(int)
+    d = np.diff(m)
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
+
+
+def restore_grip_minimal(
+    source: Motion, motion: Motion, path: ScorePath, first_hand: str = "left"
+) -> tuple[Motion, float]:
+    """The second hand back at its source placement relative to the first hand (§3.3), two-bone arm IK.
+
+    For each path frame, the second hand's world pose is the first hand's (in the variant)
+    times the source's relative transform at the frames it stands for; the hand's subtree keeps
+    the source's local rotations. Returns the motion and the largest out-of-reach distance (m).
+    """
+    skel = source.skeleton
+    hands = skel.hands()
+    if set(hands) != {"left", "right"}:
+        raise MjmotionError("restoring the grip needs a left and a right hand in the skeleton")
+    if first_hand not in hands:
+        raise MjmotionError(f"first hand must be 'left' or 'right', got {first_hand!r}")
+    h1, h2 = hands[first_hand], hands["right" if first_hand == "left" else "left"]
+    compiled = mjcf.compile(skel)
+    src = kinematics.forward(compiled, source)
+    var = kinematics.forward(compiled, motion)
+    q1s, q2s = src.joint_rotations[:, h1], src.joint_rotations[:, h2]
+    rel_pos = rot.rotate(rot.conjugate(q1s), src.joint_positions[:, h2] - src.joint_positions[:, h1])
+    rel_rot = rot.multiply(rot.conjugate(q1s), q2s)
+    rel_pos_t = _source_at(rel_pos, path)
+    rel_rot_t = _quat_source_at(rel_rot, path)
+    q1 = var.joint_rotations[:, h1]
+    target = var.joint_positions[:, h1] + rot.rotate(q1, rel_pos_t)
+    target_rot = rot.multiply(q1, rel_rot_t)
+    local = motion.rotations
+    for _ in range(4):  # the shoulder moves on a sphere about the collarbone: a few passes close the gap
+        turned = _reach_with_shoulder(skel, motion.replace(rotations=local), var, h2, target)
+        if turned is local:
+            break
+        local = turned
+        var = kinematics.forward(compiled, motion.replace(rotations=local))
+    local, err = two_bone_ik(skel, var.joint_positions, var.joint_rotations, local, h2, target, target_rot)
+    for j in _descendants(skel, h2):
+        local[:, j] = _quat_source_at(source.rotations[:, j], path)
+    return motion.replace(rotations=local), float(np.max(err))
+
+
+def _reach_with_shoulder(skel: Skeleton, motion: Motion, pose: kinematics.Pose, end: int, target: np.ndarray) -> np.ndarray:
+    """Local rotations with the collarbone turned so a too-distant ``target`` comes within the arm's reach.
+
+    Where the wrist target lies beyond upper arm + forearm, the joint above the shoulder
+    (the clavicle) swings the shoulder toward the target by the missing length. Returns
+    ``motion.rotations`` itself when nothing is out of reach.
+    """
+    mid = int(skel.parents[end])
+    top = int(skel.parents[mid])
+    clav = int(skel.parents[top])
+    above = int(skel.parents[clav]) if clav >= 0 else -1
+    if clav <= 0:
+        return motion.rotations
+    p = pose.joint_positions
+    reach = (np.linalg.norm(p[:, mid] - p[:, top], axis=-1) + np.linalg.norm(p[:, end] - p[:, mid], axis=-1)) * 0.99
+    to_target = target - p[:, top]
+    dist = np.linalg.norm(to_target, axis=-1)
+    short = dist > reach
+    if not short.any():
+        return motion.rotations
+    wanted = p[:, top] + to_target * ((dist - reach) / np.maximum(dist, 1e-12))[:, None]
+    r = _rotation_between(p[:, top] - p[:, clav], wanted - p[:, clav])
+    r[~short] = rot.IDENTITY
+    q_clav = rot.multiply(r, pose.joint_rotations[:, clav])
+    q_above = pose.joint_rotations[:, above] if above >= 0 else np.broadcast_to(rot.IDENTITY, q_clav.shape)
+    out = motion.rotations.copy()
+    out[:, clav] = rot.multiply(rot.conjugate(q_above), q_clav)
+    return out
+
+
+def clean_up(source: Motion, motion: Motion, path: ScorePath, first_hand: str | None = "left") -> tuple[Motion, CleanupReport]:
+    """Repair §3.3's artefacts: feet held on the source's footprints, then the second hand on the grip.
+
+    ``first_hand=None`` leaves the hands alone (a one-handed shot, a kick).
+    """
+    out, held, foot_err = hold_source_feet(source, motion, path)
+    grip_err = 0.0
+    pair = None
+    if first_hand is not None:
+        out, grip_err = restore_grip_minimal(source, out, path, first_hand)
+        pair = (first_hand, "right" if first_hand == "left" else "left")
+    return out, CleanupReport(held, foot_err, pair, grip_err)
+
+
+# --- plots (Figures 3.1, 3.4, 3.7) -------------------------------------------------------------
+def plot_score_paths(paths: dict[str, np.ndarray], out_png: str | Path, dims: int = 2) -> None:
+    """Score paths ``{label: (T, ≥dims)}`` drawn in the first ``dims`` (2 or 3) components, saved as PNG.
+
+    The first path is drawn as the reference (thicker); each path's start is marked with a
+    circle and its end with a square.
+    """
+    if dims not in (2, 3):
+        raise MjmotionError(f"score paths can be drawn in 2 or 3 dimensions, not {dims}")
+    if not paths:
+        raise MjmotionError("no score paths to plot")
+    for label, s in paths.items():
+        if np.asarray(s).ndim != 2 or np.asarray(s).shape[1] < dims:
+            raise MjmotionError(f"path {label!r} needs at least {dims} score columns, has shape {np.shape(s)}")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .outputs import write_with
+
+    fig = plt.figure(figsize=(6.4, 5.2), dpi=110)
+    ax = fig.add_subplot(111, projection="3d" if dims == 3 else None)
+    for i, (label, s) in enumerate(paths.items()):
+        s = np.asarray(s, dtype=float)
+        cols = [s[:, d] for d in range(dims)]
+        line = ax.plot(*cols, lw=2.4 if i == 0 else 1.4, label=label)[0]
+        ax.scatter(*[c[:1] for c in cols], color=line.get_color(), marker="o", s=18)
+        ax.scatter(*[c[-1:] for c in cols], color=line.get_color(), marker="s", s=18)
+    ax.set_xlabel("PC 1")
+    ax.set_ylabel("PC 2")
+    if dims == 3:
+        ax.set_zlabel("PC 3")
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title("scores in principal-component space")
+    fig.tight_layout()
+    write_with(out_png, lambda tmp: fig.savefig(tmp, format="png"))
+    plt.close(fig)
