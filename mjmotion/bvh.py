@@ -93,6 +93,12 @@ def _decode(data: bytes | str, path: str) -> str:
     else:
         if data.startswith(b"\xef\xbb\xbf"):
             data = data[3:]
+        elif data.startswith((b"\xff\xfe", b"\xfe\xff")):
+            # UTF-16 with a byte-order mark (Windows tools, PowerShell '>'): text, not binary.
+            try:
+                return _decode(data.decode("utf-16"), path)
+            except UnicodeDecodeError as e:
+                raise BvhError(path, None, f"invalid UTF-16 at byte {e.start}; expected a text BVH file") from None
         nul = data.find(b"\x00")
         if nul >= 0:
             raise BvhError(path, data.count(b"\n", 0, nul) + 1, "binary data (a NUL byte); expected a text BVH file")
@@ -111,9 +117,20 @@ def _decode(data: bytes | str, path: str) -> str:
 
 
 # --- hierarchy -----------------------------------------------------------------------------
+def _strict_float(tok: str) -> float:
+    """``float(tok)`` accepting only what the motion-section parser (``np.loadtxt``) accepts.
+
+    Python's ``float`` also takes ``1_000`` and non-ASCII digits; refusing them here keeps the
+    hierarchy and the motion section consistent and lets a bad value be found by line.
+    """
+    if not tok.isascii() or "_" in tok:
+        raise ValueError(tok)
+    return float(tok)
+
+
 def _parse_float(tok: str, path: str, line: int, what: str) -> float:
     try:
-        v = float(tok)
+        v = _strict_float(tok)
     except ValueError:
         raise BvhError(path, line, f"{what}: {tok!r} is not a number") from None
     if not np.isfinite(v):
@@ -267,7 +284,7 @@ def _parse_motion_header(lines: list[str], motion_idx: int, path: str) -> tuple[
     i = motion_idx + 1
     header: list[tuple[int, str]] = []
     while i < len(lines) and len(header) < 2:
-        s = lines[i].strip()
+        s = " ".join(lines[i].split())  # any run of blanks counts as one ("Frame \t Time:")
         if s:
             header.append((i + 1, s))
         i += 1
@@ -326,14 +343,16 @@ def _parse_values(lines: list[str], start: int, n_channels: int, frames: int, pa
 
 
 def _nonempty_line_offset(lines: list[str], start: int, row: int) -> int:
-    """Offset from ``start`` of the ``row``-th non-empty line (or one past the last)."""
+    """Offset from ``start`` of the ``row``-th non-empty line (or the line after the last one)."""
     seen = 0
+    last = -1
     for off, line in enumerate(lines[start:]):
         if line.strip():
             if seen == row:
                 return off
             seen += 1
-    return len(lines) - start
+            last = off
+    return last + 1
 
 
 def _diagnose_values(lines: list[str], start: int, n_channels: int, path: str) -> None:
@@ -346,7 +365,7 @@ def _diagnose_values(lines: list[str], start: int, n_channels: int, path: str) -
             raise BvhError(path, ln, f"{len(toks)} values on a motion line; expected {n_channels} (one per channel)")
         for c, tok in enumerate(toks):
             try:
-                float(tok)
+                _strict_float(tok)
             except ValueError:
                 raise BvhError(path, ln, f"value {c + 1} {tok[:40]!r} is not a number") from None
 

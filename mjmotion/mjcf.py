@@ -32,6 +32,9 @@ BALL = "ball"
 TRACK_CAMERA = "track"
 #: Body mass index used to give the character a realistic mass for its size (kg / m²).
 BODY_MASS_INDEX = 21.5
+#: Deepest joint chain ``compile`` accepts. MuJoCo's compile time grows with the cube of the chain
+#: depth (measured: 200 deep 0.16 s, 400 deep 1.2 s, 1,000 deep 21 s), a human skeleton is < 40 deep.
+MAX_DEPTH = 256
 
 
 @dataclass(frozen=True)
@@ -241,6 +244,15 @@ def compile(
         ball: a free ball, or ``None``.
         total_mass: the character's mass in kg; default ``BODY_MASS_INDEX × height²``.
     """
+    depth = np.zeros(skeleton.n_joints, dtype=int)
+    for j in range(1, skeleton.n_joints):
+        depth[j] = depth[skeleton.parents[j]] + 1
+    if depth.max() + 1 > MAX_DEPTH:
+        raise MjmotionError(
+            f"skeleton is {depth.max() + 1} joints deep (joint {skeleton.names[int(depth.argmax())]!r}); "
+            f"MuJoCo models are limited to {MAX_DEPTH} nested bodies here (compile time grows with the "
+            "cube of the depth) — is this a character skeleton?"
+        )
     reserved = {FLOOR, BALL} | {p.name for p in props}
     clash = reserved.intersection(skeleton.names)
     if clash:
