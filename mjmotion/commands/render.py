@@ -1,0 +1,103 @@
+"""``mjmotion render``: an MP4 or GIF of one or more clips side by side."""
+
+from __future__ import annotations
+
+import os
+
+# Before anything loads PyOpenGL: the headless backend, unless the user chose one.
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import argparse  # noqa: E402
+
+from ..errors import MjmotionError  # noqa: E402
+from ._common import add_input_options, load, output_path, parse_frames  # noqa: E402
+
+NAME = "render"
+HELP = "render BVH clips side by side to an MP4 or GIF (offscreen MuJoCo)"
+DESCRIPTION = """Render one or more clips into one scene, side by side, each in its own colour with a
+label, on a checker floor, with a camera that follows them. Clips are resampled to --fps;
+shorter clips hold their last pose. The video is MP4 (H.264) or GIF, chosen by the OUT suffix.
+
+examples:
+  mjmotion render walk.bvh -o walk.mp4
+  mjmotion render source.bvh adapted.bvh blend.bvh --labels source adapted blend -o compare.mp4
+  mjmotion render swing.bvh --prop club --ball 0.5 0.1 0.02 --trail -o swing.gif --width 640 --height 360
+  mjmotion render kick.bvh --trail rtoes --frames 100:400 --fps 25 -o kick.mp4
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("files", nargs="+", metavar="FILE.bvh", help="clips to render, left to right")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.mp4|OUT.gif", help="the video to write")
+    p.add_argument("--force", action="store_true", help="replace the output if it exists")
+    p.add_argument("--labels", nargs="+", metavar="LABEL", help="one label per clip (default: file names)")
+    p.add_argument(
+        "--prop", action="append", default=[], metavar="KIND[:JOINT]",
+        help="give every character a prop: club or bat, held by JOINT (default: the right hand)",
+    )
+    p.add_argument("--ball", nargs=3, type=float, metavar=("X", "Y", "Z"), help="a ball at X Y Z metres (Z up) beside each character")
+    p.add_argument(
+        "--trail", nargs="?", const="auto", metavar="SITE|JOINT",
+        help="draw a ghost trail of an effector (default with no name: the prop's sweet spot, else the right hand)",
+    )
+    p.add_argument("--width", type=int, default=960, help="image width in pixels (default 960)")
+    p.add_argument("--height", type=int, default=540, help="image height in pixels (default 540)")
+    p.add_argument("--fps", type=float, default=30.0, help="video frame rate; clips are resampled to it (default 30)")
+    p.add_argument("--frames", metavar="A:B", help="render only frames A:B of each clip (its own frame numbers)")
+    p.add_argument("--spacing", type=float, default=1.2, help="metres between characters (default 1.2; 0 overlays them)")
+    p.add_argument("--azimuth", type=float, help="camera heading in degrees (default: from the clips' travel direction)")
+    p.add_argument("--elevation", type=float, default=-10.0, help="camera elevation in degrees (default -10)")
+    p.add_argument("--distance", type=float, help="camera distance in metres (default: fit the characters)")
+    p.add_argument("--no-shadows", action="store_true", help="faster: no shadows")
+    add_input_options(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import mjcf, render
+
+    out = output_path(args, *args.files)
+    if out.suffix.lower() not in (".mp4", ".gif"):
+        raise MjmotionError(f"{out}: expected an .mp4 or .gif output")
+    if args.labels is not None and len(args.labels) != len(args.files):
+        raise MjmotionError(f"--labels: got {len(args.labels)} labels for {len(args.files)} clips; give one per clip")
+    labels = args.labels or [os.path.splitext(os.path.basename(f))[0] for f in args.files]
+    actors = []
+    for path, label in zip(args.files, labels):
+        m = load(path, args)
+        if args.frames:
+            m = m[parse_frames(args.frames, m.n_frames)]
+        props = tuple(_prop(m, text) for text in args.prop)
+        actors.append(render.Actor(m, label=label, props=props, trail=_trail(m, props, args.trail)))
+    ball = mjcf.Ball(position=tuple(args.ball)) if args.ball else None
+    view = render.View(azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
+    scene = render.build_scene(actors, fps=args.fps, ball=ball, spacing=args.spacing, view=view)
+    render.render(scene, out, width=args.width, height=args.height, shadows=not args.no_shadows)
+    print(f"wrote {out}: {scene.n_frames} frames, {args.width}x{args.height} at {args.fps:g} fps, {len(actors)} character(s)")
+    return 0
+
+
+def _prop(motion, text: str):
+    """A prop from ``--prop``; a one-word club on a golf swing is fitted to both hands when that module exists."""
+    from .. import mjcf
+
+    if text.partition(":")[0] == "club" and ":" not in text:
+        try:
+            from ..hitpoint import fit_club  # type: ignore[import-not-found]
+        except ImportError:
+            return mjcf.parse_prop_option(motion.skeleton, text)
+        return fit_club(motion)
+    return mjcf.parse_prop_option(motion.skeleton, text)
+
+
+def _trail(motion, props, text: str | None) -> str | None:
+    """The trail effector: the named site/joint, or for ``auto`` the first prop's sweet spot, else the right hand."""
+    if text is None:
+        return None
+    if text != "auto":
+        return text
+    if props:
+        return props[0].site
+    hands = motion.skeleton.hands()
+    if "right" not in hands:
+        raise MjmotionError("--trail: no prop and no right hand found by name; say which joint, e.g. --trail rwrist")
+    return motion.skeleton.names[hands["right"]]
