@@ -13,6 +13,7 @@ written with ten significant digits, angles with six decimals and positions to 5
 from __future__ import annotations
 
 import io
+import itertools
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -75,8 +76,7 @@ def read(
 
 def parse(data: bytes | str, path: str = "<string>", scale: float | None = None, up: str = "y") -> Motion:
     """Parse BVH text (``bytes`` or ``str``); ``path`` only names the source in errors."""
-    text = _decode(data, path)
-    lines = text.split("\n")
+    lines = _decode(data, path).split("\n")  # the decoded text is not kept: memory is ~2x the file
     nodes, motion_line = _parse_hierarchy(lines, path)
     frames, frame_time, first_data_line = _parse_motion_header(lines, motion_line, path)
     joints = [n for n in nodes if not n.is_end]
@@ -314,14 +314,16 @@ def _parse_motion_header(lines: list[str], motion_idx: int, path: str) -> tuple[
 
 def _parse_values(lines: list[str], start: int, n_channels: int, frames: int, path: str) -> np.ndarray:
     """Motion values ``(frames, n_channels)``; checked: counts per line, numbers, finiteness."""
-    body = "\n".join(lines[start:])
     if n_channels == 0:
         rows = sum(1 for line in lines[start:] if line.strip())
         if rows:
             raise BvhError(path, start + 1, "the skeleton declares no channels but the motion section has values")
         return np.zeros((frames, 0))
+    if not any(line.strip() for line in itertools.islice(lines, start, None)):
+        raise BvhError(path, start + 1, f"'Frames: {frames}' but the motion section has no values")
     try:
-        values = np.loadtxt(io.StringIO(body), dtype=float, comments=None, ndmin=2)
+        # loadtxt over the list of lines: no joined copy of the text (4x less memory, faster).
+        values = np.loadtxt(itertools.islice(lines, start, None), dtype=float, comments=None, ndmin=2)
     except ValueError:
         values = None  # the slow path below finds the line and says what is wrong
     if values is None or values.shape[1] != n_channels:
@@ -413,13 +415,19 @@ def _rotation_axes(channels: tuple[str, ...]) -> str:
     return "".join(c[0] for c in channels if c in ROTATION_CHANNELS)
 
 
+#: Frames converted per block: bounds the temporaries of long clips to a few MB.
+_BLOCK = 8192
+
+
 def _to_motion(skel: Skeleton, values: np.ndarray, fps: float, path: str) -> Motion:
     t = values.shape[0]
     j_count = skel.n_joints
     c = up_matrix(skel.up)
-    q_c = rot.from_matrix(c)
     file_offsets = skel.offsets @ c / skel.scale  # back to file axes and units (C is orthonormal)
-    local_file = np.broadcast_to(file_offsets, (t, j_count, 3)).copy()
+    inner_pos = any(skel.has_positions(j) for j in range(1, j_count))
+    pos_joints = range(j_count) if inner_pos else range(1)
+    local_file = np.empty((t, len(pos_joints), 3))  # only the root's unless inner joints move
+    local_file[:] = file_offsets[: len(pos_joints)]
     quats = np.empty((t, j_count, 4))
     groups: dict[str, list[tuple[int, list[int]]]] = {}
     col = 0
@@ -438,12 +446,14 @@ def _to_motion(skel: Skeleton, values: np.ndarray, fps: float, path: str) -> Mot
             quats[:, js] = rot.IDENTITY
             continue
         cols = np.array([m[1] for m in members])  # (n, k)
-        ang = values[:, cols].reshape(-1, len(axes))  # (t*n, k)
-        quats[:, js] = rot.euler_to_quat(ang, axes).reshape(t, len(js), 4)
-    # Conjugate into the Z-up world: R_world = C R_file Cᵀ.
-    quats = rot.multiply(rot.multiply(q_c, quats), rot.conjugate(q_c))
-    local = local_file @ c.T * skel.scale
-    inner_pos = any(skel.has_positions(j) for j in range(1, j_count))
+        for a in range(0, t, _BLOCK):
+            b = min(t, a + _BLOCK)
+            ang = values[a:b, cols].reshape(-1, len(axes))  # (block*n, k)
+            quats[a:b, js] = rot.euler_to_quat(ang, axes).reshape(b - a, len(js), 4)
+    # Into the Z-up world, R_world = C R_file Cᵀ: for a quaternion, (w, v) → (w, C v).
+    quats[..., 1:] = quats[..., 1:] @ c.T
+    local = local_file @ c.T
+    local *= skel.scale
     return Motion(
         skeleton=skel,
         fps=fps,
