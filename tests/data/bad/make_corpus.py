@@ -269,7 +269,6 @@ def big_clip(n_frames: int) -> bytes:
     t = np.arange(n_frames)[:, None] / 30.0
     phase = np.arange(N_CHANNELS)[None, :]
     vals = 20.0 * np.sin(0.7 * t + phase)
-    vals[:, 1] += 90.0
     head = "\n".join(BASE_LINES[:FRAMES]) + f"\nFrames: {n_frames}\nFrame Time: 0.0333333\n"
     import io
 
@@ -279,10 +278,13 @@ def big_clip(n_frames: int) -> bytes:
 
 
 def big_clip_bytes(target_bytes: int) -> tuple[bytes, int]:
-    """A valid clip of about ``target_bytes`` bytes and its frame count."""
-    per_frame = len(big_clip(100)) / 100
-    n = int(target_bytes / per_frame) + 1
-    return big_clip(n), n
+    """A valid clip of at least ``target_bytes`` bytes (within 1 %) and its frame count."""
+    n = 1000
+    data = big_clip(n)
+    while len(data) < target_bytes:
+        n = int(n * target_bytes / len(data) * 1.005) + 1
+        data = big_clip(n)
+    return data, n
 
 
 def deep_hierarchy(depth: int, frames: int = 2) -> bytes:
