@@ -45,6 +45,8 @@ V_C = 0.5  # contact horizontal speed, m/s (GMD: 2.5 cm/frame at 20 fps)
 SKATE_WINDOW = 5  # frames, GMD's averaging window for skating_ratio
 FLOAT_TOL = 0.005  # m, PhysDiff's float tolerance
 H_C_SENSITIVITY = (0.03, 0.05, 0.08)
+#: Central-difference stencil (s) for qvel/qacc; 1/30 s keeps 120 fps marker noise below g.
+FD_STEP = 1.0 / 30.0
 
 # The 8 corner sign patterns of a box, (8, 3).
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
@@ -372,6 +374,7 @@ class Params:
     mu: float = 1.0
     cop_margin: float = 0.02
     flight_force_ratio: float = 0.2
+    fd_step: float = FD_STEP
     h_c_sensitivity: tuple[float, ...] = H_C_SENSITIVITY
 
 
