@@ -118,8 +118,7 @@ def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None 
     w = segment_weights(path.n_frames, segment)
     s = path.scores.copy()
     ctrl = s[:, : path.k]
-    sel = w > 0.999 if segment is not None else slice(None)
-    centre = ctrl[sel].mean(axis=0)
+    centre = ctrl[w > 0].mean(axis=0)  # the segment's centre (every frame of the segment has w > 0)
     s[:, : path.k] = ctrl + (w * (factor - 1.0))[:, None] * (ctrl - centre)
     return replace(path, scores=s, label=f"scale {factor:g}")
 
@@ -381,10 +380,16 @@ def hold_source_feet(
         if not low.any() or skel.parents[skel.parents[ankle]] < 0:
             continue
         target = _source_at(src.joint_positions[:, ankle], path)
-        # one horizontal shift per plant: the foot stays planted where the variant put it
-        for a, b in _runs(low):
-            shift = var.joint_positions[a, ankle, :2] - target[a, :2]  # planted where it touched down
-            target[a:b, :2] += shift
+        # one horizontal shift per plant, where the variant's foot touched down; frames between
+        # plants (fading in and out) take the nearest plant's shift so the target does not jump
+        runs = _runs(low)
+        starts = np.array([a for a, _ in runs])
+        shifts = var.joint_positions[starts, ankle, :2] - target[starts, :2]
+        centres = np.array([0.5 * (a + b - 1) for a, b in runs])
+        t = np.arange(len(low))
+        dist = np.array([np.where(t < a, a - t, np.where(t >= b, t - b + 1, 0)) for a, b in runs])
+        nearest = np.argmin(dist + 1e-6 * np.abs(t[None] - centres[:, None]), axis=0)
+        target[:, :2] += shifts[nearest]
         target_rot = _quat_source_at(src.joint_rotations[:, ankle], path)
         solved, err = two_bone_ik(skel, var.joint_positions, var.joint_rotations, local, ankle, target, target_rot)
         if toe is not None:
@@ -460,13 +465,14 @@ def _reach_with_shoulder(skel: Skeleton, motion: Motion, pose: kinematics.Pose, 
     if clav <= 0:
         return motion.rotations
     p = pose.joint_positions
-    reach = (np.linalg.norm(p[:, mid] - p[:, top], axis=-1) + np.linalg.norm(p[:, end] - p[:, mid], axis=-1)) * 0.99
+    reach = np.linalg.norm(p[:, mid] - p[:, top], axis=-1) + np.linalg.norm(p[:, end] - p[:, mid], axis=-1)
     to_target = target - p[:, top]
     dist = np.linalg.norm(to_target, axis=-1)
-    short = dist > reach
+    short = dist > reach * (1.0 - 1e-9)
     if not short.any():
         return motion.rotations
-    wanted = p[:, top] + to_target * ((dist - reach) / np.maximum(dist, 1e-12))[:, None]
+    # move the shoulder by the missing length plus 1 % so the elbow keeps a little bend
+    wanted = p[:, top] + to_target * ((dist - 0.99 * reach) / np.maximum(dist, 1e-12))[:, None]
     r = _rotation_between(p[:, top] - p[:, clav], wanted - p[:, clav])
     r[~short] = rot.IDENTITY
     q_clav = rot.multiply(r, pose.joint_rotations[:, clav])
@@ -528,3 +534,93 @@ def plot_score_paths(paths: dict[str, np.ndarray], out_png: str | Path, dims: in
     fig.tight_layout()
     write_with(out_png, lambda tmp: fig.savefig(tmp, format="png"))
     plt.close(fig)
+
+
+# --- measurements ------------------------------------------------------------------------------
+def first_hand_for(source: Motion) -> str | None:
+    """The hand the other is held to: the club's hand when ``hitpoint.fit_club`` fits one, else left.
+
+    ``None`` when the skeleton does not have two hands.
+    """
+    hands = source.skeleton.hands()
+    if set(hands) != {"left", "right"}:
+        return None
+    try:
+        from .hitpoint import fit_club
+    except ImportError:
+        return "left"
+    from .skeleton import side_of
+
+    try:
+        prop = fit_club(source)
+    except MjmotionError:
+        return "left"
+    return side_of(prop.joint) or "left"
+
+
+def grip_error_m(source: Motion, motion: Motion, path: ScorePath, first_hand: str = "left") -> float:
+    """METRICS.md ``grip_error_m``: distance of the second hand from where the source holds it
+    relative to the first hand (at the source frames each frame stands for), max over frames."""
+    skel = source.skeleton
+    hands = skel.hands()
+    h1, h2 = hands[first_hand], hands["right" if first_hand == "left" else "left"]
+    compiled = mjcf.compile(skel)
+    src = kinematics.forward(compiled, source)
+    var = kinematics.forward(compiled, motion)
+    rel = rot.rotate(rot.conjugate(src.joint_rotations[:, h1]), src.joint_positions[:, h2] - src.joint_positions[:, h1])
+    want = var.joint_positions[:, h1] + rot.rotate(var.joint_rotations[:, h1], _source_at(rel, path))
+    return float(np.max(np.linalg.norm(want - var.joint_positions[:, h2], axis=-1)))
+
+
+def effector_path_length(motion: Motion, joint: int, frames: tuple[int, int] | None = None) -> float:
+    """Length (m) of the path of ``joint`` over ``frames`` (half-open; all by default)."""
+    p = kinematics.forward(mjcf.compile(motion.skeleton), motion).joint_positions[:, joint]
+    if frames is not None:
+        p = p[frames[0] : frames[1]]
+    return float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=-1)))
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def report(
+    source: Motion, raw: Motion, result: Motion, path: ScorePath, space: PoseSpace, first_hand: str | None = "left"
+) -> dict[str, object]:
+    """Numbers for a variant: ``k``, variance explained, footskate (mm/s, METRICS.md) of source, raw
+    and result, joint-speed ratio, grip error and the first hand's path length."""
+    from . import evaluate
+
+    out: dict[str, object] = {
+        "variant": path.label,
+        "n_frames": result.n_frames,
+        "k": path.k,
+        "variance_explained": float(space.cumulative[path.k - 1]),
+        "explained_per_component": [float(x) for x in space.explained[: max(path.k, 5)]],
+    }
+    try:
+        out["footskate_mm_per_s"] = {
+            "source": _finite(evaluate.skate_mm_per_s(source)),
+            "raw": _finite(evaluate.skate_mm_per_s(raw)),
+            "result": _finite(evaluate.skate_mm_per_s(result)),
+            "h_c": evaluate.H_C,
+        }
+    except MjmotionError as exc:  # no feet in the skeleton
+        out["footskate_mm_per_s"] = {"source": None, "raw": None, "result": None, "note": str(exc)}
+    out["max_joint_speed_ratio"] = {
+        "raw": float(evaluate.max_joint_speed_ratio(raw, source)),
+        "result": float(evaluate.max_joint_speed_ratio(result, source)),
+    }
+    if first_hand is not None:
+        out["first_hand"] = first_hand
+        out["grip_error_m"] = {
+            "raw": grip_error_m(source, raw, path, first_hand),
+            "result": grip_error_m(source, result, path, first_hand),
+        }
+        j = source.skeleton.hands()[first_hand]
+        out["effector_path_m"] = {
+            "joint": source.skeleton.names[j],
+            "source": effector_path_length(source, j),
+            "result": effector_path_length(result, j),
+        }
+    return out

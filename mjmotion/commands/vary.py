@@ -1,0 +1,150 @@
+"""``mjmotion vary``: a new version of a shot along a new path through its PCA space (seed 003 §3)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from ..errors import MjmotionError
+from ..outputs import check_output, write_text_atomic
+from ._common import add_input_options, load, output_path, parse_frames
+
+NAME = "vary"
+HELP = "exaggerate, mute or abort a shot by moving along its PCA score path"
+DESCRIPTION = """Build the principal-component space of a shot (root translation and every joint's
+quaternion, standardised), take the shot's own path of scores through it and change the path:
+  --scale F        exaggerate (F > 1) or mute (F < 1) about the path's centre, or about the
+                   centre of --segment A:B (tapered at the segment's ends)
+  --abort-at F     follow the shot to frame F, then head for the rest pose's scores over
+                   --abort-frames N frames (default: at the shot's own pace); the rest pose is
+                   the last frame unless --rest-frame says otherwise
+  --scores P       an explicit path, .npy or .csv, one row per frame, one column per component
+Then rebuild poses (P = (L S)^T * D + M, quaternions renormalised) and clean up the artefacts:
+feet held on the source's footprints with leg IK, the second hand put back on the grip relative
+to the first hand. --no-cleanup writes the raw reconstruction. --pcs K sets the controlled
+components (default: the fewest explaining --variance of the motion, 0.7); components beyond K
+keep the source's detail unless --no-detail (the seed's pure K-component reconstruction).
+The JSON report has k, variance explained, reconstruction error by number of components,
+footskate (mm/s) of source, raw and cleaned variant, grip error and joint-speed ratio.
+
+examples:
+  mjmotion vary 64_01.bvh --scale 1.3 -o big.bvh --plot big.png --json big.json
+  mjmotion vary 64_01.bvh --scale 0.7 --segment 160:440 -o small.bvh
+  mjmotion vary 64_01.bvh --abort-at 280 --abort-frames 90 -o abort.bvh
+  mjmotion vary 64_01.bvh --scores path.npy --pcs 2 --no-cleanup -o mine.bvh
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", help="the source shot, a .bvh file")
+    how = p.add_mutually_exclusive_group(required=True)
+    how.add_argument("--scale", type=float, metavar="F", help="scale the score path about its centre by F")
+    how.add_argument("--abort-at", type=int, metavar="FRAME", help="abandon the shot at FRAME and return to the rest pose")
+    how.add_argument("--scores", metavar="PATH", help="an explicit score path (.npy or .csv, frames × components)")
+    p.add_argument("--abort-frames", type=int, metavar="N", help="frames from the abort to the rest pose")
+    p.add_argument("--rest-frame", type=int, default=-1, metavar="F", help="the rest pose's frame (default: the last)")
+    p.add_argument("--pcs", type=int, metavar="K", help="number of controlled principal components")
+    p.add_argument("--variance", type=float, default=0.7, metavar="V", help="variance fraction that picks K when --pcs is not given (default 0.7)")
+    p.add_argument("--segment", metavar="A:B", help="with --scale: scale only this frame range (tapered ends)")
+    p.add_argument("--no-cleanup", action="store_true", help="write the raw reconstruction (no foot or grip repair)")
+    p.add_argument("--no-detail", action="store_true", help="drop the components beyond K (the seed's pure reconstruction)")
+    p.add_argument(
+        "--first-hand",
+        choices=("auto", "left", "right", "none"),
+        default="auto",
+        help="the hand the second one is held to (auto: the club's hand when a club is fitted, else left; none: no grip repair)",
+    )
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="the variant to write")
+    p.add_argument("--plot", metavar="OUT.png", help="plot the source and variant score paths (PNG)")
+    p.add_argument("--plot-dims", type=int, choices=(2, 3), default=2, help="components in the plot (default 2)")
+    p.add_argument("--json", metavar="REPORT.json", help="write the report as JSON")
+    p.add_argument("--force", action="store_true", help="replace outputs that exist")
+    add_input_options(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import bvh, variations
+    from ..style import PoseSpace, reconstruction_errors
+
+    inputs = [args.file] + ([args.scores] if args.scores else [])
+    out = output_path(args, *inputs)
+    extra = [x for x in (args.plot, args.json) if x]
+    for x in extra:
+        check_output(x, force=args.force, inputs=[*inputs, str(out)])
+    if len(set(map(str, [out, *extra]))) != 1 + len(extra):
+        raise MjmotionError("-o, --plot and --json must name different files")
+    if args.segment and args.scale is None:
+        raise MjmotionError("--segment goes with --scale")
+    if args.abort_frames is not None and args.abort_at is None:
+        raise MjmotionError("--abort-frames goes with --abort-at")
+    if args.scores and args.pcs is not None:
+        raise MjmotionError("--pcs is set by the number of columns of --scores; drop --pcs")
+
+    source = load(args.file, args)
+    space = PoseSpace.fit(source)
+    if args.scores:
+        scores = variations.read_scores(args.scores)
+        path = variations.explicit_path(space, scores, detail=not args.no_detail)
+    else:
+        k = args.pcs if args.pcs is not None else space.components_for(args.variance)
+        base = variations.source_path(space, k, detail=not args.no_detail)
+        if args.scale is not None:
+            seg = None
+            if args.segment:
+                sl = parse_frames(args.segment, source.n_frames)
+                a, b, _ = sl.indices(source.n_frames)
+                seg = (a, b)
+            path = variations.scaled_path(base, args.scale, seg)
+        else:
+            path = variations.aborted_path(base, args.abort_at, args.abort_frames, args.rest_frame, source.fps)
+    k = path.k
+
+    raw = variations.synthesise(space, path)
+    first = variations.first_hand_for(source) if args.first_hand == "auto" else args.first_hand
+    first = None if first == "none" else first
+    if args.no_cleanup:
+        result, cleanup = raw, None
+    else:
+        result, cleanup = variations.clean_up(source, raw, path, first_hand=first)
+    bvh.write(result, out)
+
+    report = variations.report(source, raw, result, path, space, first_hand=first)
+    report["cleanup"] = None if cleanup is None else {
+        "held_frames": cleanup.held_frames,
+        "foot_reach_error_m": cleanup.foot_reach_error_m,
+        "grip_hands": cleanup.grip_hands,
+        "grip_reach_error_m": cleanup.grip_reach_error_m,
+    }
+    errs = reconstruction_errors(source, sorted({1, 2, 3, 5, 10, k, space.n_components} & set(range(1, space.n_components + 1))))
+    report["reconstruction_error_m"] = {str(kk): v for kk, v in errs.items()}
+    vals = list(errs.values())
+    report["reconstruction_error_falls_with_k"] = bool(all(b <= a + 1e-9 for a, b in zip(vals, vals[1:])))
+    report.update(source=args.file, output=str(out))
+
+    if args.plot:
+        src_path = space.source_scores
+        variations.plot_score_paths({"source": src_path, path.label: path.scores}, args.plot, dims=args.plot_dims)
+    if args.json:
+        write_text_atomic(args.json, json.dumps(report, indent=2, default=_jsonable) + "\n")
+
+    print(
+        f"wrote {out}: {path.label}, {result.n_frames} frames, k={k} ({100 * report['variance_explained']:.1f}% of the variance)"
+    )
+    fs = report["footskate_mm_per_s"]
+    print(f"footskate mm/s: source {fs['source']:.1f}, raw {fs['raw']:.1f}, cleaned {fs['result']:.1f}")
+    if report.get("grip_error_m") is not None:
+        g = report["grip_error_m"]
+        print(f"grip error: raw {1000 * g['raw']:.1f} mm, cleaned {1000 * g['result']:.1f} mm")
+    print("reconstruction error falls with k: " + ("yes" if report["reconstruction_error_falls_with_k"] else "NO") + " " +
+          ", ".join(f"k={kk}: {1000 * v:.1f} mm" for kk, v in errs.items()))
+    return 0
+
+
+def _jsonable(x: object) -> object:
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    raise TypeError(f"cannot write {type(x).__name__} to JSON")

@@ -1,0 +1,233 @@
+"""Shot variations in PCA space (seed 003 §3): score paths, synthesis, cleanup, plots, the vary verb."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import require_data
+
+from mjmotion import bvh, evaluate, kinematics, mjcf
+from mjmotion import rotations as rot
+from mjmotion import variations as V
+from mjmotion.cli import main
+from mjmotion.errors import MjmotionError
+from mjmotion.style import PoseSpace
+
+# impact frames from mocap/SOURCES.md (64_01: address 0–160, top ≈ 240–280, impact ≈ 325, finish ≈ 440)
+IMPACT = {"64_01": 325, "64_02": 367, "64_03": 284, "64_04": 258, "64_05": 244}
+# the swing segment: backswing through follow-through around the impact
+SWINGS = {name: (max(0, hit - 165), hit + 115) for name, hit in IMPACT.items()}
+
+
+def _swing(name: str):
+    return bvh.read(require_data() / "cmu_asfamc_converted" / f"{name}.bvh")
+
+
+@pytest.fixture(scope="module", params=list(SWINGS))
+def golf(request):
+    src = _swing(request.param)
+    space = PoseSpace.fit(src)
+    k = space.components_for(0.7)
+    return request.param, src, space, V.source_path(space, k)
+
+
+@pytest.fixture(scope="module")
+def swing01():
+    src = _swing("64_01")
+    return src, PoseSpace.fit(src)
+
+
+def _fk(m):
+    return kinematics.forward(mjcf.compile(m.skeleton), m).joint_positions
+
+
+# --- reconstruction ----------------------------------------------------------------------------
+def test_all_components_scale_one_reconstructs_the_source(swing01):
+    src, space = swing01
+    pure = V.source_path(space, space.n_components, detail=False)
+    out = V.synthesise(space, V.scaled_path(pure, 1.0))
+    assert np.max(np.abs(_fk(out) - _fk(src))) < 1e-6
+    # with the detail components kept, any k at scale 1 is the source too
+    kept = V.synthesise(space, V.scaled_path(V.source_path(space, 2), 1.0))
+    assert np.max(np.abs(_fk(kept) - _fk(src))) < 1e-6
+
+
+def test_pure_k_component_reconstruction_error_falls_with_k(swing01):
+    src, space = swing01
+    ref = _fk(src)
+    errs = [np.sqrt(np.mean(np.sum((_fk(V.synthesise(space, V.source_path(space, k, detail=False))) - ref) ** 2, -1))) for k in (1, 2, 4, 8, 16)]
+    assert all(b < a for a, b in zip(errs, errs[1:])), errs
+
+
+# --- score paths -------------------------------------------------------------------------------
+def test_scaled_path_is_a_homothety_about_the_centre(swing01):
+    _, space = swing01
+    base = V.source_path(space, 3)
+    out = V.scaled_path(base, 1.3)
+    c = base.controlled.mean(0)
+    np.testing.assert_allclose(out.controlled - c, 1.3 * (base.controlled - c), atol=1e-12)
+    np.testing.assert_array_equal(out.scores[:, 3:], base.scores[:, 3:])  # detail untouched
+
+
+def test_segment_scaling_leaves_the_rest_of_the_path_alone(swing01):
+    _, space = swing01
+    base = V.source_path(space, 2)
+    out = V.scaled_path(base, 0.6, (160, 440))
+    np.testing.assert_array_equal(out.scores[:160], base.scores[:160])
+    np.testing.assert_array_equal(out.scores[440:], base.scores[440:])
+    w = V.segment_weights(base.n_frames, (160, 440))
+    full = w == 1.0
+    c = base.controlled[160:440].mean(0)
+    np.testing.assert_allclose(out.controlled[full] - c, 0.6 * (base.controlled[full] - c), atol=1e-12)
+    # the tapers are smooth: no step larger than the source's own steps allow
+    step = np.abs(np.diff(w))
+    assert step.max() < 0.05 and w[160] < 0.05 and w[439] < 0.05
+
+
+def test_aborted_path_follows_then_reaches_the_rest_scores(swing01):
+    src, space = swing01
+    base = V.source_path(space, 2)
+    p = V.aborted_path(base, 280, 60, fps=src.fps)
+    assert p.n_frames == 281 + 60
+    np.testing.assert_array_equal(p.scores[:281], base.scores[:281])
+    np.testing.assert_allclose(p.scores[-1], base.scores[-1], atol=1e-12)
+    # leaves with the source's velocity: the change of velocity at the turn is no bigger than
+    # the source's own frame-to-frame changes (no kink), unlike a straight line to the rest scores
+    v_in = base.controlled[280] - base.controlled[279]
+    v_out = p.controlled[281] - p.controlled[280]
+    src_acc = np.linalg.norm(np.diff(base.controlled, 2, axis=0), axis=1).max()
+    straight = (base.controlled[-1] - base.controlled[280]) / 60
+    assert np.linalg.norm(v_out - v_in) <= src_acc < np.linalg.norm(straight - v_in) * 10
+    with pytest.raises(MjmotionError, match="abort frame"):
+        V.aborted_path(base, src.n_frames + 5)
+
+
+def test_explicit_paths_from_npy_and_csv(swing01, tmp_path):
+    src, space = swing01
+    s = space.source_scores[:, :3]
+    np.save(tmp_path / "p.npy", s)
+    (tmp_path / "p.csv").write_text("pc1,pc2,pc3\n" + "\n".join(",".join(f"{v:.17g}" for v in row) for row in s))
+    for f in ("p.npy", "p.csv"):
+        arr = V.read_scores(tmp_path / f)
+        np.testing.assert_allclose(arr, s, atol=1e-12)
+        p = V.explicit_path(space, arr)
+        assert p.k == 3
+        assert np.max(np.abs(_fk(V.synthesise(space, p)) - _fk(src))) < 1e-6
+    short = V.explicit_path(space, s[::4], detail=True)  # another length: a pure reconstruction
+    assert np.all(short.scores[:, 3:] == 0) and short.frame_b.max() <= src.n_frames - 1
+    (tmp_path / "bad.csv").write_text("1,2\n3,x\n")
+    with pytest.raises(MjmotionError, match="bad.csv"):
+        V.read_scores(tmp_path / "bad.csv")
+    with pytest.raises(MjmotionError, match="components"):
+        V.explicit_path(space, np.zeros((10, space.n_components + 1)))
+
+
+# --- cleanup -----------------------------------------------------------------------------------
+def test_two_bone_ik_reaches_a_reachable_target(swing01):
+    src, _ = swing01
+    m = src[200:230]
+    skel = m.skeleton
+    compiled = mjcf.compile(skel)
+    pose = kinematics.forward(compiled, m)
+    ankle = skel.feet()["left"][0]
+    rng = np.random.default_rng(0)
+    hip = pose.joint_positions[:, skel.parents[skel.parents[ankle]]]
+    reach = pose.joint_positions[:, ankle] - hip  # the stance leg is near straight: aim a little closer in
+    d = reach + rng.normal(0, 0.08, reach.shape)
+    d *= (np.linalg.norm(reach, axis=1) * rng.uniform(0.85, 0.97, m.n_frames) / np.linalg.norm(d, axis=1))[:, None]
+    target = hip + d
+    target_rot = rot.normalize(pose.joint_rotations[:, ankle] + rng.normal(0, 0.1, (m.n_frames, 4)))
+    local, err = V.two_bone_ik(skel, pose.joint_positions, pose.joint_rotations, m.rotations, ankle, target, target_rot)
+    after = kinematics.forward(compiled, m.replace(rotations=local))
+    assert np.max(err) == 0.0
+    assert np.max(np.linalg.norm(after.joint_positions[:, ankle] - target, axis=-1)) < 1e-6
+    assert np.max(rot.angle_between(after.joint_rotations[:, ankle], target_rot)) < 1e-6
+    # only the leg changed
+    leg = {skel.parents[skel.parents[ankle]], skel.parents[ankle], ankle}
+    others = [j for j in range(skel.n_joints) if j not in leg]
+    np.testing.assert_allclose(local[:, others], m.rotations[:, others])
+
+
+def _variants(src, path):
+    return {
+        "scale 1.3": V.scaled_path(path, 1.3),
+        "scale 0.7": V.scaled_path(path, 0.7),
+        "abort": V.aborted_path(path, 280, fps=src.fps),
+    }
+
+
+def test_scaling_lengthens_and_shortens_the_hand_path_in_the_swing(golf):
+    name, src, space, path = golf
+    seg = SWINGS[name]
+    j = src.skeleton.hands()["left"]
+    base = V.effector_path_length(src, j, seg)
+    lengths = {}
+    for f in (1.3, 0.7):
+        p = V.scaled_path(path, f)
+        out, _ = V.clean_up(src, V.synthesise(space, p), p)
+        lengths[f] = V.effector_path_length(out, j, seg)
+    assert lengths[1.3] > 1.05 * base > base > 0.95 * base > lengths[0.7], (base, lengths)
+
+
+def test_cleanup_keeps_feet_planted_and_hands_on_the_grip(golf):
+    name, src, space, path = golf
+    skate_src = evaluate.skate_mm_per_s(src)
+    for label, p in _variants(src, path).items():
+        raw = V.synthesise(space, p)
+        out, rep = V.clean_up(src, raw, p, first_hand="left")
+        skate = evaluate.skate_mm_per_s(out)
+        assert skate <= 2.0 * skate_src, (name, label, skate, skate_src)
+        assert V.grip_error_m(src, out, p) < 0.005, (name, label)
+        assert V.grip_error_m(src, raw, p) > 0.02  # the raw variant does lose the grip (§3.3)
+        assert rep.held_frames["left"] > 0.5 * p.n_frames
+
+
+def test_abort_follows_the_source_and_ends_at_the_rest_pose_smoothly(golf):
+    name, src, space, path = golf
+    hit = IMPACT[name]
+    for f in (hit - 100, hit - 30, hit + 20):  # in the backswing, the downswing, the follow-through
+        p = V.aborted_path(path, f, fps=src.fps)
+        out, _ = V.clean_up(src, V.synthesise(space, p), p)
+        got, ref = _fk(out), _fk(src)
+        assert np.max(np.abs(got[: f + 1] - ref[: f + 1])) < 1e-6, (name, f)
+        assert np.max(np.abs(got[-1] - ref[-1])) < 1e-6
+        assert evaluate.max_joint_speed_ratio(out, src) <= 1.5, (name, f)
+
+
+# --- plots and CLI -----------------------------------------------------------------------------
+def test_plot_score_paths_writes_png(swing01, tmp_path):
+    _, space = swing01
+    base = V.source_path(space, 3)
+    paths = {"source": base.scores, "scale 1.3": V.scaled_path(base, 1.3).scores}
+    for dims in (2, 3):
+        out = tmp_path / f"p{dims}.png"
+        V.plot_score_paths(paths, out, dims=dims)
+        assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000
+    with pytest.raises(MjmotionError, match="2 or 3"):
+        V.plot_score_paths(paths, tmp_path / "x.png", dims=4)
+
+
+def test_vary_cli_report_and_errors(tmp_path, capsys):
+    src_file = require_data() / "cmu_asfamc_converted" / "64_01.bvh"
+    out, js, png = tmp_path / "v.bvh", tmp_path / "v.json", tmp_path / "v.png"
+    assert main(["vary", str(src_file), "--scale", "1.3", "-o", str(out), "--json", str(js), "--plot", str(png)]) == 0
+    rep = json.loads(js.read_text())
+    assert rep["k"] == 2 and rep["variance_explained"] >= 0.7
+    assert rep["reconstruction_error_falls_with_k"] is True
+    assert rep["footskate_mm_per_s"]["result"] <= 2 * rep["footskate_mm_per_s"]["source"]
+    assert rep["grip_error_m"]["result"] < 0.005
+    assert rep["effector_path_m"]["result"] > rep["effector_path_m"]["source"]
+    assert bvh.read(out).n_frames == bvh.read(src_file).n_frames and png.stat().st_size > 0
+    # aborted, raw: the written clip is the synthesis with no cleanup
+    ab = tmp_path / "a.bvh"
+    assert main(["vary", str(src_file), "--abort-at", "250", "--abort-frames", "50", "--no-cleanup", "-o", str(ab)]) == 0
+    assert bvh.read(ab).n_frames == 251 + 50
+    capsys.readouterr()
+    assert main(["vary", str(src_file), "--scale", "1.3", "-o", str(out)]) == 2  # exists, no --force
+    assert main(["vary", str(src_file), "--abort-at", "250", "--segment", "1:9", "-o", str(tmp_path / "b.bvh")]) == 2
+    assert main(["vary", str(src_file), "--scale", "-1", "-o", str(tmp_path / "c.bvh")]) == 2
+    err = capsys.readouterr().err
+    assert "already exists" in err and "--segment goes with --scale" in err and "positive" in err
+    assert "Traceback" not in err
