@@ -1,0 +1,305 @@
+"""Blending registered clips (seed 000 §3.2, seed 004 §5.4) and the linear baseline (seed 004 §6.2.2).
+
+A blend is built from *tracks*: a clip sampled at a time per output frame, with a weight per
+output frame (:class:`Track`). :func:`compose` turns any set of tracks into one motion:
+
+* joint rotations (all but the root) are the weighted quaternion mean of the tracks'
+  (``rotations.weighted_average``);
+* the root is built incrementally (seed 000 §3.2, simplified): each track contributes its heading
+  change and its floor displacement over the frame *expressed in its own heading*; the blend
+  turns by the weighted heading change and steps by the weighted displacement rotated into its
+  own current heading. Height and the root's tilt (its rotation with the heading removed) are
+  weighted means. A clip is thereby re-aligned to the blend at every frame, which is what Kovar &
+  Gleicher's alignment curve achieves for whole frames; with weight 1 on one clip the result is
+  that clip exactly, moved rigidly on the floor. Increments never cross a track's own time jump,
+  so switching sources cannot make the character jump or spin (the "time blip" of seed 000 §4.1).
+
+Weights are non-negative and must sum to 1 (within 1e-6): other sums are refused rather than
+silently normalised, so that a typo (``0.5,0.6``) is caught; time-varying weights interpolate
+between such vectors and keep the sum.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import rotations as rot
+from .errors import MjmotionError
+from .registration import Registration, register_many
+from .skeleton import Motion
+
+METHODS = ("registered", "linear")
+
+
+# --------------------------------------------------------------------------------------------
+# weights
+# --------------------------------------------------------------------------------------------
+def check_weights(weights: np.ndarray | list[float], n: int, what: str = "weights") -> np.ndarray:
+    """Blend weights ``(n,)``: finite, non-negative, summing to 1 (else a clear error)."""
+    w = np.asarray(weights, dtype=float).reshape(-1)
+    if w.shape != (n,):
+        raise MjmotionError(f"{what}: expected {n} weights (one per clip), got {w.size}")
+    if not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise MjmotionError(f"{what}: weights must be non-negative numbers, got {w.tolist()}")
+    if abs(w.sum() - 1.0) > 1e-6:
+        raise MjmotionError(f"{what}: weights sum to {w.sum():g}; they must sum to 1 (e.g. 0.25,0.75)")
+    return w
+
+
+def bezier_ease(s: np.ndarray, p1: float = 0.0, p2: float = 1.0) -> np.ndarray:
+    """Cubic Bezier ``B(s)`` with control values ``(0, p1, p2, 1)`` for ``s`` in [0, 1] (clamped).
+
+    The defaults give ``3s² − 2s³``: zero slope at both ends, so a weight ramp starts and stops
+    smoothly (seed 000 §3.2's weight curves).
+    """
+    s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
+    return 3 * (1 - s) ** 2 * s * p1 + 3 * (1 - s) * s**2 * p2 + s**3
+
+
+@dataclass(frozen=True)
+class WeightCurve:
+    """Time-varying blend weights: keys ``(time_s, ramp_s, weights (n,))`` sorted by time.
+
+    From each key's time the weights move from their current value to the key's over ``ramp_s``
+    seconds along :func:`bezier_ease`; before the first key they equal the first key's.
+    """
+
+    keys: tuple[tuple[float, float, np.ndarray], ...]
+
+    def __post_init__(self) -> None:
+        if not self.keys:
+            raise MjmotionError("a weight curve needs at least one key")
+        times = [k[0] for k in self.keys]
+        if any(b < a for a, b in zip(times, times[1:], strict=False)):
+            raise MjmotionError("weight keys must be in time order")
+
+    @staticmethod
+    def constant(weights: np.ndarray) -> WeightCurve:
+        return WeightCurve(((0.0, 0.0, np.asarray(weights, dtype=float)),))
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        """Weights ``(len(t), n)`` at times ``t`` (seconds)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.broadcast_to(self.keys[0][2], (len(t), len(self.keys[0][2]))).copy()
+        for time_s, ramp, w in self.keys[1:]:
+            s = np.ones(len(t)) if ramp <= 0 else bezier_ease((t - time_s) / ramp)
+            s = np.where(t < time_s, 0.0, s)[:, None]
+            out = out * (1 - s) + np.asarray(w)[None] * s
+        return out
+
+
+# --------------------------------------------------------------------------------------------
+# composition of tracks
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Track:
+    """A clip played into a blend.
+
+    Attributes:
+        motion: the clip.
+        times: ``(N,)`` fractional frame of ``motion`` shown at each output frame.
+        steps: ``(N,)`` frames of ``motion`` elapsed since the previous output frame (≥ 0); the
+            root increment of frame ``n`` compares the clip at ``times[n] − steps[n]`` and
+            ``times[n]``, so a track may jump in time without moving the character.
+        weights: ``(N,)`` non-negative weight of this track at each output frame.
+    """
+
+    motion: Motion
+    times: np.ndarray
+    steps: np.ndarray
+    weights: np.ndarray
+
+
+def yaw_of(q: np.ndarray) -> np.ndarray:
+    """Heading ``(...)`` radians: the twist of ``q: (..., 4)`` about the world's vertical axis."""
+    return 2.0 * np.arctan2(q[..., 3], q[..., 0])
+
+
+def _rz(yaw: np.ndarray) -> np.ndarray:
+    """Quaternions ``(..., 4)`` of rotations by ``yaw`` about z."""
+    h = 0.5 * np.asarray(yaw, dtype=float)
+    z = np.zeros_like(h)
+    return np.stack([np.cos(h), z, z, np.sin(h)], axis=-1)
+
+
+def _rotate2(yaw: np.ndarray, v: np.ndarray) -> np.ndarray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def compose(
+    tracks: list[Track],
+    fps: float,
+    name: str = "blend",
+    origin: tuple[float, float, float] | None = None,
+) -> Motion:
+    """One motion ``(N frames)`` from weighted tracks, on the first track's skeleton.
+
+    ``origin = (x, y, yaw)`` places the blend's first frame; by default it is where the track
+    with the largest weight at frame 0 stands.
+    """
+    if not tracks:
+        raise MjmotionError("nothing to blend: no tracks")
+    skel = tracks[0].motion.skeleton
+    for tr in tracks[1:]:
+        skel.require_same_topology(tr.motion.skeleton, f"{tracks[0].motion.name or 'clip'} and {tr.motion.name or 'clip'}")
+    n_out = len(tracks[0].times)
+    w = np.stack([np.asarray(tr.weights, dtype=float) for tr in tracks], axis=1)  # (N, E)
+    if w.shape[0] != n_out or np.any(w < -1e-12):
+        raise MjmotionError("track weights must be non-negative and one per output frame")
+    total = w.sum(axis=1, keepdims=True)
+    if np.any(total <= 0):
+        raise MjmotionError(f"no track has weight at output frame {int(np.argmax(total[:, 0] <= 0))}")
+    w = w / total
+    j = skel.n_joints
+    quats, root, prev_root, trans = [], [], [], []
+    yaw, dyaw, disp, tilt = [], [], [], []
+    for tr in tracks:
+        p, q, t = tr.motion.sample(tr.times)
+        pp, qp, _ = tr.motion.sample(np.asarray(tr.times) - np.asarray(tr.steps))
+        y, yp = yaw_of(q[:, 0]), yaw_of(qp[:, 0])
+        quats.append(q)
+        root.append(p)
+        trans.append(t if t is not None else np.broadcast_to(skel.offsets, (n_out, j, 3)))
+        yaw.append(y)
+        dyaw.append(_wrap(y - yp))
+        disp.append(_rotate2(-yp, (p - pp)[:, :2]))  # the step in the clip's own heading
+        tilt.append(rot.multiply(_rz(-y), q[:, 0]))
+    yaw_a, dyaw_a = np.stack(yaw, 1), np.stack(dyaw, 1)  # (N, E)
+    disp_a = np.stack(disp, 1)  # (N, E, 2)
+    root_a = np.stack(root, 1)  # (N, E, 3)
+    if origin is None:
+        k0 = int(np.argmax(w[0]))
+        origin = (root_a[0, k0, 0], root_a[0, k0, 1], yaw_a[0, k0])
+    # heading and floor position integrate the weighted increments (frame 0 has none)
+    d_yaw = np.einsum("ne,ne->n", w, dyaw_a)
+    d_yaw[0] = 0.0
+    heading = origin[2] + np.cumsum(d_yaw)
+    step = np.einsum("ne,nec->nc", w, disp_a)
+    step[0] = 0.0
+    prev_heading = np.r_[heading[0], heading[:-1]]
+    xy = np.array(origin[:2]) + np.cumsum(_rotate2(prev_heading, step), axis=0)
+    z = np.einsum("ne,ne->n", w, root_a[:, :, 2])
+    # rotations: weighted quaternion mean per joint; the root's tilt likewise, under the heading
+    q_all = np.stack(quats, axis=2)  # (N, J, E, 4)
+    q_all[:, 0] = np.stack(tilt, axis=1)
+    wq = np.broadcast_to(w[:, None, :], q_all.shape[:3])
+    q_out = rot.weighted_average(q_all, wq, axis=2)
+    q_out[:, 0] = rot.multiply(_rz(heading), q_out[:, 0])
+    q_out = rot.make_continuous(q_out)
+    translations = None
+    if any(tr.motion.translations is not None for tr in tracks):
+        translations = np.einsum("ne,nejc->njc", w, np.stack(trans, axis=1))
+    return Motion(
+        skeleton=skel,
+        fps=float(fps),
+        root_positions=np.column_stack([xy, z]),
+        rotations=q_out,
+        translations=translations,
+        name=name,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# registered and linear blends
+# --------------------------------------------------------------------------------------------
+def common_rate(motions: list[Motion]) -> list[Motion]:
+    """Clips of one topology at the first clip's frame rate (others resampled)."""
+    first = motions[0]
+    out = [first]
+    for m in motions[1:]:
+        first.skeleton.require_same_topology(m.skeleton, f"{first.name or 'clip 1'} and {m.name or 'another clip'}")
+        out.append(m if abs(m.fps - first.fps) <= 1e-6 * first.fps else m.resample(first.fps))
+    return out
+
+
+def registered_clock(registration: Registration, weights: WeightCurve, fps: float, tau0: float | None = None) -> np.ndarray:
+    """Reference times ``τ_n`` of the output frames (seed 000 §3.2; Kovar & Gleicher's timing).
+
+    Playing clip ``k`` alone advances ``τ`` by ``1 / (dt_k/dτ)`` per output frame (one frame of
+    clip ``k``); the blend advances by the weighted mean of those increments, so its speed and
+    duration interpolate the clips'. ``τ`` runs from ``tau0`` (default the curve's start) to the
+    curve's end. Weights may vary with time, so the clock is integrated frame by frame.
+    """
+    ref = registration.times[:, registration.reference]
+    inv_rate = 1.0 / np.gradient(registration.times, ref, axis=0)  # (M, n) dτ per frame of clip k
+    tau = ref[0] if tau0 is None else float(tau0)
+    out = [tau]
+    while True:
+        w = weights(np.array([len(out) / fps]))[0]
+        dtau = float(w @ np.array([np.interp(tau, ref, inv_rate[:, k]) for k in range(inv_rate.shape[1])]))
+        tau += dtau
+        if tau > ref[-1] + 1e-9:
+            break
+        out.append(tau)
+    return np.asarray(out)
+
+
+def blend(
+    motions: list[Motion],
+    weights: np.ndarray | list[float] | WeightCurve,
+    method: str = "registered",
+    registration: Registration | None = None,
+    name: str = "blend",
+) -> Motion:
+    """Blend clips of one skeleton topology on the first clip's skeleton.
+
+    ``weights``: ``(n,)`` summing to 1, or a :class:`WeightCurve` over output time (seconds).
+    ``registered``: timewarped, aligned, incrementally rooted (module docstring); runs over the
+    span the registration covers. ``linear``: the baseline, frame ``n`` of every clip averaged.
+    """
+    if len(motions) < 1:
+        raise MjmotionError("blend needs at least one clip")
+    motions = common_rate(list(motions))
+    n = len(motions)
+    curve = weights if isinstance(weights, WeightCurve) else WeightCurve.constant(check_weights(weights, n))
+    for _, _, w in curve.keys:
+        check_weights(w, n, "weight key")
+    if method == "linear":
+        return linear_blend(motions, curve, name)
+    if method != "registered":
+        raise MjmotionError(f"unknown blend method {method!r}; expected registered or linear")
+    fps = motions[0].fps
+    reg = registration if registration is not None else register_many(motions, reference=0 if n <= 2 else None)
+    tau = registered_clock(reg, curve, fps)
+    times = reg.at(tau)  # (N, n)
+    steps = np.vstack([np.zeros((1, n)), np.diff(times, axis=0)])
+    w = curve(np.arange(len(tau)) / fps)
+    tracks = [Track(m, times[:, k], steps[:, k], w[:, k]) for k, m in enumerate(motions)]
+    return compose(tracks, fps, name)
+
+
+def linear_blend(motions: list[Motion], weights: WeightCurve, name: str = "linear_blend") -> Motion:
+    """Frame-by-frame blend (seed 004 §6.2.2): frame ``n`` of every clip, no timewarp.
+
+    For a fair baseline each clip is first moved on the floor so its first frame stands where
+    the first clip's does, facing the same way; then root positions are averaged as they are
+    and rotations as quaternions. Runs for the shortest clip's length.
+    """
+    from .transform import floor_transform
+
+    motions = common_rate(list(motions))
+    n_out = min(m.n_frames for m in motions)
+    ref = motions[0]
+    yaw0 = yaw_of(ref.rotations[0, 0])
+    moved = []
+    for m in motions:
+        d = yaw0 - yaw_of(m.rotations[0, 0])
+        m2 = floor_transform(m[:n_out], float(d), (0.0, 0.0))
+        off = ref.root_positions[0, :2] - m2.root_positions[0, :2]
+        moved.append(floor_transform(m2, 0.0, (float(off[0]), float(off[1]))))
+    w = weights(np.arange(n_out) / ref.fps)  # (N, n)
+    q = np.stack([m.rotations for m in moved], axis=2)  # (N, J, n, 4)
+    q_out = rot.make_continuous(rot.weighted_average(q, np.broadcast_to(w[:, None, :], q.shape[:3]), axis=2))
+    root = np.einsum("nk,knc->nc", w, np.stack([m.root_positions for m in moved]))
+    translations = None
+    if any(m.translations is not None for m in moved):
+        tr = np.stack([m.local_translations() for m in moved])
+        translations = np.einsum("nk,knjc->njc", w, tr)
+    return Motion(ref.skeleton, ref.fps, root, q_out, translations, name)
