@@ -278,7 +278,8 @@ def build_scene(
     heading = np.degrees(np.arctan2(forward[1], forward[0]))
     # One character: a side view; several in a row: three-quarter front so the row spreads across the image.
     azimuth = view.azimuth if view.azimuth is not None else heading + (90.0 if n == 1 else 145.0)
-    reach = stature + max((p.length for a in actors for p in a.props), default=0.0)  # a raised club adds height
+    # A swung club rarely points straight up: a third of its length above the head is enough room.
+    reach = stature + 0.3 * max((p.length for a in actors for p in a.props), default=0.0)
     distance = view.distance if view.distance is not None else _auto_distance(roots, lookat, reach, view.fovy)
     trails = tuple(
         _trail_points(model, q, _prefix(i), a.trail, c) if a.trail else None for i, (a, c) in enumerate(zip(actors, compiled))
@@ -309,7 +310,7 @@ def _paint(spec: mujoco.MjSpec, color: Sequence[float], prop_names: set[str]) ->
     for g in spec.geoms:
         if g.name in prop_names:
             continue
-        shade = 0.6 if g.name.startswith(("foot/", "toe/")) else 1.0
+        shade = 0.8 if g.name.startswith(("foot/", "toe/")) else 1.0
         g.rgba = [*(rgb * shade), 1.0]
 
 
@@ -430,13 +431,15 @@ class Renderer:
         self._scn = mujoco.MjvScene(model, maxgeom=model.ngeom + n_trail + 100)
         self._scn.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
         self._scn.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = reflections
-        self._opt = mujoco.MjvOption()
+        #: MuJoCo's visibility options (``geomgroup``, ``sitegroup``, ``flags``), applied to every frame.
+        self.option = mujoco.MjvOption()
         self._cam = mujoco.MjvCamera()
         self._cam.type = mujoco.mjtCamera.mjCAMERA_FREE
         self._data = mujoco.MjData(model)
         self._rect = mujoco.MjrRect(0, 0, self.width, self.height)
         self._rgb = np.empty((self.height, self.width, 3), dtype=np.uint8)
         self._font = None
+        #: the camera of the last rendered frame (for projecting world points to pixels).
         self.camera: CameraPose | None = None
 
     def __enter__(self) -> Renderer:
@@ -467,7 +470,7 @@ class Renderer:
         cam = self._cam
         cam.lookat[:] = s.lookat[i]
         cam.azimuth, cam.elevation, cam.distance = s.azimuth, s.elevation, s.distance
-        mujoco.mjv_updateScene(s.model, d, self._opt, None, cam, mujoco.mjtCatBit.mjCAT_ALL, self._scn)
+        mujoco.mjv_updateScene(s.model, d, self.option, None, cam, mujoco.mjtCatBit.mjCAT_ALL, self._scn)
         self._add_trails(i)
         self._gl.make_current()
         mujoco.mjr_render(self._rect, self._scn, self._mjr)

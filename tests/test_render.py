@@ -1,0 +1,187 @@
+"""Offscreen rendering: the pixels show the ball and feet where the camera model says they are."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjmotion import bvh, kinematics, mjcf, render
+from mjmotion.cli import main
+from mjmotion.errors import MjmotionError
+
+W, H = 480, 270
+
+
+@pytest.fixture(scope="module")
+def walk():
+    from conftest import require_data
+
+    return bvh.read(require_data() / "cmu_asfamc_converted" / "16_15.bvh")[:240]
+
+
+@pytest.fixture(scope="module")
+def swing():
+    from conftest import require_data
+
+    return bvh.read(require_data() / "cmu_asfamc_converted" / "64_01.bvh")[300:540]
+
+
+@pytest.fixture(scope="module")
+def gl_works():
+    """Skip only if no offscreen GL backend exists on this machine (EGL works on Mesa)."""
+    try:
+        ctx = render.open_gl_context(16, 16)
+    except MjmotionError as e:
+        pytest.skip(f"no offscreen OpenGL backend: {e}")
+    ctx.free()
+
+
+def _geom_pos(scene: render.Scene, data: mujoco.MjData, name: str) -> np.ndarray:
+    return data.geom_xpos[mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_GEOM, name)].copy()
+
+
+def _pixel(img: np.ndarray, px: np.ndarray) -> np.ndarray:
+    col, row = int(np.floor(px[0])), int(np.floor(px[1]))
+    assert 0 <= col < img.shape[1] and 0 <= row < img.shape[0], f"{px} is outside the image"
+    return img[row, col].astype(int)
+
+
+def test_frame_shows_ball_and_feet_at_their_projected_pixels(gl_works, swing):
+    ball = mjcf.Ball(position=(0.45, 0.05, 0.1), radius=0.06)
+    bat = mjcf.parse_prop_option(swing.skeleton, "bat")
+    actor = render.Actor(swing, "golfer", props=(bat,))
+    scene = render.build_scene([actor], fps=30, ball=ball)
+    i = 3
+    with render.Renderer(scene, 640, 360, labels=False) as r:
+        img = r.frame(i)
+        cam = r.camera
+        data = r.pose(i)
+        ball_px, ball_z = cam.project(_geom_pos(scene, data, "ball0")[None])
+        feet = np.array([_geom_pos(scene, data, f"c0/foot/{s}") for s in ("left", "right")])
+        feet_px, feet_z = cam.project(feet)
+        bat_px, _ = cam.project(_geom_pos(scene, data, "c0/bat")[None])
+        r.option.geomgroup[1] = 0  # hide the character's bones and feet: floor (and bat, ball) only
+        empty = r.frame(i)
+    assert ball_z[0] > 0 and np.all(feet_z > 0)
+    red = _pixel(img, ball_px[0])
+    assert red[0] > 110 and red[0] > 2.5 * red[1] and red[0] > 2.5 * red[2], red
+    # four ball radii to the side the pixel is not red: the projection is not merely lucky
+    side, _ = cam.project(_geom_pos(scene, data, "ball0")[None] + 4 * ball.radius * np.cross(cam.forward, cam.up))
+    other = _pixel(img, side[0])
+    assert not (other[0] > 2.5 * other[1] and other[0] > 2.5 * other[2]), other
+    for px in feet_px:
+        with_feet, floor = _pixel(img, px), _pixel(empty, px)
+        assert np.abs(with_feet - floor).sum() > 50, (px, with_feet, floor)
+        # the foot boxes are the character's blue, darkened: blue dominates
+        assert with_feet[2] > with_feet[0], with_feet
+    # the bat's centre is drawn (brown) and stays when the body is hidden
+    brown = _pixel(empty, bat_px[0])
+    assert brown[0] > brown[2] + 20, brown
+
+
+def test_projection_matches_rendered_ball_centroid(gl_works, walk):
+    """The red blob's centroid is the projected ball centre, within a pixel, at two camera distances."""
+    ball = mjcf.Ball(position=(1.0, -0.6, 0.4), radius=0.08)
+    for distance in (4.0, 7.0):
+        scene = render.build_scene([render.Actor(walk)], fps=30, ball=ball, view=render.View(distance=distance))
+        with render.Renderer(scene, W, H, labels=False, shadows=False, reflections=False) as r:
+            img = r.frame(0).astype(int)
+            px, _ = r.camera.project(_geom_pos(scene, r.pose(0), "ball0")[None])
+        # red, including the ball's shaded side (a lit-only mask would pull the centroid toward the light)
+        mask = (img[:, :, 0] > 40) & (img[:, :, 0] > 1.8 * img[:, :, 1]) & (img[:, :, 0] > 1.8 * img[:, :, 2])
+        rows, cols = np.nonzero(mask)
+        assert mask.sum() > 20
+        centroid = np.array([cols.mean() + 0.5, rows.mean() + 0.5])
+        assert np.linalg.norm(centroid - px[0]) < 0.75, (centroid, px[0])
+
+
+def test_side_by_side_characters_match_their_own_kinematics(walk, swing):
+    a = walk[:120]
+    b = walk[60:180].replace(name="later")
+    scene = render.build_scene([render.Actor(a, "a"), render.Actor(b, "b")], fps=24, spacing=1.5)
+    a24, b24 = a.resample(24), b.resample(24)
+    assert scene.n_frames == a24.n_frames
+    # the row is laid across the travel direction, centred, 1.5 m apart
+    fwd, lat = render.travel_axes(a24)
+    assert abs(fwd @ lat) < 1e-12
+    np.testing.assert_allclose(scene.offsets[1] - scene.offsets[0], 1.5 * lat, atol=1e-12)
+    np.testing.assert_allclose(scene.offsets.sum(axis=0), 0, atol=1e-12)
+    d = mujoco.MjData(scene.model)
+    for k, m in enumerate((a24, b24)):
+        ref = kinematics.forward(mjcf.compile(m.skeleton), m).joint_positions
+        ids = [mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_BODY, f"c{k}/{n}") for n in m.skeleton.names]
+        for i in (0, m.n_frames // 2, m.n_frames - 1):
+            d.qpos[:] = scene.qpos[i]
+            mujoco.mj_kinematics(scene.model, d)
+            np.testing.assert_allclose(d.xpos[ids], ref[i] + scene.offsets[k], atol=1e-9)
+
+
+def test_camera_track_has_no_lag_on_steady_travel():
+    t = np.arange(300) / 30.0
+    line = np.column_stack([1.4 * t, 0.2 * t, np.ones_like(t)])
+    smooth = render.smooth_track(line, 30.0, 0.5)
+    np.testing.assert_allclose(smooth[70:-70], line[70:-70], atol=1e-9)  # a symmetric kernel keeps a line
+    rng = np.random.default_rng(0)
+    noisy = line + rng.normal(0, 0.05, line.shape)
+    assert np.std(render.smooth_track(noisy, 30.0, 0.5)[70:-70] - line[70:-70]) < 0.2 * 0.05
+
+
+def test_trails_and_labels_draw_something(gl_works, swing):
+    bat = mjcf.parse_prop_option(swing.skeleton, "bat")
+    plain = render.build_scene([render.Actor(swing, props=(bat,))], fps=30)
+    trail = render.build_scene([render.Actor(swing, "GOLF", props=(bat,), trail=bat.site)], fps=30)
+    i = 20
+    with render.Renderer(plain, W, H) as r:
+        a = r.frame(i).astype(int)
+    with render.Renderer(trail, W, H) as r:
+        b = r.frame(i).astype(int)
+        data = r.pose(i - 5)
+        past = data.site_xpos[mujoco.mj_name2id(trail.model, mujoco.mjtObj.mjOBJ_SITE, "c0/" + bat.site)]
+        px, _ = r.camera.project(past[None])
+    np.testing.assert_allclose(trail.trail_points[0][i - 5], past, atol=1e-12)
+    changed = np.abs(a - b).sum(axis=2) > 40
+    # a ghost sphere sits where the sweet spot was five frames ago
+    c, rr = int(px[0, 0]), int(px[0, 1])
+    assert changed[max(rr - 2, 0) : rr + 3, max(c - 2, 0) : c + 3].any()
+    assert changed.sum() > 100  # the label and the trail
+
+
+def test_write_video_mp4_and_gif(gl_works, walk, tmp_path):
+    import imageio_ffmpeg
+    from PIL import Image
+
+    scene = render.build_scene([render.Actor(walk[:60])], fps=20)  # 0.5 s → 10 frames
+    out = render.render(scene, tmp_path / "w.mp4", width=160, height=90, progress=False)
+    n, _ = imageio_ffmpeg.count_frames_and_secs(str(out))
+    assert n == scene.n_frames == 10
+    reader = imageio_ffmpeg.read_frames(str(out))
+    assert next(reader)["size"] == (160, 90)
+    reader.close()
+    gif = render.render(scene, tmp_path / "w.gif", width=96, height=54, frames=slice(2, 8), progress=False)
+    with Image.open(gif) as im:
+        assert im.size == (96, 54) and im.n_frames == 6
+    with pytest.raises(MjmotionError, match="even width"):
+        render.render(scene, tmp_path / "odd.mp4", width=161, height=90, progress=False)
+    assert not (tmp_path / "odd.mp4").exists()
+
+
+def test_no_backend_is_a_clear_error():
+    with pytest.raises(MjmotionError, match="no offscreen OpenGL backend works"):
+        render.open_gl_context(16, 16, backends=("nonexistent",))
+
+
+def test_cli_render(gl_works, mocap, tmp_path, capsys):
+    clip = str(mocap / "cmu_asfamc_converted" / "16_15.bvh")
+    out = tmp_path / "two.gif"
+    args = ["render", clip, clip, "--labels", "a", "b", "--frames", "0:60", "--fps", "10", "-o", str(out)]
+    assert main(args + ["--width", "128", "--height", "72", "--ball", "0.5", "0", "0.1", "--trail"]) == 0
+    with __import__("PIL.Image").Image.open(out) as im:
+        assert im.size == (128, 72) and im.n_frames == 5
+    capsys.readouterr()
+    assert main(args) == 2  # exists, no --force
+    assert "already exists" in capsys.readouterr().err
+    assert main(["render", clip, "--labels", "a", "b", "-o", str(tmp_path / "x.mp4")]) == 2
+    assert "one per clip" in capsys.readouterr().err
+    assert main(["render", clip, "--trail", "nosuchjoint", "--frames", "0:10", "-o", str(tmp_path / "y.mp4")]) == 2
+    assert "nosuchjoint" in capsys.readouterr().err
