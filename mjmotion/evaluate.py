@@ -316,6 +316,18 @@ def joint_angular_speeds(motion: Motion) -> np.ndarray:
     return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0])) * motion.fps
 
 
+def leading_transient(motion: Motion, max_frames: int = 10, factor: float = 4.0) -> int:
+    """Frames to skip at the start: a T-pose frame and the frames interpolating out of it (cgspeed
+    daz clips: frames 0-3). The last leading step whose max joint speed exceeds ``factor`` × the
+    clip's 99th-percentile step marks the end; 0 when nothing stands out."""
+    if motion.n_frames < 4 * max_frames:
+        return 0
+    peak = joint_angular_speeds(motion).max(axis=1)  # (T-1,)
+    ref = float(np.percentile(peak[max_frames:], 99))
+    big = np.flatnonzero(peak[:max_frames] > factor * max(ref, 1e-9))
+    return int(big[-1] + 1) if big.size else 0
+
+
 def _as_list(sources: Motion | Sequence[Motion]) -> list[Motion]:
     return [sources] if isinstance(sources, Motion) else list(sources)
 
@@ -387,6 +399,7 @@ class Report:
     fps: float
     params: Params
     skate_mm_per_s: float
+    planted_skate_mm_per_s: float
     skating_ratio: float
     contact_fraction: float
     flight_fraction: float
@@ -417,6 +430,7 @@ class Report:
             frames=self.n_frames,
             fps=round(self.fps, 2),
             skate_mm_s=self.skate_mm_per_s,
+            planted_mm_s=self.planted_skate_mm_per_s,
             skating_ratio=self.skating_ratio,
             contact=self.contact_fraction,
             flight=self.flight_fraction,
@@ -471,6 +485,7 @@ def evaluate(
         fps=float(motion.fps),
         params=params,
         skate_mm_per_s=skate_mm_per_s(track, params.h_c),
+        planted_skate_mm_per_s=planted_skate_mm_per_s(track, params.h_c, params.v_c),
         skating_ratio=skating_ratio(track, params.h_c, params.v_c, params.skate_window),
         contact_fraction=float(con.any(axis=1).mean()),
         flight_fraction=float((~con.any(axis=1)).mean()),

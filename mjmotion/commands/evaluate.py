@@ -1,0 +1,214 @@
+"""``mjmotion evaluate``: physics-checked metrics of one clip or a directory of clips."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from ..errors import MjmotionError
+from ..outputs import check_output, write_text_atomic
+from ._common import add_input_options, load, parse_frames
+
+NAME = "evaluate"
+HELP = "footskate, ground, inverse-dynamics, limit and hitting metrics of a clip (or every clip in a folder)"
+DESCRIPTION = """Evaluate clips with the definitions of docs/METRICS.md (thresholds are options; the
+report states them): contacts and footskate (with the h_c sensitivity table), ground penetration,
+float and PhysDiff error, the detected floor offset (reported, not applied), MuJoCo inverse-dynamics
+residuals (root force ratio, flight residual, ground-reaction feasibility), joint limits and, with a
+ball, the hitting metrics and a simulated ball launch.
+
+Leading T-pose/transition frames (cgspeed daz clips: 0-3) are detected and skipped unless --frames
+or --keep-start is given.
+
+examples:
+  mjmotion evaluate walk.bvh
+  mjmotion evaluate walk.bvh --json walk_report.json --csv
+  mjmotion evaluate swing.bvh --prop club:rwrist --ball 0.6 0.1 0.03 --frame 212
+  mjmotion evaluate ../shared/mocap --json all.json
+"""
+
+_COLUMNS = (
+    ("clip", 18, "s"),
+    ("frames", 6, "d"),
+    ("fps", 5, ".0f"),
+    ("skate_mm_s", 10, ".0f"),
+    ("planted_mm_s", 12, ".0f"),
+    ("skating_ratio", 13, ".3f"),
+    ("flight", 6, ".2f"),
+    ("penetrate_mm", 12, ".1f"),
+    ("float_mm", 8, ".1f"),
+    ("phys_err_mm", 11, ".1f"),
+    ("floor_m", 7, ".3f"),
+    ("flight_resid", 12, ".2f"),
+    ("phys_viol", 9, ".2f"),
+)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("path", help="a .bvh file, or a folder (searched recursively for .bvh files)")
+    p.add_argument("--prop", action="append", default=[], metavar="KIND[:JOINT]", help="attach a prop (club, bat); the first is the effector")
+    p.add_argument("--ball", nargs=3, type=float, metavar=("X", "Y", "Z"), help="ball centre (m, world Z-up) for the hitting metrics")
+    p.add_argument("--ball-radius", type=float, default=0.036, metavar="R", help="ball radius in m (default 0.036, cricket)")
+    p.add_argument("--ball-velocity", nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar=("VX", "VY", "VZ"), help="incoming ball velocity at impact, m/s")
+    p.add_argument("--frame", type=int, metavar="H", help="hit frame (0-based, of the file) for --ball")
+    p.add_argument("--frames", metavar="A:B", help="evaluate only these frames")
+    p.add_argument("--keep-start", action="store_true", help="do not skip a leading T-pose/transition")
+    p.add_argument("--h-c", type=float, default=0.05, metavar="M", help="contact height threshold (default 0.05 m)")
+    p.add_argument("--v-c", type=float, default=0.5, metavar="M/S", help="contact speed threshold (default 0.5 m/s)")
+    p.add_argument("--json", metavar="OUT.json", help="write every metric (and the parameters) as JSON")
+    p.add_argument("--csv", action="store_true", help="print the table as CSV instead of aligned text")
+    p.add_argument("--force", action="store_true", help="replace OUT.json if it exists")
+    p.add_argument("--jobs", type=int, default=2, metavar="N", help="parallel processes for a folder (default 2)")
+    add_input_options(p)
+
+
+def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:
+    """Evaluate one file; returns ``{"file", "skipped_frames", "report"}`` (runs in worker processes)."""
+    from .. import evaluate as ev
+    from .. import mjcf
+
+    args = argparse.Namespace(**opts)
+    m = load(path, args)
+    offset = 0
+    if args.frames:
+        sl = parse_frames(args.frames, m.n_frames)
+        offset = sl.indices(m.n_frames)[0]
+        m = m[sl]
+    elif not args.keep_start:
+        offset = ev.leading_transient(m)
+        m = m[offset:]
+    props = tuple(_prop(m, t) for t in args.prop)
+    ball = None
+    hit = None
+    if args.ball is not None:
+        if args.frame is None:
+            raise MjmotionError("--ball needs --frame H (the hit frame)")
+        ball = mjcf.Ball(position=tuple(args.ball), radius=args.ball_radius)
+        hit = args.frame - offset
+        if not 0 <= hit < m.n_frames:
+            raise MjmotionError(f"--frame {args.frame}: outside the evaluated frames {offset}..{offset + m.n_frames - 1}")
+    params = ev.Params(h_c=args.h_c, v_c=args.v_c)
+    rep = ev.evaluate(m.replace(name=Path(path).stem), props, ball, hit, params, ball_velocity=tuple(args.ball_velocity))
+    return {"file": path, "skipped_frames": offset, "report": rep.to_dict(), "row": rep.row()}
+
+
+def _prop(motion, text: str):
+    from .. import mjcf
+
+    return mjcf.parse_prop_option(motion.skeleton, text)
+
+
+def _fmt(v: Any, spec: str) -> str:
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "-"
+    return format(v, spec) if spec != "s" else str(v)
+
+
+def format_table(rows: list[dict[str, Any]], as_csv: bool = False) -> str:
+    """Rows as aligned text (fixed columns first, then any extra keys) or CSV."""
+    keys = [c for c, _, _ in _COLUMNS]
+    extra = [k for r in rows for k in r if k not in keys]
+    extra = list(dict.fromkeys(extra))
+    if as_csv:
+        buf = io.StringIO()
+        w = csv.DictWriter(buf, fieldnames=keys + extra, extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow(r)
+        return buf.getvalue()
+    widths = {c: max(w, len(c)) for c, w, _ in _COLUMNS}
+    specs = {c: s for c, _, s in _COLUMNS}
+    for k in extra:
+        widths[k] = max(len(k), 8)
+        specs[k] = ".3f"
+    lines = ["  ".join(k.rjust(widths[k]) if k != "clip" else k.ljust(widths[k]) for k in keys + extra)]
+    for r in rows:
+        cells = []
+        for k in keys + extra:
+            v = r.get(k)
+            spec = specs[k] if not isinstance(v, (bool, str)) else "s"
+            text = _fmt(v, spec)
+            cells.append(text.ljust(widths[k]) if k == "clip" else text.rjust(widths[k]))
+        lines.append("  ".join(cells))
+    return "\n".join(lines) + "\n"
+
+
+def _params_line(report: dict[str, Any]) -> str:
+    p = report["params"]
+    return (
+        f"parameters: h_c={p['h_c']} m, v_c={p['v_c']} m/s, skating window={p['skate_window']} frames, "
+        f"float tolerance={p['float_tol']} m, mu={p['mu']}, CoP margin={p['cop_margin']} m, "
+        f"flight force ratio>{p['flight_force_ratio']}, finite-difference stencil={p['fd_step']:.4f} s"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    out = check_output(args.json, force=args.force, inputs=()) if args.json else None
+    opts = {k: v for k, v in vars(args).items() if not k.startswith("_")}
+    if os.path.isdir(args.path):
+        files = sorted(str(p) for p in Path(args.path).rglob("*") if p.suffix.lower() == ".bvh" and p.is_file())
+        if not files:
+            raise MjmotionError(f"{args.path}: no .bvh files found (searched recursively)")
+        if args.ball is not None:
+            raise MjmotionError("--ball applies to one clip; give a file, not a folder")
+        results = _run_many(files, opts, max(1, args.jobs))
+    else:
+        if not os.path.isfile(args.path):
+            raise MjmotionError(f"{args.path}: no such file or folder")
+        results = [evaluate_file(args.path, opts)]
+    ok = [r for r in results if "error" not in r]
+    rows = [r["row"] for r in ok]
+    sys.stdout.write(format_table(rows, args.csv))
+    if ok and not args.csv:
+        print(_params_line(ok[0]["report"]))
+        skipped = [f"{Path(r['file']).stem}:{r['skipped_frames']}" for r in ok if r["skipped_frames"]]
+        if skipped:
+            print("leading frames skipped: " + ", ".join(skipped))
+        if len(ok) == 1:
+            rep = ok[0]["report"]
+            print("h_c sensitivity: " + "; ".join(f"h_c={s['h_c']}: skate {s['skate_mm_per_s']:.0f} mm/s, ratio {s['skating_ratio']:.3f}" for s in rep["sensitivity"]))
+            if rep.get("hit"):
+                print("hit: " + ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in rep["hit"].items()))
+    for r in results:
+        if "error" in r:
+            sys.stderr.write(f"error: {r['file']}: {r['error']}\n")
+    if out is not None:
+        write_text_atomic(out, json.dumps([{"file": r["file"], "skipped_frames": r.get("skipped_frames"), **({"report": r["report"]} if "report" in r else {"error": r["error"]})} for r in results], indent=1, default=_json_default))
+        print(f"wrote {out}")
+    return 0 if len(ok) == len(results) else 2
+
+
+def _json_default(o: Any) -> Any:
+    import numpy as np
+
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o).__name__)
+
+
+def _safe(path: str, opts: dict[str, Any]) -> dict[str, Any]:
+    try:
+        return evaluate_file(path, opts)
+    except MjmotionError as e:
+        return {"file": path, "error": str(e)}
+
+
+def _run_many(files: list[str], opts: dict[str, Any], jobs: int) -> list[dict[str, Any]]:
+    from concurrent.futures import ProcessPoolExecutor
+
+    from tqdm import tqdm
+
+    if jobs == 1:
+        return [_safe(f, opts) for f in tqdm(files, desc="evaluate", unit="clip", file=sys.stderr)]
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        futures = [pool.submit(_safe, f, opts) for f in files]
+        return [f.result() for f in tqdm(futures, desc="evaluate", unit="clip", file=sys.stderr)]
