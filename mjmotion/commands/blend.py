@@ -1,0 +1,52 @@
+"""``mjmotion blend``: blend clips of one skeleton (registered, or linear as the baseline)."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..errors import MjmotionError
+from ._common import output_path
+from .register import add_clip_options, load_clips
+
+NAME = "blend"
+HELP = "blend two or more clips with weights (registration curves, or frame-by-frame linear)"
+DESCRIPTION = """Blend clips of the same skeleton topology (bone lengths may differ: the result uses the first
+clip's skeleton). registered (default): the clips are registered (timewarp + alignment), sampled
+at corresponding times, their joint rotations averaged as quaternions and the root built from
+the weighted per-frame steps, so the blend walks one continuous path at an in-between pace.
+linear: frame n of every clip averaged (the seed 004 baseline). Weights are non-negative and
+must sum to 1.
+
+examples:
+  mjmotion blend walk.bvh run.bvh --weights 0.5,0.5 -o jog.bvh
+  mjmotion blend 07_01.bvh 09_01.bvh --frames 4: --weights 0.75,0.25 -o brisk.bvh
+  mjmotion blend walk.bvh run.bvh --weights 0.5,0.5 --method linear -o linear.bvh
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("files", nargs="+", metavar="CLIP.bvh", help="two or more clips")
+    p.add_argument("--weights", required=True, metavar="W1,W2[,...]", help="one weight per clip, summing to 1")
+    p.add_argument("--method", choices=("registered", "linear"), default="registered", help="default: registered")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="the blended clip")
+    p.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    add_clip_options(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import blend, bvh
+
+    out = output_path(args, *args.files)
+    if len(args.files) < 2:
+        raise MjmotionError("blend needs at least two clips")
+    try:
+        weights = [float(x) for x in args.weights.split(",")]
+    except ValueError:
+        raise MjmotionError(f"--weights {args.weights!r}: expected numbers separated by commas") from None
+    blend.check_weights(weights, len(args.files), "--weights")
+    clips = load_clips(args.files, args)
+    result = blend.blend(clips, weights, method=args.method, name=out.stem)
+    bvh.write(result, out)
+    speed = result.root_positions[-1, :2] - result.root_positions[0, :2]
+    print(f"wrote {out}: {result.n_frames} frames at {result.fps:g} fps ({args.method}), net floor travel {float((speed**2).sum()) ** 0.5:.2f} m")
+    return 0

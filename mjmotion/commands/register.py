@@ -1,0 +1,120 @@
+"""``mjmotion register``: the registration curve of two clips (seed 000 §3.1, seed 004 §4–5)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from ..errors import MjmotionError
+from ..outputs import check_output, write_text_atomic
+from ._common import add_input_options, load, parse_frames
+
+NAME = "register"
+HELP = "timewarp and alignment curves between two clips (distance grid + minimal-cost path)"
+DESCRIPTION = """Register clip B to clip A: a distance grid between all frame pairs (joint point clouds over
+a window of frames, best floor rotation and translation), a minimal-cost path through it, a
+strictly increasing timewarp curve and the floor alignment along it.
+
+JSON keys: frames [nA, nB]; path [[i, j], ...]; path_cost, mean_cost (m², weighted mean squared
+point distance per cell); method; timewarp [[tA, tB], ...] fractional frames, strictly increasing
+in both; alignment [[theta_rad, tx_m, ty_m], ...] one per timewarp sample, the floor transform
+that moves B onto A (rotate by theta about the vertical axis through the origin, then translate);
+timing_s {grid, path, curve} seconds.
+
+By default the path starts at the best cell of the first third of the first row or column and
+ends where it reaches the last frame of either clip with the least average cost (Kovar &
+Gleicher); --loop pins it to both corners (looping clips, seed 000).
+
+examples:
+  mjmotion register walk.bvh run.bvh --json reg.json --plot grid.png
+  mjmotion register 07_01.bvh 09_01.bvh --frames 4: --json reg.json
+  mjmotion register a.bvh b.bvh --loop --slope-limit 3 --method greedy --json reg.json
+"""
+
+
+def add_clip_options(p: argparse.ArgumentParser) -> None:
+    """``--frames`` and ``--fps``, shared by register and blend."""
+    p.add_argument(
+        "--frames",
+        metavar="A:B[,A:B...]",
+        help="frame range of every clip, or one range per clip separated by commas (e.g. 4: for cgspeed "
+        "clips whose first frames are a T-pose)",
+    )
+    p.add_argument("--fps", type=float, metavar="F", help="resample every clip to F frames per second first")
+    add_input_options(p)
+
+
+def load_clips(files: list[str], args: argparse.Namespace) -> list:
+    """Read the clips with ``--frames``/``--fps`` applied."""
+    ranges = (args.frames or "").split(",") if args.frames else [None] * len(files)
+    if len(ranges) == 1 and len(files) > 1:
+        ranges = ranges * len(files)
+    if len(ranges) != len(files):
+        raise MjmotionError(f"--frames: give one range for all clips or one per clip ({len(files)}), got {len(ranges)}")
+    clips = []
+    for f, r in zip(files, ranges, strict=True):
+        m = load(f, args)
+        if r:
+            m = m[parse_frames(r, m.n_frames)]
+        if args.fps:
+            if not args.fps > 0:
+                raise MjmotionError(f"--fps {args.fps}: expected a positive frame rate")
+            m = m.resample(args.fps)
+        clips.append(m)
+    return clips
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("a", metavar="A.bvh", help="the first clip (rows of the grid)")
+    p.add_argument("b", metavar="B.bvh", help="the second clip (columns)")
+    p.add_argument("--json", required=True, metavar="OUT.json", help="where to write the registration")
+    p.add_argument("--plot", metavar="GRID.png", help="also draw the grid with the path and the curve")
+    p.add_argument("--window", type=int, default=5, metavar="N", help="frames per point cloud, odd (default 5)")
+    p.add_argument("--slope-limit", type=int, metavar="W", help="most consecutive steps along one clip only (default: seed 000 Eq. 6)")
+    p.add_argument("--loop", action="store_true", help="fixed corners: the path joins (0,0) and (nA-1,nB-1)")
+    p.add_argument("--method", choices=("dp", "greedy", "threshold", "brute"), default="dp", help="path search (default dp, exact)")
+    p.add_argument("--curve", choices=("bspline", "discrete"), default="bspline", help="timewarp fit (default bspline)")
+    p.add_argument("--force", action="store_true", help="replace outputs that exist")
+    add_clip_options(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import registration
+
+    out = check_output(args.json, args.force, (args.a, args.b))
+    plot = check_output(args.plot, args.force, (args.a, args.b)) if args.plot else None
+    if args.window < 1 or args.window % 2 == 0:
+        raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
+    a, b = load_clips([args.a, args.b], args)
+    pr = registration.register(
+        a, b, window=args.window // 2, slope_limit=args.slope_limit, loop=args.loop, method=args.method, curve=args.curve
+    )
+    write_text_atomic(out, json.dumps(pr.to_json()))
+    if plot:
+        _plot(pr, plot, a.name, b.name)
+    t = pr.timing_s
+    print(
+        f"wrote {out}: {len(pr.path.cells)}-cell path, mean cost {pr.path.mean_cost:.4g} m², "
+        f"{len(pr.curve.samples)} timewarp samples; grid {t['grid'] * 1e3:.1f} ms, path {t['path'] * 1e3:.1f} ms, "
+        f"curve {t['curve'] * 1e3:.1f} ms"
+    )
+    return 0
+
+
+def _plot(pr, path, name_a: str, name_b: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..outputs import write_with
+
+    fig, ax = plt.subplots(figsize=(6, 6 * pr.grid.cost.shape[0] / max(pr.grid.cost.shape[1], 1) + 0.5))
+    ax.imshow(pr.grid.cost, origin="lower", cmap="gray", aspect="auto")
+    ax.plot(pr.path.cells[:, 1], pr.path.cells[:, 0], "r-", lw=1, label="path")
+    ax.plot(pr.curve.samples[:, 1], pr.curve.samples[:, 0], "c-", lw=1, label="timewarp")
+    ax.set_xlabel(f"frame of {name_b or 'B'}")
+    ax.set_ylabel(f"frame of {name_a or 'A'}")
+    ax.legend(loc="upper left")
+    write_with(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
+    plt.close(fig)

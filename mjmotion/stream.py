@@ -1,0 +1,297 @@
+"""A motion stream (seed 000 §3.3): a blended locomotion set driven by timed commands.
+
+The controller plays a registered set of locomotion clips (walks, runs) with weights that change
+on command along cubic-Bezier ramps, loops the set by crossfading to an earlier matching instant
+when it runs out, and transitions into a non-registered clip (a kick, a punch) over a blend
+window and back. Every source is a :class:`mjmotion.blend.Track` that keeps its own clock; the
+root is built from per-track increments (:func:`mjmotion.blend.compose`), so neither a loop nor
+a return from a transition can make the character jump or spin (seed 000 §4.1's time blip).
+
+A script (JSON) names the clips and the commands::
+
+    {
+      "fps": 120,                                  # optional: default the first clip's rate
+      "duration": 8.0,                             # seconds of output
+      "clips": {
+        "walk": {"file": "16_15.bvh"},             # paths relative to the script
+        "fast": {"file": "16_24.bvh", "frames": "0:290"},
+        "kick": {"file": "10_01.bvh", "frames": "500:720"}
+      },
+      "locomotion": ["walk", "fast"],              # registered and blended
+      "loop_blend": 0.4,                           # optional: seconds of each loop crossfade
+      "commands": [
+        {"time": 0.0, "weights": {"walk": 1}},
+        {"time": 1.5, "weights": {"walk": 0.5, "fast": 0.5}, "ramp": 0.8},
+        {"time": 3.5, "play": "kick", "blend": 0.3},
+        {"time": 4.0, "weights": {"walk": 1}, "ramp": 0.5}
+      ]
+    }
+
+``weights`` (locomotion clip → weight, missing names 0, summing to 1) start a ramp of ``ramp``
+seconds. ``play`` fades the named clip in over ``blend`` seconds, plays it once and fades back
+to the locomotion over its last ``blend`` seconds; ``{"time": t, "return": true, "blend": b}``
+returns earlier.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import registration as reg
+from .blend import Track, WeightCurve, bezier_ease, check_weights, compose
+from .errors import MjmotionError
+from .skeleton import Motion
+
+
+@dataclass(frozen=True)
+class Command:
+    """One timed command: ``kind`` is ``"weights"``, ``"play"`` or ``"return"``."""
+
+    time: float
+    kind: str
+    weights: np.ndarray | None = None
+    ramp: float = 0.5
+    clip: str | None = None
+    blend: float = 0.3
+
+
+@dataclass(frozen=True)
+class Script:
+    """A parsed stream script (see the module docstring)."""
+
+    clips: dict[str, Motion]
+    locomotion: tuple[str, ...]
+    commands: tuple[Command, ...]
+    duration: float
+    fps: float
+    loop_blend: float = 0.4
+
+
+def _number(value: object, where: str, minimum: float = 0.0) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < minimum:
+        raise MjmotionError(f"{where}: expected a number ≥ {minimum:g}, got {value!r}")
+    return float(value)
+
+
+def parse_script(data: dict, base: Path, load) -> Script:
+    """A :class:`Script` from JSON ``data``; ``load(path, frames_text)`` reads a clip.
+
+    Every mistake is an :class:`MjmotionError` naming the field.
+    """
+    if not isinstance(data, dict):
+        raise MjmotionError("script: expected a JSON object with clips, locomotion, commands, duration")
+    for key in ("clips", "locomotion", "commands", "duration"):
+        if key not in data:
+            raise MjmotionError(f"script: missing field {key!r}")
+    unknown = set(data) - {"clips", "locomotion", "commands", "duration", "fps", "loop_blend"}
+    if unknown:
+        raise MjmotionError(f"script: unknown field(s) {', '.join(sorted(unknown))}")
+    if not isinstance(data["clips"], dict) or not data["clips"]:
+        raise MjmotionError("script.clips: expected an object of name → {\"file\": …, \"frames\": \"A:B\"}")
+    clips: dict[str, Motion] = {}
+    for name, spec in data["clips"].items():
+        if not isinstance(spec, dict) or not isinstance(spec.get("file"), str):
+            raise MjmotionError(f"script.clips.{name}: expected {{\"file\": PATH, \"frames\": \"A:B\" (optional)}}")
+        path = Path(spec["file"])
+        path = path if path.is_absolute() else base / path
+        clips[name] = load(str(path), spec.get("frames")).replace(name=name)
+    loco = data["locomotion"]
+    if not isinstance(loco, list) or not loco or not all(isinstance(x, str) for x in loco):
+        raise MjmotionError("script.locomotion: expected a list of clip names")
+    for name in loco:
+        if name not in clips:
+            raise MjmotionError(f"script.locomotion: no clip named {name!r} in script.clips")
+    first = clips[loco[0]]
+    for name, m in clips.items():
+        first.skeleton.require_same_topology(m.skeleton, f"clips {loco[0]!r} and {name!r}")
+    fps = _number(data.get("fps", first.fps), "script.fps", 1.0)
+    clips = {k: (m if abs(m.fps - fps) <= 1e-6 * fps else m.resample(fps)) for k, m in clips.items()}
+    commands = []
+    if not isinstance(data["commands"], list) or not data["commands"]:
+        raise MjmotionError("script.commands: expected a non-empty list")
+    for k, c in enumerate(data["commands"]):
+        where = f"script.commands[{k}]"
+        if not isinstance(c, dict) or "time" not in c:
+            raise MjmotionError(f"{where}: expected an object with a time")
+        t = _number(c["time"], f"{where}.time")
+        if "weights" in c:
+            wd = c["weights"]
+            if not isinstance(wd, dict) or any(n not in loco for n in wd):
+                raise MjmotionError(f"{where}.weights: expected {{locomotion clip: weight}} over {', '.join(loco)}")
+            w = check_weights([float(wd.get(n, 0.0)) for n in loco], len(loco), f"{where}.weights")
+            commands.append(Command(t, "weights", w, ramp=_number(c.get("ramp", 0.5), f"{where}.ramp")))
+        elif "play" in c:
+            if c["play"] not in clips:
+                raise MjmotionError(f"{where}.play: no clip named {c['play']!r} in script.clips")
+            commands.append(Command(t, "play", clip=c["play"], blend=_number(c.get("blend", 0.3), f"{where}.blend")))
+        elif c.get("return"):
+            commands.append(Command(t, "return", blend=_number(c.get("blend", 0.3), f"{where}.blend")))
+        else:
+            raise MjmotionError(f"{where}: expected one of weights, play or return")
+    commands.sort(key=lambda c: c.time)
+    if commands[0].kind != "weights" or commands[0].time > 0:
+        commands.insert(0, Command(0.0, "weights", np.eye(len(loco))[0], ramp=0.0))
+    return Script(
+        clips=clips,
+        locomotion=tuple(loco),
+        commands=tuple(commands),
+        duration=_number(data["duration"], "script.duration", 1.0 / fps),
+        fps=fps,
+        loop_blend=_number(data.get("loop_blend", 0.4), "script.loop_blend", 1.0 / fps),
+    )
+
+
+def load_script(path: str, load) -> Script:
+    """Read a stream script; ``load(path, frames_text)`` reads a clip (the CLI passes its loader)."""
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise MjmotionError(f"{path}: no such script") from None
+    except json.JSONDecodeError as e:
+        raise MjmotionError(f"{path}:{e.lineno}: not valid JSON ({e.msg})") from None
+    return parse_script(data, Path(path).resolve().parent, load)
+
+
+class _Cursor:
+    """One playhead on the locomotion registration (reference time ``tau``)."""
+
+    def __init__(self, tau: float, n_frames: int):
+        self.tau = tau
+        self.taus = np.zeros(n_frames)
+        self.dtaus = np.zeros(n_frames)
+        self.fade = np.zeros(n_frames)
+
+
+class MotionStream:
+    """The stream controller: build once per script, then :meth:`run` it.
+
+    Attributes:
+        script: the parsed script.
+        registration: the locomotion set's n-way :class:`mjmotion.registration.Registration`.
+    """
+
+    def __init__(self, script: Script):
+        self.script = script
+        loco = [script.clips[n] for n in script.locomotion]
+        positions = [reg.positions_of(m) for m in loco]
+        self.registration = reg.register_many(loco, reference=0, positions=positions)
+        r = self.registration
+        self._ref = r.times[:, r.reference]
+        self._inv_rate = 1.0 / np.gradient(r.times, self._ref, axis=0)  # (M, n) dτ per clip frame
+        # self-distances of the reference clip, for loop points (seed 000 loops its clips)
+        w = reg.joint_weights(loco[0].skeleton)
+        self._self_cost = reg.distance_grid(positions[r.reference], positions[r.reference], w).cost
+
+    def _dtau(self, tau: float, w: np.ndarray) -> float:
+        return float(w @ np.array([np.interp(tau, self._ref, self._inv_rate[:, k]) for k in range(len(w))]))
+
+    def loop_point(self, tau: float) -> float:
+        """An earlier reference time whose pose best matches ``tau`` (at least a third of the span back)."""
+        lo, hi = self._ref[0], self._ref[-1]
+        cand = np.arange(int(np.ceil(lo)), int(np.floor(tau - (hi - lo) / 3.0)) + 1)
+        if len(cand) == 0:
+            raise MjmotionError(
+                "the locomotion clips are too short to loop (their registered span is "
+                f"{(hi - lo) / self.script.fps:.2f} s); use longer clips or a shorter loop_blend"
+            )
+        row = self._self_cost[int(round(tau)), cand]
+        return float(cand[int(np.argmin(row))])
+
+    def run(self, name: str = "stream") -> Motion:
+        """The streamed motion, ``duration × fps`` frames on the first locomotion clip's skeleton."""
+        s = self.script
+        fps = s.fps
+        n_out = int(round(s.duration * fps))
+        times = np.arange(n_out) / fps
+        n_loc = len(s.locomotion)
+        keys = tuple((c.time, c.ramp, c.weights) for c in s.commands if c.kind == "weights")
+        loc_w = WeightCurve(keys)(times)  # (N, n_loc)
+        action_w, action_tracks = self._actions(n_out)
+        fade_n = max(1, int(round(s.loop_blend * fps)))
+        cursors = [_Cursor(float(self._ref[0]), n_out)]
+        done: list[_Cursor] = []
+        fading: tuple[_Cursor, _Cursor, int] | None = None
+        for n in range(n_out):
+            w = loc_w[n]
+            for c in cursors:
+                d = self._dtau(c.tau, w) if n > 0 else 0.0
+                d = min(d, self._ref[-1] - c.tau)  # a fading cursor never runs past the curve
+                c.tau += d
+                c.taus[n], c.dtaus[n] = c.tau, d
+            if fading is None:
+                cursors[-1].fade[n] = 1.0
+                head = cursors[-1]
+                if head.tau + 1.5 * fade_n * max(self._dtau(head.tau, w), 1e-6) >= self._ref[-1]:
+                    new = _Cursor(self.loop_point(head.tau), n_out)
+                    new.taus[n] = new.tau
+                    cursors.append(new)
+                    fading = (head, new, n)
+            if fading is not None:
+                old, new, n0 = fading
+                s_f = float(bezier_ease((n - n0) / fade_n))
+                old.fade[n], new.fade[n] = 1.0 - s_f, s_f
+                if n - n0 >= fade_n:
+                    cursors.remove(old)
+                    done.append(old)
+                    fading = None
+        tracks: list[Track] = []
+        loco_clips = [s.clips[k] for k in s.locomotion]
+        for c in done + cursors:
+            active = c.fade > 0
+            clip_t = self.registration.at(c.taus)
+            prev_t = self.registration.at(c.taus - c.dtaus)
+            for k, m in enumerate(loco_clips):
+                w = (1.0 - action_w) * c.fade * loc_w[:, k]
+                if np.any(w[active] > 0):
+                    tracks.append(Track(m, clip_t[:, k], clip_t[:, k] - prev_t[:, k], w))
+        tracks.extend(action_tracks)
+        return compose(tracks, fps, name)
+
+    def _actions(self, n_out: int) -> tuple[np.ndarray, list[Track]]:
+        """Weight ``(N,)`` of the action layer and one track per played clip."""
+        s = self.script
+        fps = s.fps
+        layer = np.zeros(n_out)
+        tracks = []
+        cmds = list(s.commands)
+        for k, c in enumerate(cmds):
+            if c.kind != "play":
+                continue
+            clip = s.clips[c.clip]
+            n0 = int(round(c.time * fps))
+            if n0 >= n_out:
+                continue
+            n_blend = max(1, int(round(c.blend * fps)))
+            end = n0 + clip.n_frames - 1  # last frame of the clip
+            out_start, n_blend_out = end - n_blend, n_blend
+            for later in cmds[k + 1 :]:
+                if later.kind in ("return", "play"):  # the next return (or action) ends this one
+                    n_ret = int(round(later.time * fps))
+                    if n_ret < out_start:
+                        out_start, n_blend_out = n_ret, max(1, int(round(later.blend * fps)))
+                    break
+            n = np.arange(n_out)
+            ramp_in = bezier_ease((n - n0) / n_blend)
+            ramp_out = 1.0 - bezier_ease((n - out_start) / n_blend_out)
+            wk = np.where(n < n0, 0.0, np.minimum(ramp_in, ramp_out))
+            if out_start <= n0:
+                raise MjmotionError(f"clip {c.clip!r} ({clip.n_frames / fps:.2f} s) is too short for a {c.blend:g} s blend in and out")
+            layer = np.maximum(layer, wk)
+            t = np.clip(n - n0, 0, clip.n_frames - 1).astype(float)
+            steps = np.where((n > n0) & (n - n0 <= clip.n_frames - 1), 1.0, 0.0)
+            tracks.append(Track(clip, t, steps, wk))
+        # several actions: their own weights share the action layer
+        if tracks:
+            total = np.sum([tr.weights for tr in tracks], axis=0)
+            scale = np.divide(layer, total, out=np.zeros(n_out), where=total > 0)
+            tracks = [Track(tr.motion, tr.times, tr.steps, tr.weights * scale) for tr in tracks]
+        return layer, tracks
+
+
+def stream(script: Script, name: str = "stream") -> Motion:
+    """Run ``script`` through a :class:`MotionStream`."""
+    return MotionStream(script).run(name)
