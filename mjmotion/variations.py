@@ -482,12 +482,34 @@ def _reach_with_shoulder(skel: Skeleton, motion: Motion, pose: kinematics.Pose, 
     return out
 
 
-def clean_up(source: Motion, motion: Motion, path: ScorePath, first_hand: str | None = "left") -> tuple[Motion, CleanupReport]:
-    """Repair §3.3's artefacts: feet held on the source's footprints, then the second hand on the grip.
+#: Ways to repair the feet: the source's footprints (default), the footskate cleanup's plants, both, none.
+FEET_METHODS = ("source", "plants", "both", "none")
 
+
+def clean_up(
+    source: Motion, motion: Motion, path: ScorePath, first_hand: str | None = "left", feet: str = "source"
+) -> tuple[Motion, CleanupReport]:
+    """Repair §3.3's artefacts: the feet, then the second hand on the grip.
+
+    ``feet``: ``"source"`` holds each foot on the source's footprint (:func:`hold_source_feet`:
+    where and when the source's foot is down, at its height and orientation, so floating and
+    sliding both go); ``"plants"`` runs the general footskate cleanup on the variant alone
+    (:func:`mjmotion.cleanup.cleanup`, Kovar et al. 2002: plants found in the variant, ankles pinned,
+    foot orientation held); ``"both"`` the first then the second; ``"none"``.
     ``first_hand=None`` leaves the hands alone (a one-handed shot, a kick).
     """
-    out, held, foot_err = hold_source_feet(source, motion, path)
+    if feet not in FEET_METHODS:
+        raise MjmotionError(f"feet cleanup must be one of {', '.join(FEET_METHODS)}, got {feet!r}")
+    out, held, foot_err = motion, {}, 0.0
+    if feet in ("source", "both"):
+        out, held, foot_err = hold_source_feet(source, out, path)
+    if feet in ("plants", "both"):
+        from .cleanup import cleanup
+
+        res = cleanup(out)
+        out = res.motion
+        for plant in res.plants:
+            held[f"{plant.side} (plants)"] = held.get(f"{plant.side} (plants)", 0) + plant.stop - plant.start
     grip_err = 0.0
     pair = None
     if first_hand is not None:
@@ -542,20 +564,12 @@ def first_hand_for(source: Motion) -> str | None:
 
     ``None`` when the skeleton does not have two hands.
     """
-    hands = source.skeleton.hands()
-    if set(hands) != {"left", "right"}:
+    if set(source.skeleton.hands()) != {"left", "right"}:
         return None
-    try:
-        from .hitpoint import fit_club
-    except ImportError:
-        return "left"
     from .skeleton import side_of
 
-    try:
-        prop = fit_club(source)
-    except MjmotionError:
-        return "left"
-    return side_of(prop.joint) or "left"
+    prop = fitted_club(source)
+    return (side_of(prop.joint) if prop is not None else None) or "left"
 
 
 def grip_error_m(source: Motion, motion: Motion, path: ScorePath, first_hand: str = "left") -> float:
@@ -572,12 +586,34 @@ def grip_error_m(source: Motion, motion: Motion, path: ScorePath, first_hand: st
     return float(np.max(np.linalg.norm(want - var.joint_positions[:, h2], axis=-1)))
 
 
-def effector_path_length(motion: Motion, joint: int, frames: tuple[int, int] | None = None) -> float:
-    """Length (m) of the path of ``joint`` over ``frames`` (half-open; all by default)."""
-    p = kinematics.forward(mjcf.compile(motion.skeleton), motion).joint_positions[:, joint]
+def effector_path_length(
+    motion: Motion, joint: int | None = None, frames: tuple[int, int] | None = None, prop: mjcf.Prop | None = None
+) -> float:
+    """Length (m) of the path of ``joint`` — or of ``prop``'s sweet spot — over ``frames`` (half-open; all by default)."""
+    if prop is not None:
+        pose = kinematics.forward(mjcf.compile(motion.skeleton, (prop,)), motion)
+        p = pose.site(f"{prop.name}/sweet_spot")
+    elif joint is not None:
+        p = kinematics.forward(mjcf.compile(motion.skeleton), motion).joint_positions[:, joint]
+    else:
+        raise MjmotionError("effector_path_length needs a joint or a prop")
     if frames is not None:
         p = p[frames[0] : frames[1]]
     return float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=-1)))
+
+
+def fitted_club(source: Motion) -> mjcf.Prop | None:
+    """The club ``hitpoint.fit_club`` fits to a two-handed swing, or ``None`` (one hand, or no fitter)."""
+    if set(source.skeleton.hands()) != {"left", "right"}:
+        return None
+    try:
+        from .hitpoint import fit_club
+    except ImportError:
+        return None
+    try:
+        return fit_club(source)
+    except MjmotionError:
+        return None
 
 
 def _finite(x: float) -> float | None:
@@ -619,8 +655,15 @@ def report(
         }
         j = source.skeleton.hands()[first_hand]
         out["effector_path_m"] = {
-            "joint": source.skeleton.names[j],
+            "effector": source.skeleton.names[j],
             "source": effector_path_length(source, j),
             "result": effector_path_length(result, j),
         }
+        club = fitted_club(source)
+        if club is not None:
+            out["club_path_m"] = {
+                "effector": f"{club.name}/sweet_spot",
+                "source": effector_path_length(source, prop=club),
+                "result": effector_path_length(result, prop=club),
+            }
     return out

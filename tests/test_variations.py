@@ -171,17 +171,45 @@ def test_scaling_lengthens_and_shortens_the_hand_path_in_the_swing(golf):
     assert lengths[1.3] > 1.05 * base > base > 0.95 * base > lengths[0.7], (base, lengths)
 
 
+def _foot_height_error(src, out, p):
+    # mean |height| difference of the feet from the source's where the source's foot is down
+    h = evaluate.foot_heights_speeds(None, out).heights
+    hs = V._source_at(evaluate.foot_heights_speeds(None, src).heights, p)
+    return float(np.mean(np.abs(h - hs)[hs < evaluate.H_C]))
+
+
 def test_cleanup_keeps_feet_planted_and_hands_on_the_grip(golf):
     name, src, space, path = golf
     skate_src = evaluate.skate_mm_per_s(src)
     for label, p in _variants(src, path).items():
         raw = V.synthesise(space, p)
-        out, rep = V.clean_up(src, raw, p, first_hand="left")
-        skate = evaluate.skate_mm_per_s(out)
-        assert skate <= 2.0 * skate_src, (name, label, skate, skate_src)
-        assert V.grip_error_m(src, out, p) < 0.005, (name, label)
         assert V.grip_error_m(src, raw, p) > 0.02  # the raw variant does lose the grip (§3.3)
-        assert rep.held_frames["left"] > 0.5 * p.n_frames
+        for feet in ("source", "plants"):
+            out, rep = V.clean_up(src, raw, p, first_hand="left", feet=feet)
+            skate = evaluate.skate_mm_per_s(out)
+            assert skate <= 2.0 * skate_src, (name, label, feet, skate, skate_src)
+            assert V.grip_error_m(src, out, p) < 0.005, (name, label, feet)
+            if feet == "source":
+                assert rep.held_frames["left"] > 0.5 * p.n_frames
+                # feet back at the source's height where it is down: floating repaired, not just sliding
+                before, after = _foot_height_error(src, raw, p), _foot_height_error(src, out, p)
+                assert after < 0.6 * before or after < 0.003, (name, label, before, after)
+
+
+def test_scaling_lengthens_and_shortens_the_club_path(swing01):
+    pytest.importorskip("mjmotion.hitpoint")
+    src, space = swing01
+    club = V.fitted_club(src)
+    assert club is not None
+    seg = SWINGS["64_01"]
+    base_len = V.effector_path_length(src, frames=seg, prop=club)
+    path = V.source_path(space, space.components_for(0.7))
+    got = {}
+    for f in (1.3, 0.7):
+        p = V.scaled_path(path, f)
+        out, _ = V.clean_up(src, V.synthesise(space, p), p, first_hand=V.first_hand_for(src))
+        got[f] = V.effector_path_length(out, frames=seg, prop=club)
+    assert got[1.3] > base_len > got[0.7], (base_len, got)
 
 
 def test_abort_follows_the_source_and_ends_at_the_rest_pose_smoothly(golf):

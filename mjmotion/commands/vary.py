@@ -22,8 +22,9 @@ quaternion, standardised), take the shot's own path of scores through it and cha
                    the last frame unless --rest-frame says otherwise
   --scores P       an explicit path, .npy or .csv, one row per frame, one column per component
 Then rebuild poses (P = (L S)^T * D + M, quaternions renormalised) and clean up the artefacts:
-feet held on the source's footprints with leg IK, the second hand put back on the grip relative
-to the first hand. --no-cleanup writes the raw reconstruction. --pcs K sets the controlled
+feet held on the source's footprints with leg IK (--feet plants: the general footskate cleanup
+instead; both: one then the other), the second hand put back on the grip relative to the first
+hand. --no-cleanup writes the raw reconstruction. --pcs K sets the controlled
 components (default: the fewest explaining --variance of the motion, 0.7); components beyond K
 keep the source's detail unless --no-detail (the seed's pure K-component reconstruction).
 The JSON report has k, variance explained, reconstruction error by number of components,
@@ -49,6 +50,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--variance", type=float, default=0.7, metavar="V", help="variance fraction that picks K when --pcs is not given (default 0.7)")
     p.add_argument("--segment", metavar="A:B", help="with --scale: scale only this frame range (tapered ends)")
     p.add_argument("--no-cleanup", action="store_true", help="write the raw reconstruction (no foot or grip repair)")
+    p.add_argument(
+        "--feet",
+        choices=("source", "plants", "both"),
+        default="source",
+        help="foot repair: hold the source's footprints (default), the footskate cleanup's plants, or both",
+    )
     p.add_argument("--no-detail", action="store_true", help="drop the components beyond K (the seed's pure reconstruction)")
     p.add_argument(
         "--first-hand",
@@ -107,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     if args.no_cleanup:
         result, cleanup = raw, None
     else:
-        result, cleanup = variations.clean_up(source, raw, path, first_hand=first)
+        result, cleanup = variations.clean_up(source, raw, path, first_hand=first, feet=args.feet)
     bvh.write(result, out)
 
     report = variations.report(source, raw, result, path, space, first_hand=first)
