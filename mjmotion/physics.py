@@ -213,11 +213,12 @@ def residuals(compiled: CompiledModel, motion: Motion, track: Any = None, params
         cop_ok[t] = distance_to_hull(cop[t], pts) <= params.cop_margin
     violation = np.where(flight, ratio > params.flight_force_ratio, ~(normal_ok & cone_ok & cop_ok))
     # flight_residual uses flight frames whose whole difference stencil is airborne: a stencil
-    # straddling take-off or landing measures the ground push, not the flight.
+    # straddling take-off or landing measures the ground push, not the flight (one more frame each
+    # side: a contact label looks one frame back).
     k = fd_frames(motion.fps, params.fd_step)
     from scipy.ndimage import minimum_filter1d
 
-    clean = minimum_filter1d(flight.astype(np.uint8), size=2 * k + 1, mode="nearest").astype(bool)
+    clean = minimum_filter1d(flight.astype(np.uint8), size=2 * k + 3, mode="nearest").astype(bool)
     return Residuals(
         root_force_ratio=ratio,
         flight=flight,

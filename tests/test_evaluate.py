@@ -1,0 +1,273 @@
+"""Metrics of mjmotion.evaluate on controlled cases with known answers, and sanity on real clips."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjmotion import bvh, kinematics, mjcf
+from mjmotion import evaluate as ev
+from mjmotion import rotations as rot
+from mjmotion.cli import main
+from mjmotion.skeleton import Motion
+
+from conftest import clip_params, require_data
+
+
+def linear_blend(a: Motion, b: Motion, w: float = 0.5) -> Motion:
+    """Frame-by-frame linear blend on ``a``'s skeleton: averaged root positions and quaternions."""
+    n = min(a.n_frames, b.n_frames)
+    a, b = a[:n], b[:n]
+    qb = np.where((np.sum(a.rotations * b.rotations, axis=-1) < 0)[..., None], -b.rotations, b.rotations)
+    q = rot.normalize((1 - w) * a.rotations + w * qb)
+    return a.replace(root_positions=(1 - w) * a.root_positions + w * b.root_positions, rotations=q, name="blend")
+
+
+def _clip(rel: str, start: int = 0) -> Motion:
+    return bvh.read(require_data() / rel)[start:]
+
+
+def _ground(m: Motion) -> ev.GroundMetrics:
+    c = mjcf.compile(m.skeleton)
+    pose = kinematics.forward(c, m)
+    return ev.ground_metrics(ev.lowest_body_point(c, pose), ev.foot_heights_speeds(c, m, pose))
+
+
+def _on_floor(m: Motion) -> Motion:
+    """The clip moved vertically, frame by frame, so its lowest body point touches z = 0."""
+    c = mjcf.compile(m.skeleton)
+    lz = ev.lowest_body_point(c, kinematics.forward(c, m))
+    return m.replace(root_positions=m.root_positions - np.outer(lz, [0, 0, 1]))
+
+
+# ----------------------------------------------------------------- geometry
+
+
+def test_lowest_point_matches_mujoco_collision():
+    m = _clip("cmu_asfamc_converted/16_15.bvh")[100:103]
+    sunk = m.replace(root_positions=m.root_positions - [0, 0, 0.04])
+    c = mjcf.compile(m.skeleton)
+    lz = ev.lowest_body_point(c, kinematics.forward(c, sunk))
+    mm = c.model
+    d = mujoco.MjData(mm)
+    floor = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+    for t, q in enumerate(kinematics.qpos(c, sunk)):
+        d.qpos[:] = q
+        mujoco.mj_forward(mm, d)
+        dists = [d.contact[i].dist for i in range(d.ncon) if floor in (d.contact[i].geom1, d.contact[i].geom2)]
+        # MuJoCo's plane contacts report the signed distance of the deepest point: minus our height.
+        assert min(dists) == pytest.approx(lz[t], abs=1e-6)
+
+
+def test_box_lowest_point_is_lowest_corner():
+    rng = np.random.default_rng(0)
+    q = rot.normalize(rng.normal(size=(50, 1, 4)))
+    mat = rot.to_matrix(q)
+    pos = rng.normal(size=(50, 1, 3))
+    half = np.array([[0.1, 0.04, 0.02]])
+    corners = ev.box_corners(pos, mat, half)
+    s = -np.sign(mat[:, :, 2, :])
+    lowest = pos + np.einsum("tbij,tbj->tbi", mat, s * half)
+    assert np.allclose(lowest[..., 2], corners[..., 2].min(axis=2))
+
+
+# ----------------------------------------------------------------- contacts and footskate
+
+
+def _synthetic_track(heights: np.ndarray, speeds_xy: np.ndarray, fps: float = 100.0) -> ev.FootTrack:
+    """One-point feet: heights (T, F), horizontal velocity (T, F, 2) integrated into positions."""
+    xy = np.cumsum(speeds_xy, axis=0) / fps
+    pts = np.concatenate([xy, heights[..., None]], axis=-1)[:, :, None, :]
+    return ev.foot_track(("left", "right")[: heights.shape[1]], pts, fps)
+
+
+def test_contacts_follow_thresholds():
+    t = 40
+    h = np.full((t, 1), 0.02)
+    h[10:20] = 0.2  # lifted
+    v = np.zeros((t, 1, 2))
+    v[30:, 0, 0] = 1.0  # sliding fast
+    tr = _synthetic_track(h, v)
+    con = ev.contacts(tr)[:, 0]
+    assert not con[10:21].any()  # frame 20 is low but frame 19 was not
+    assert con[2:9].all() and con[22:29].all()
+    assert not con[32:38].any()
+    assert ev.skate_mm_per_s(tr) == pytest.approx(1000.0 * tr.speeds[ev.low_both(tr)].mean())
+
+
+def test_skating_ratio_known_fraction():
+    t = 100
+    h = np.full((t, 2), 0.01)
+    v = np.zeros((t, 2, 2))
+    v[50:, 0, 0] = 0.8  # left foot skates for the second half
+    tr = _synthetic_track(h, v)
+    assert ev.skating_ratio(tr) == pytest.approx(0.5, abs=0.03)
+    assert ev.skating_ratio(tr, v=1.0) == 0.0
+    rows = ev.skate_sensitivity(tr)
+    assert [r["h_c"] for r in rows] == [0.03, 0.05, 0.08]
+    h[:, :] = 0.04  # between 3 and 5 cm: only the larger thresholds see contact
+    tr = _synthetic_track(h, v)
+    rows = ev.skate_sensitivity(tr)
+    # Pooled over feet and frames: the left foot at 800 mm/s for half the frames, the right still.
+    assert math.isnan(rows[0]["skate_mm_per_s"]) and rows[1]["skate_mm_per_s"] == pytest.approx(200, rel=0.03)
+
+
+def test_foot_dragged_at_0_3_m_s_gives_300_mm_s():
+    stand = _clip("cmu_asfamc_converted/64_01.bvh")[:120]  # golf address: both feet planted
+    base = ev.skate_mm_per_s(stand)
+    assert base < 80
+    dragged = stand.replace(root_positions=stand.root_positions + np.outer(stand.times, [0.3, 0.0, 0.0]))
+    assert ev.skate_mm_per_s(dragged) == pytest.approx(300.0, abs=max(40.0, base))
+    assert ev.skating_ratio(dragged) == 0.0  # 0.3 m/s is below GMD's 0.5 m/s
+    fast = stand.replace(root_positions=stand.root_positions + np.outer(stand.times, [0.8, 0.0, 0.0]))
+    assert ev.skating_ratio(fast) > 0.9
+
+
+def test_clean_walk_skates_far_less_than_walk_run_blend():
+    walk = _clip("cmu_iclone_ccrig/002_01.bvh")
+    run = _clip("cmu_iclone_ccrig/002_03.bvh")
+    blend = linear_blend(walk, run)
+    w, b = ev.foot_heights_speeds(None, walk[: blend.n_frames]), ev.foot_heights_speeds(None, blend)
+    assert ev.skate_mm_per_s(w) < 0.5 * ev.skate_mm_per_s(b)
+    assert ev.planted_skate_mm_per_s(w) < 0.5 * ev.planted_skate_mm_per_s(b)
+
+
+# ----------------------------------------------------------------- ground
+
+
+def test_shift_down_3cm_penetrates_30mm_and_float_10cm():
+    m = _on_floor(_clip("cmu_asfamc_converted/16_15.bvh", 2))
+    g0 = _ground(m)
+    assert g0.penetrate_mm == pytest.approx(0.0, abs=1e-6) and g0.float_mm == pytest.approx(0.0, abs=1e-6)
+    down = m.replace(root_positions=m.root_positions - [0, 0, 0.03])
+    g = _ground(down)
+    assert g.penetrate_mm == pytest.approx(30.0, abs=0.01) and g.float_mm == 0.0
+    assert g.floor_offset_m == pytest.approx(-0.03, abs=0.002)
+    up = m.replace(root_positions=m.root_positions + [0, 0, 0.10])
+    g = _ground(up)
+    assert g.float_mm == pytest.approx(95.0, abs=0.01) and g.penetrate_mm == 0.0
+    assert g.phys_err_mm >= g.float_mm
+
+
+def test_real_clip_floated_10cm_shows_large_float():
+    m = _clip("cmu_asfamc_converted/16_01.bvh")
+    g0 = _ground(m)
+    g1 = _ground(m.replace(root_positions=m.root_positions + [0, 0, 0.10]))
+    assert g1.float_mm > g0.float_mm + 80.0
+    assert g1.floor_offset_m == pytest.approx(g0.floor_offset_m + 0.10, abs=0.02) or g1.floor_offset_m > 0.08
+
+
+def test_golf_floor_offset_detected_below_zero():
+    # SOURCES.md: subject 64's floor is 2-4 cm below y = 0 (its feet sink through z = 0).
+    g = _ground(_clip("cmu_asfamc_converted/64_03.bvh"))
+    assert g.penetrate_mm > 10.0 and g.floor_offset_m < 0.0
+
+
+# ----------------------------------------------------------------- smoothness and limits
+
+
+def test_joint_speed_ratio_and_root_jump():
+    m = _clip("cmu_asfamc_converted/16_15.bvh", 2)[:200]
+    assert ev.max_joint_speed_ratio(m, m) == pytest.approx(1.0)
+    assert ev.root_jump_m(m, m) == pytest.approx(0.0)
+    q = m.rotations.copy()
+    q[100, 5] = rot.multiply(rot.exp(np.array([0.0, 0.0, np.pi / 2])), q[100, 5])  # a one-frame pop
+    root = m.root_positions.copy()
+    root[120:] += [0.1, 0.0, 0.0]
+    popped = m.replace(rotations=q, root_positions=root)
+    assert ev.max_joint_speed_ratio(popped, m) > 1.5
+    step = np.linalg.norm(np.diff(m.root_positions, axis=0), axis=1)
+    assert ev.root_jump_m(popped, m) == pytest.approx(np.linalg.norm(np.diff(root, axis=0), axis=1).max() - step.max())
+    # Slowing a clip down 2x halves its angular speeds.
+    slow = m.resample(m.fps * 2).replace(fps=m.fps)
+    assert ev.max_joint_speed_ratio(slow, m) == pytest.approx(0.5, abs=0.05)
+
+
+def test_limit_violation_ratio_counts_frames_beyond_declared_range():
+    m = _clip("cmu_asfamc_converted/16_15.bvh", 2)[:100]
+    c = mjcf.compile(m.skeleton)
+    assert ev.limit_violation_ratio(c, m) == (0.0, 0)
+    j = m.skeleton.index("ltibia")
+    jid = mujoco.mj_name2id(c.model, mujoco.mjtObj.mjOBJ_JOINT, "ltibia")
+    angle = 2 * np.arccos(np.clip(np.abs(m.rotations[:, j, 0]), 0, 1))
+    lim = float(np.median(angle))
+    c.model.jnt_limited[jid] = 1
+    c.model.jnt_range[jid] = [0.0, lim]
+    ratio, n = ev.limit_violation_ratio(c, m)
+    assert n == 1 and ratio == pytest.approx(float((angle > lim).mean()))
+
+
+def test_leading_transient_finds_daz_tpose():
+    m = _clip("cmu_cgspeed_daz/07_01.bvh")
+    assert 3 <= ev.leading_transient(m) <= 4
+    assert ev.leading_transient(_clip("cmu_asfamc_converted/16_01.bvh")) == 0
+
+
+# ----------------------------------------------------------------- the report on real clips
+
+
+def test_jump_has_flight_with_small_residual_and_runs_fly():
+    rep = ev.evaluate(_clip("cmu_asfamc_converted/16_01.bvh"))
+    assert rep.flight_fraction > 0.08
+    assert rep.flight_residual < 0.3
+    d = rep.to_dict()
+    assert d["params"]["h_c"] == 0.05 and len(d["sensitivity"]) == 3
+    json.dumps(d)
+    run = ev.evaluate(_clip("cmu_iclone_ccrig/002_03.bvh"))
+    assert run.flight_fraction > 0.1
+    walk = ev.evaluate(_clip("cmu_asfamc_converted/16_15.bvh", 2))
+    assert walk.flight_fraction < 0.02
+
+
+@pytest.mark.parametrize("path", clip_params())
+def test_every_shared_clip_evaluates_sanely(path):
+    if path is None:
+        require_data()
+    m = bvh.read(path)
+    m = m[ev.leading_transient(m) :]
+    rep = ev.evaluate(m)
+    row = rep.row()
+    assert 0.0 <= rep.skating_ratio <= 1.0 and 0.0 <= rep.physics_violation_ratio <= 1.0
+    assert rep.penetrate_mm < 100 and rep.float_mm < 100  # feet within 10 cm of z = 0 on average
+    assert abs(rep.floor_offset_m) < 0.1
+    # Standing support: the median required force is about body weight.
+    assert 0.7 < rep.root_force_ratio_mean < 2.0
+    assert all(k in row for k in ("skate_mm_s", "penetrate_mm", "phys_err_mm", "flight_resid"))
+
+
+# ----------------------------------------------------------------- CLI
+
+
+def test_cli_evaluate_file_json_and_csv(tmp_path, capsys):
+    d = require_data()
+    out = tmp_path / "r.json"
+    assert main(["evaluate", str(d / "cmu_asfamc_converted/16_01.bvh"), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "skate_mm_s" in text and "parameters: h_c=0.05" in text
+    doc = json.loads(out.read_text())
+    assert doc[0]["report"]["flight_residual"] < 0.3
+    assert main(["evaluate", str(d / "cmu_asfamc_converted/16_01.bvh"), "--json", str(out)]) == 2  # exists
+    assert main(["evaluate", str(d / "cmu_asfamc_converted/16_01.bvh"), "--csv"]) == 0
+    assert capsys.readouterr().out.splitlines()[0].startswith("clip,frames,fps")
+
+
+def test_cli_evaluate_folder(tmp_path, capsys):
+    d = require_data()
+    sub = tmp_path / "clips" / "nested"
+    sub.mkdir(parents=True)
+    for name in ("16_01.bvh", "16_15.bvh"):
+        (sub / name).write_bytes((d / "cmu_asfamc_converted" / name).read_bytes())
+    assert main(["evaluate", str(tmp_path / "clips")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].startswith("16_01") and lines[2].startswith("16_15")
+
+
+def test_cli_evaluate_errors(tmp_path, capsys):
+    assert main(["evaluate", str(tmp_path / "missing.bvh")]) == 2
+    assert "no such file" in capsys.readouterr().err
+    (tmp_path / "empty").mkdir()
+    assert main(["evaluate", str(tmp_path / "empty")]) == 2
