@@ -1,0 +1,312 @@
+"""Figures of the experiments, as PNG files (Matplotlib, Agg backend).
+
+Every function takes plain arrays (so it depends on no other module's internals), writes one
+PNG atomically and returns its path. Image size is ``figsize × dpi`` pixels exactly.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .errors import MjmotionError
+from .outputs import write_with
+
+#: Line colours, in order (matches the renderer's character palette where it matters).
+COLORS = ("#4d8cd9", "#f29933", "#59bf59", "#b380d9", "#d94040", "#66cccc", "#8c6d31", "#7f7f7f")
+#: Colour of paths drawn over a distance grid.
+PATH_COLOR = "#ffffff"
+CURVE_COLOR = "#ff3030"
+
+
+def _figure(figsize: tuple[float, float], ncols: int = 1, nrows: int = 1, **kw):
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure
+
+    # A bare Figure (no pyplot): no global state, safe in threads and scripts.
+    fig = Figure(figsize=figsize, layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
+    return fig, axes
+
+
+def _save(fig, out: str | os.PathLike[str], dpi: int) -> Path:
+    path = Path(out)
+    if path.suffix.lower() != ".png":
+        raise MjmotionError(f"{path}: plots are written as PNG; expected a .png path")
+    write_with(path, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi))
+    return path
+
+
+def _array(name: str, value, ndim: int, cols: int | tuple[int, ...] | None = None) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.ndim != ndim or (cols is not None and a.shape[-1] not in np.atleast_1d(cols)):
+        want = f"{ndim}-D" + ("" if cols is None else f" with {' or '.join(map(str, np.atleast_1d(cols)))} columns")
+        raise MjmotionError(f"{name}: expected a {want} array, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise MjmotionError(f"{name}: contains NaN or infinite values")
+    return a
+
+
+def distance_grid(
+    grid: np.ndarray,
+    path: np.ndarray | None,
+    curve: np.ndarray | None,
+    out: str | os.PathLike[str],
+    *,
+    labels: tuple[str, str] = ("frame of A", "frame of B"),
+    title: str = "",
+    figsize: tuple[float, float] = (6.0, 5.0),
+    dpi: int = 100,
+) -> Path:
+    """The frame-distance grid with the optimal path and the fitted timewarp curve (seed 004 Fig. 5, 9).
+
+    Args:
+        grid: ``(nA, nB)`` distances; ``grid[i, j]`` compares frame ``i`` of A with frame ``j`` of B.
+            Drawn with A along x and B along y, frame 0 at the bottom left; dark = similar.
+        path: ``(K, 2)`` frame pairs ``(i, j)`` of the discrete path (white), or ``None``.
+        curve: ``(M, 2)`` points ``(i, j)`` of the continuous timewarp curve (red), or ``None``.
+        out: the ``.png`` to write.
+    """
+    g = _array("grid", grid, 2)
+    fig, ax = _figure(figsize)
+    ax = ax[0, 0]
+    na, nb = g.shape
+    im = ax.imshow(g.T, origin="lower", cmap="viridis", aspect="auto", extent=(-0.5, na - 0.5, -0.5, nb - 0.5), interpolation="nearest")
+    fig.colorbar(im, ax=ax, label="distance")
+    if path is not None:
+        p = _array("path", path, 2, 2)
+        ax.plot(p[:, 0], p[:, 1], color=PATH_COLOR, lw=1.5, label="path")
+    if curve is not None:
+        c = _array("curve", curve, 2, 2)
+        ax.plot(c[:, 0], c[:, 1], color=CURVE_COLOR, lw=1.5, ls="--", label="timewarp curve")
+    if path is not None or curve is not None:
+        # Outside the axes, so nothing hides the grid; a dark box because the path is white.
+        fig.legend(loc="outside upper left", ncols=2, fontsize=8, facecolor="#333333", labelcolor="white", framealpha=1.0)
+    ax.set_xlim(-0.5, na - 0.5)
+    ax.set_ylim(-0.5, nb - 0.5)
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    if title:
+        ax.set_title(title)
+    return _save(fig, out, dpi)
+
+
+def weight_curves(
+    times: np.ndarray,
+    weights: np.ndarray,
+    out: str | os.PathLike[str],
+    *,
+    labels: Sequence[str] | None = None,
+    title: str = "",
+    figsize: tuple[float, float] = (7.0, 3.0),
+    dpi: int = 100,
+) -> Path:
+    """Blend weights over time, one line per input clip, and their sum (dashed).
+
+    Args:
+        times: ``(T,)`` seconds.
+        weights: ``(T, N)`` weights of ``N`` clips (or ``(T,)`` for one).
+    """
+    t = _array("times", times, 1)
+    w = np.asarray(weights, dtype=float)
+    w = _array("weights", w[:, None] if w.ndim == 1 else w, 2)
+    if w.shape[0] != t.shape[0]:
+        raise MjmotionError(f"weights: {w.shape[0]} rows for {t.shape[0]} times")
+    names = list(labels) if labels is not None else [f"clip {k}" for k in range(w.shape[1])]
+    if len(names) != w.shape[1]:
+        raise MjmotionError(f"labels: {len(names)} labels for {w.shape[1]} weight columns")
+    fig, ax = _figure(figsize)
+    ax = ax[0, 0]
+    for k in range(w.shape[1]):
+        ax.plot(t, w[:, k], color=COLORS[k % len(COLORS)], lw=1.8, label=names[k])
+    if w.shape[1] > 1:
+        ax.plot(t, w.sum(axis=1), color="#444444", lw=1.0, ls="--", label="sum")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("weight")
+    ax.set_xlim(t[0], t[-1])
+    ax.legend(fontsize=8, loc="best")
+    ax.grid(alpha=0.3)
+    if title:
+        ax.set_title(title)
+    return _save(fig, out, dpi)
+
+
+def foot_contacts(
+    times: np.ndarray,
+    heights: np.ndarray,
+    speeds: np.ndarray,
+    contacts: np.ndarray,
+    out: str | os.PathLike[str],
+    *,
+    labels: tuple[str, str] = ("left", "right"),
+    title: str = "",
+    figsize: tuple[float, float] = (8.0, 4.5),
+    dpi: int = 100,
+) -> Path:
+    """Foot height and speed over time, with each foot's contact frames shaded in its colour.
+
+    Args:
+        times: ``(T,)`` seconds.
+        heights: ``(T, 2)`` metres above the floor (left, right).
+        speeds: ``(T, 2)`` metres per second, horizontal.
+        contacts: ``(T, 2)`` bool, the foot is planted.
+    """
+    t = _array("times", times, 1)
+    h = _array("heights", heights, 2, 2)
+    s = _array("speeds", speeds, 2, 2)
+    c = np.asarray(contacts, dtype=bool)
+    for name, a in (("heights", h), ("speeds", s), ("contacts", c)):
+        if a.shape != (t.shape[0], 2):
+            raise MjmotionError(f"{name}: expected shape ({t.shape[0]}, 2) to match times, got {a.shape}")
+    fig, axes = _figure(figsize, nrows=2, sharex=True)
+    for ax, values, ylabel in ((axes[0, 0], h, "foot height (m)"), (axes[1, 0], s, "foot speed (m/s)")):
+        for k in range(2):
+            color = COLORS[k]
+            ax.plot(t, values[:, k], color=color, lw=1.5, label=labels[k])
+            # Shade whole frames: contact k covers [t_i - dt/2, t_i + dt/2], drawn as one filled step.
+            ax.fill_between(
+                t, 0.5 * k, 0.5 * (k + 1), where=c[:, k], step="mid", color=color, alpha=0.25, lw=0,
+                transform=ax.get_xaxis_transform(), label=f"{labels[k]} contact" if ax is axes[0, 0] else None,
+            )
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), fontsize=8, ncols=4, loc="outside upper right")
+    axes[1, 0].set_xlabel("time (s)")
+    axes[1, 0].set_xlim(t[0], t[-1])
+    if title:
+        axes[0, 0].set_title(title)
+    return _save(fig, out, dpi)
+
+
+def score_paths(
+    paths: Mapping[str, np.ndarray],
+    out: str | os.PathLike[str],
+    dims: int = 2,
+    *,
+    highlight: int | Mapping[str, int] | None = None,
+    title: str = "",
+    figsize: tuple[float, float] | None = None,
+    dpi: int = 100,
+) -> Path:
+    """Paths of clips through principal-component space (seed 003 Fig. 2.12, 3.7).
+
+    ``dims=2``: PC1–PC2 and, with at least four components, PC3–PC4 beside it (Fig. 2.12 shows
+    the top four components as two 2-D plots); ``dims=3``: PC1–PC3 in 3-D.
+
+    Args:
+        paths: name → ``(T, k)`` scores of one clip, ``k ≥ dims``; drawn in :data:`COLORS` order.
+        highlight: a frame (e.g. the hit point) to mark on every path, or one frame per name.
+    """
+    if dims not in (2, 3):
+        raise MjmotionError(f"score_paths: dims must be 2 or 3, got {dims}")
+    if not paths:
+        raise MjmotionError("score_paths: no paths to plot")
+    arrays = {name: _array(f"paths[{name!r}]", p, 2) for name, p in paths.items()}
+    k = min(a.shape[1] for a in arrays.values())
+    if k < dims:
+        raise MjmotionError(f"score_paths: {dims}-D plot needs at least {dims} components, got {k}")
+    marks: dict[str, int] = {}
+    if isinstance(highlight, Mapping):
+        marks = {n: int(f) for n, f in highlight.items()}
+    elif highlight is not None:
+        marks = {n: int(highlight) for n in arrays}
+    for n, f in marks.items():
+        if n not in arrays or not (-arrays[n].shape[0] <= f < arrays[n].shape[0]):
+            raise MjmotionError(f"score_paths: highlight frame {f} is not a frame of path {n!r}")
+    if dims == 3:
+        fig, axes = _figure(figsize or (6.0, 5.5), subplot_kw={"projection": "3d"})
+        ax = axes[0, 0]
+        for i, (name, a) in enumerate(arrays.items()):
+            color = COLORS[i % len(COLORS)]
+            ax.plot(a[:, 0], a[:, 1], a[:, 2], color=color, lw=1.5, label=name)
+            ax.scatter(*a[0, :3], color=color, marker="o", s=20)
+            if name in marks:
+                ax.scatter(*a[marks[name], :3], color=color, marker="*", s=120, edgecolor="black")
+        ax.set_xlabel("PC1")
+        ax.set_ylabel("PC2")
+        ax.set_zlabel("PC3")
+        ax.legend(fontsize=8)
+    else:
+        pairs = [(0, 1), (2, 3)] if k >= 4 else [(0, 1)]
+        fig, axes = _figure(figsize or (5.0 * len(pairs), 4.5), ncols=len(pairs))
+        for (x, y), ax in zip(pairs, axes[0]):
+            for i, (name, a) in enumerate(arrays.items()):
+                color = COLORS[i % len(COLORS)]
+                ax.plot(a[:, x], a[:, y], color=color, lw=1.5, label=name)
+                ax.plot(a[0, x], a[0, y], "o", color=color, ms=5)
+                if name in marks:
+                    ax.plot(a[marks[name], x], a[marks[name], y], "*", color=color, ms=14, mec="black")
+            ax.set_xlabel(f"PC{x + 1}")
+            ax.set_ylabel(f"PC{y + 1}")
+            ax.grid(alpha=0.3)
+        axes[0, 0].legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return _save(fig, out, dpi)
+
+
+def hitpoint_grid(
+    hit_points: np.ndarray,
+    launch_dirs: np.ndarray,
+    out: str | os.PathLike[str],
+    *,
+    title: str = "",
+    arrow_length: float | None = None,
+    figsize: tuple[float, float] | None = None,
+    dpi: int = 100,
+) -> Path:
+    """Hit points and the ball's launch directions from each (seed 003 Fig. 2.6).
+
+    Args:
+        hit_points: ``(N, 2)`` ground-plane ``(x, y)`` or ``(N, 3)`` world ``(x, y, z)`` metres.
+        launch_dirs: ``(N, 2)`` azimuth (from +x toward +y) and elevation, degrees.
+        arrow_length: metres for a horizontal launch (default: the grid's spacing scale).
+
+    Top view: an arrow from each hit point along the launch azimuth, its length the horizontal
+    part ``cos(elevation)``, coloured by elevation. With ``(N, 3)`` points a side view (x–z)
+    shows the rise.
+    """
+    p = _array("hit_points", hit_points, 2, (2, 3))
+    d = _array("launch_dirs", launch_dirs, 2, 2)
+    if d.shape[0] != p.shape[0]:
+        raise MjmotionError(f"launch_dirs: {d.shape[0]} directions for {p.shape[0]} hit points")
+    az, el = np.radians(d[:, 0]), np.radians(d[:, 1])
+    direction = np.column_stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+    if arrow_length is None:
+        extent = float(np.ptp(p[:, :2], axis=0).max()) if p.shape[0] > 1 else 0.0
+        arrow_length = 0.6 * extent / max(np.sqrt(p.shape[0]) - 1, 1) if extent > 0 else 0.1
+    views = [((0, 1), "x (m)", "y (m)", "top view")]
+    if p.shape[1] == 3:
+        views.append(((0, 2), "x (m)", "z (m)", "side view"))
+    fig, axes = _figure(figsize or (5.5 * len(views), 4.8), ncols=len(views))
+    import matplotlib as mpl
+
+    lo_el, hi_el = float(d[:, 1].min()), float(d[:, 1].max())
+    spread = max(hi_el - lo_el, 1.0)  # one elevation for all: a 1° window keeps the colour mid-scale
+    norm = mpl.colors.Normalize(vmin=(lo_el + hi_el - spread) / 2, vmax=(lo_el + hi_el + spread) / 2)
+    cmap = mpl.colormaps["plasma"]
+    for ((i, j), xl, yl, name), ax in zip(views, axes[0]):
+        ax.scatter(p[:, i], p[:, j], color="black", s=18, zorder=3, label="hit point")
+        ax.quiver(
+            p[:, i], p[:, j], direction[:, i] * arrow_length, direction[:, j] * arrow_length,
+            color=cmap(norm(d[:, 1])), angles="xy", scale_units="xy", scale=1, width=0.006, zorder=2,
+        )
+        pts = np.concatenate([p[:, [i, j]], p[:, [i, j]] + direction[:, [i, j]] * arrow_length])
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        pad = 0.1 * max(float((hi - lo).max()), 1e-3)
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_xlabel(xl)
+        ax.set_ylabel(yl)
+        ax.set_title(name, fontsize=10)
+        ax.grid(alpha=0.3)
+    fig.colorbar(mpl.cm.ScalarMappable(norm=norm, cmap=cmap), ax=axes[0, -1], label="launch elevation (deg)")
+    if title:
+        fig.suptitle(title)
+    return _save(fig, out, dpi)
