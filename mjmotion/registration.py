@@ -321,7 +321,8 @@ def dp_path(cost: np.ndarray, slope: SlopeLimit, free_end: bool = True, start: t
     if not np.isfinite(total):
         raise MjmotionError(
             f"no path joins the corners of a {n_a} × {n_b}-frame grid within the slope limit "
-            f"(W_h={wh}, W_v={wv}, at most {wh + 1}:1 in speed); raise --slope-limit or register with a free end"
+            f"(W_h={wh}, W_v={wv}: at most {wv + 1} frames of A per frame of B and {wh + 1} of B per frame of A); "
+            "raise --slope-limit or register with a free end"
         )
     cells = [(i, j)]
     while (i, j) != (0, 0):

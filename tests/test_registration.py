@@ -1,0 +1,256 @@
+"""Registration curves: grid against independent per-cell solutions, DP against brute force,
+known timewarps and floor moves recovered from real clips, edge cases and the CLI."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import random_motion, random_skeleton
+from scipy import optimize
+
+from mjmotion import bvh, kinematics, transform
+from mjmotion import registration as R
+from mjmotion.errors import MjmotionError, SkeletonMismatchError
+
+DAZ = "cmu_cgspeed_daz"
+
+
+def _clip(mocap, name: str, start: int = 4):
+    """A daz clip without its T-pose frames (mocap/SOURCES.md: start at frame 4)."""
+    return bvh.read(str(mocap / DAZ / f"{name}.bvh"))[start:]
+
+
+# --------------------------------------------------------------------------- grid
+def _cell_by_optimiser(pa: np.ndarray, pb: np.ndarray, w: np.ndarray) -> tuple[float, np.ndarray]:
+    """Eq. 2 by numerical minimisation over (theta, tx, ty): an independent check of Eq. 3–5."""
+    w = w / w.sum()
+
+    def f(x):
+        c, s = np.cos(x[0]), np.sin(x[0])
+        q = pb.copy()
+        q[:, 0], q[:, 1] = c * pb[:, 0] - s * pb[:, 1] + x[1], s * pb[:, 0] + c * pb[:, 1] + x[2]
+        return float(np.sum(w * np.sum((pa - q) ** 2, axis=1)))
+
+    best = min((optimize.minimize(f, [t0, 0, 0], method="BFGS", options={"gtol": 1e-10}) for t0 in np.linspace(-3, 3, 7)), key=lambda r: r.fun)
+    return best.fun, best.x
+
+
+def test_distance_grid_matches_numerical_minimum_per_cell():
+    rng = np.random.default_rng(1)
+    pa, pb = rng.normal(size=(6, 4, 3)), rng.normal(size=(5, 4, 3))
+    w = np.array([1.0, 2.0, 0.5, 1.5])
+    window = 1
+    grid = R.distance_grid(pa, pb, w, window).cost
+    for i, j in [(0, 0), (2, 3), (5, 4), (3, 1)]:
+        ia = np.clip(np.arange(i - window, i + window + 1), 0, 5)
+        jb = np.clip(np.arange(j - window, j + window + 1), 0, 4)
+        ca, cb = pa[ia].reshape(-1, 3), pb[jb].reshape(-1, 3)
+        ww = np.tile(w, 2 * window + 1)
+        d, x = _cell_by_optimiser(ca, cb, ww)
+        assert grid[i, j] == pytest.approx(d, rel=1e-6, abs=1e-9)
+        th, tx, ty = R.rigid_2d(ca[None], cb[None], ww)[0]
+        assert np.angle(np.exp(1j * (th - x[0]))) == pytest.approx(0, abs=1e-4)
+        assert (tx, ty) == pytest.approx((x[1], x[2]), abs=1e-4)
+
+
+def test_grid_is_zero_for_a_clip_moved_on_the_floor():
+    rng = np.random.default_rng(2)
+    skel = random_skeleton(rng, 8, inner_positions=False)
+    m = random_motion(rng, skel, 12)
+    moved = transform.floor_transform(m, 2.1, (3.0, -1.5))
+    pa, pb = kinematics.joint_positions(m), kinematics.joint_positions(moved)
+    g = R.distance_grid(pa, pb).cost
+    assert np.allclose(np.diag(g), 0.0, atol=1e-9)
+    assert np.all(g[~np.eye(12, dtype=bool)] > 1e-4)  # other frames differ (random poses)
+
+
+def test_grid_size_limit_refuses_with_advice():
+    rng = np.random.default_rng(3)
+    skel = random_skeleton(rng, 4, inner_positions=False)
+    long = Motion_of(rng, skel, 10_000)
+    with pytest.raises(MjmotionError, match=r"100,000,000-cell grid.*--frames.*--fps"):
+        R.register(long, long)
+
+
+def Motion_of(rng, skel, n):
+    """A long motion without drawing random quaternions for every frame (only shapes matter)."""
+    from mjmotion.skeleton import Motion
+
+    q = np.zeros((n, skel.n_joints, 4))
+    q[..., 0] = 1
+    return Motion(skel, 120.0, np.zeros((n, 3)), q)
+
+
+# --------------------------------------------------------------------------- paths
+@pytest.mark.parametrize("seed", range(40))
+def test_dp_equals_brute_force_on_small_random_grids(seed):
+    rng = np.random.default_rng(seed)
+    n_a, n_b = rng.integers(1, 8, 2)
+    cost = rng.random((n_a, n_b))
+    slope = R.SlopeLimit(int(rng.integers(0, 3)), int(rng.integers(0, 3)))
+    for free in (True, False):
+        try:
+            bf = R.brute_path(cost, slope, free)
+        except MjmotionError:
+            with pytest.raises(MjmotionError, match="slope limit"):
+                R.dp_path(cost, slope, free)
+            continue
+        dp = R.dp_path(cost, slope, free)
+        assert dp.cost == pytest.approx(bf.cost, rel=1e-12)
+        np.testing.assert_array_equal(dp.cells, bf.cells)
+        R.check_path(dp.cells, slope)
+        assert dp.cost == pytest.approx(cost[dp.cells[:, 0], dp.cells[:, 1]].sum())
+        assert tuple(dp.cells[0]) == (0, 0)
+        if free:
+            assert dp.cells[-1, 0] == n_a - 1 or dp.cells[-1, 1] == n_b - 1
+        else:
+            assert tuple(dp.cells[-1]) == (n_a - 1, n_b - 1)
+
+
+@pytest.mark.parametrize("loop", [False, True])
+def test_alternative_searches_obey_constraints_and_cost_no_less_than_dp(loop):
+    rng = np.random.default_rng(7)
+    cost = rng.random((40, 50)) + np.abs(np.subtract.outer(np.arange(40) * 1.2, np.arange(50)))[:, :] * 0.05
+    slope = R.SlopeLimit.default(40, 50)
+    dp = R.find_path(cost, "dp", loop=loop)
+    objective = (lambda p: p.mean_cost) if not loop else (lambda p: p.cost)
+    for method in ("greedy", "threshold"):
+        p = R.find_path(cost, method, loop=loop, **({"area_threshold": 1.0} if method == "threshold" else {}))
+        R.check_path(p.cells, slope)
+        assert objective(p) >= objective(dp) - 1e-12
+    exact = R.find_path(cost, "threshold", loop=loop, area_threshold=1.0)
+    assert objective(exact) == pytest.approx(objective(dp))
+    with pytest.raises(MjmotionError, match="threshold"):
+        R.find_path(cost, "threshold", loop=loop, area_threshold=0.01)
+
+
+def test_slope_limit_default_follows_eq6():
+    assert R.SlopeLimit.default(100, 100) == R.SlopeLimit(2, 2)
+    assert R.SlopeLimit.default(300, 30) == R.SlopeLimit(horizontal=1, vertical=2)
+    with pytest.raises(MjmotionError):
+        R.SlopeLimit.of(-1, 5, 5)
+
+
+# --------------------------------------------------------------------------- curves
+@pytest.mark.parametrize("seed", range(10))
+def test_timewarp_curve_strictly_increasing_and_pinned(seed):
+    rng = np.random.default_rng(seed)
+    n_a = int(rng.integers(20, 120))
+    n_b = int(n_a * rng.uniform(0.6, 1.6))
+    path = R.dp_path(rng.random((n_a, n_b)), R.SlopeLimit.default(n_a, n_b), free_end=False)
+    s = R.timewarp_curve(path).samples
+    assert np.all(np.diff(s, axis=0) > 0)
+    np.testing.assert_allclose(s[0], path.cells[0], atol=0.05)
+    np.testing.assert_allclose(s[-1], path.cells[-1], atol=0.05)
+    d = R.discrete_timewarp(path).samples
+    assert np.all(np.diff(d, axis=0) > 0)
+
+
+def test_discrete_timewarp_reproduces_sako_table_1():
+    # case 1 (deletion): 1-1, 2-2, 2-3, 3-4 → frame 2 blends with 2.5 (2 iw 3); frames 0-based here
+    d = R.discrete_timewarp(np.array([[0, 0], [1, 1], [1, 2], [2, 3]])).samples
+    np.testing.assert_allclose(d, [[0, 0], [1, 1.5], [2, 3]])
+    # case 2: three horizontal cells → the middle one (2 iw 4)
+    d = R.discrete_timewarp(np.array([[0, 0], [1, 1], [1, 2], [1, 3], [2, 4]])).samples
+    np.testing.assert_allclose(d, [[0, 0], [1, 2], [2, 4]])
+    # case 3 (insertion): 1-1, 2-2, 3-2, 4-3 → 3 vs (2 iw 3)
+    d = R.discrete_timewarp(np.array([[0, 0], [1, 1], [2, 1], [3, 2]])).samples
+    np.testing.assert_allclose(d, [[0, 0], [1, 1], [2, 1.5], [3, 2]])
+
+
+# --------------------------------------------------------------------------- ground truth on real clips
+@pytest.mark.parametrize("name,theta,shift", [("07_01", 0.7, (1.5, -2.0)), ("09_01", -2.5, (-0.8, 3.1))])
+def test_known_timewarp_and_floor_move_are_recovered(mocap, name, theta, shift):
+    a = _clip(mocap, name)
+    n = a.n_frames
+    n_b = int(0.8 * n)
+
+    def w(i):  # a smooth, strictly increasing re-timing that starts and ends inside A
+        s = i / (n_b - 1)
+        return (0.05 + 0.85 * s + 0.04 * np.sin(2 * np.pi * s)) * (n - 1)
+
+    b = transform.floor_transform(transform.timewarp(a, w, n_b), theta, shift)
+    reg = R.register(a, b)
+    s = reg.curve.samples
+    assert np.all(np.diff(s, axis=0) > 0)
+    dense = np.linspace(0, n_b - 1, 20 * n_b)
+    tb_true = np.interp(s[:, 0], w(dense), dense)
+    rms = float(np.sqrt(np.mean((s[:, 1] - tb_true) ** 2)))
+    assert rms < 1.5, f"timewarp RMS {rms:.2f} frames"
+    # the transform applied to B to match A is the inverse of the move
+    c, sn = np.cos(theta), np.sin(theta)
+    true_t = -np.array([[c, sn], [-sn, c]]) @ np.array(shift)
+    ang = np.degrees(np.abs(np.angle(np.exp(1j * (reg.alignment[:, 0] + theta)))))
+    dist = np.linalg.norm(reg.alignment[:, 1:] - true_t, axis=1)
+    assert ang.max() < 2.0 and dist.max() < 0.02, f"alignment error {ang.max():.2f}°, {dist.max() * 100:.1f} cm"
+    assert set(reg.timing_s) == {"grid", "path", "curve"}
+
+
+def test_clip_registered_with_itself_is_the_identity(mocap):
+    a = _clip(mocap, "09_01")
+    reg = R.register(a, a)
+    assert np.all(reg.path.cells[:, 0] == reg.path.cells[:, 1])
+    np.testing.assert_allclose(reg.curve.samples[:, 0], reg.curve.samples[:, 1], atol=1e-6)
+    np.testing.assert_allclose(reg.alignment, 0.0, atol=1e-6)
+    assert reg.path.cost == pytest.approx(0.0, abs=1e-9)
+
+
+def test_short_and_very_different_lengths(mocap):
+    walk = _clip(mocap, "07_01")
+    tiny = walk[40:43]  # fewer frames than the 5-frame window
+    reg = R.register(walk, tiny)
+    assert np.all(np.diff(reg.curve.samples, axis=0) > 0)
+    assert abs(reg.curve.samples[0, 0] - 40) <= 3  # found where the excerpt comes from
+    with pytest.raises(MjmotionError, match="at least 2 frames"):
+        R.register(walk, walk[5:6])
+    # 10× different lengths: free end works, the pinned corners cannot be joined at W = 2
+    short = walk[100:130].resample(walk.fps)
+    reg = R.register(walk[:300], short)
+    assert reg.path.cells[-1, 1] == short.n_frames - 1
+    assert np.all(np.diff(reg.curve.samples, axis=0) > 0)
+    with pytest.raises(MjmotionError, match="slope limit"):
+        R.register(walk[:300], short, loop=True)
+
+
+def test_different_topologies_refused(mocap):
+    a = _clip(mocap, "07_01")
+    b = bvh.read(str(mocap / "cmu_asfamc_converted" / "16_15.bvh"))
+    with pytest.raises(SkeletonMismatchError):
+        R.register(a, b)
+
+
+def test_n_way_registration(mocap):
+    walk = _clip(mocap, "07_01")
+    slow = transform.timewarp(walk, lambda i: i * 0.7, int((walk.n_frames - 1) / 0.7))
+    run = _clip(mocap, "09_01")
+    reg = R.register_many([run, walk, slow])
+    assert reg.reference in (1, 2)  # a walk is more like the others than the run (seed 000)
+    assert np.all(np.diff(reg.times, axis=0) > 0)
+    ref = reg.times[:, reg.reference]
+    k = {1: 2, 2: 1}[reg.reference]  # the walk / slowed walk pair is related by t_slow = t_walk / 0.7
+    factor = 0.7 if reg.reference == 2 else 1 / 0.7
+    np.testing.assert_allclose(reg.times[:, k], ref * factor, atol=2.0)
+
+
+# --------------------------------------------------------------------------- CLI
+def test_cli_register_writes_the_documented_json(mocap, tmp_path):
+    a = mocap / DAZ / "07_01.bvh"
+    b = mocap / DAZ / "09_01.bvh"
+    out = tmp_path / "reg.json"
+    cmd = [sys.executable, "-m", "mjmotion.cli", "register", str(a), str(b), "--frames", "4:", "--json", str(out), "--plot", str(tmp_path / "g.png")]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(out.read_text())
+    assert set(d) >= {"frames", "path", "path_cost", "mean_cost", "timewarp", "alignment", "timing_s"}
+    assert d["frames"] == [313, 145]
+    tw = np.array(d["timewarp"])
+    assert np.all(np.diff(tw, axis=0) > 0) and len(d["alignment"]) == len(tw)
+    assert (tmp_path / "g.png").stat().st_size > 1000
+    again = subprocess.run(cmd, capture_output=True, text=True)
+    assert again.returncode == 2 and again.stderr.startswith("error:") and "--force" in again.stderr
+    bad = subprocess.run(cmd[:-4] + ["--json", str(tmp_path / "x.json"), "--window", "4"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "odd" in bad.stderr
