@@ -422,3 +422,82 @@ def hit_metrics(
             restitution=restitution,
         )
     return out
+
+
+# --------------------------------------------------------------------------- seed 003 §2.3.2
+
+
+@dataclass(frozen=True, eq=False)
+class Predictability:
+    """How predictably the launch direction follows the hit point (seed 003 §2.3.2, Figure 2.6).
+
+    Attributes:
+        hit_points: ``(N, 3)`` ball positions at impact, metres.
+        launches: one :class:`Launch` per hit point.
+        lateral: ``(N,)`` hit-point offset across the mean launch direction (m, + to its left).
+        vertical: ``(N,)`` hit-point height relative to the mean (m).
+        rho_azimuth: Spearman rank correlation of ``lateral`` with launch azimuth (NaN if either is constant).
+        rho_elevation: Spearman rank correlation of ``vertical`` with launch elevation.
+    """
+
+    hit_points: np.ndarray
+    launches: tuple[Launch, ...]
+    lateral: np.ndarray
+    vertical: np.ndarray
+    rho_azimuth: float
+    rho_elevation: float
+
+    def rows(self) -> list[dict[str, float]]:
+        return [
+            dict(lateral_m=float(a), vertical_m=float(v), azimuth_deg=ln.azimuth_deg, elevation_deg=ln.elevation_deg, speed=ln.speed)
+            for a, v, ln in zip(self.lateral, self.vertical, self.launches)
+        ]
+
+
+def _spearman(x: np.ndarray, y: np.ndarray) -> float:
+    from scipy.stats import spearmanr
+
+    if len(x) < 3 or np.ptp(x) < 1e-12 or np.ptp(y) < 1e-9:
+        return float("nan")
+    return float(spearmanr(x, y).statistic)
+
+
+def launch_predictability(
+    geom_type: int,
+    geom_size: Sequence[float],
+    poses: Sequence[tuple[np.ndarray, np.ndarray]],
+    fps: float,
+    hit_index: int,
+    hit_points: np.ndarray,
+    ball_radius: float = 0.036,
+    ball_mass: float = 0.16,
+    ball_velocity: Sequence[float] = (0.0, 0.0, 0.0),
+    restitution: float = 0.5,
+) -> Predictability:
+    """Launch the ball from every hit point and rank-correlate direction with position.
+
+    ``poses[i]``: the effector geom's ``(positions (n, 3), quats (n, 4))`` around impact in the
+    shot adapted to ``hit_points[i]``. Azimuths are unwrapped around their circular mean.
+    """
+    hp = np.asarray(hit_points, dtype=float)
+    if len(poses) != len(hp):
+        raise MjmotionError(f"launch_predictability: {len(poses)} effector paths for {len(hp)} hit points")
+    launches = tuple(
+        simulate_launch(geom_type, geom_size, p, q, fps, hit_index, x, ball_radius, ball_mass, ball_velocity, restitution)
+        for (p, q), x in zip(poses, hp)
+    )
+    az = np.radians([ln.azimuth_deg for ln in launches])
+    mean = float(np.arctan2(np.sin(az).mean(), np.cos(az).mean()))
+    left = np.array([-np.sin(mean), np.cos(mean)])
+    centred = hp - hp.mean(axis=0)
+    lateral = centred[:, :2] @ left
+    az_unwrapped = np.degrees(np.angle(np.exp(1j * (az - mean)))) + np.degrees(mean)
+    el = np.array([ln.elevation_deg for ln in launches])
+    return Predictability(
+        hit_points=hp,
+        launches=launches,
+        lateral=lateral,
+        vertical=centred[:, 2],
+        rho_azimuth=_spearman(lateral, az_unwrapped),
+        rho_elevation=_spearman(centred[:, 2], el),
+    )
