@@ -1,0 +1,534 @@
+"""Hit-point adaptation (seed 003 §2): move a swing so its effector meets a ball somewhere else.
+
+The pipeline, one pure function :func:`adapt` over a source :class:`Motion`:
+
+1. **Effector** (§2.1.1): a point fixed to a joint — a club's sweet spot (the club fitted to both
+   hands by :func:`fit_club`), a point on a foot, a fist, or any named site of the compiled model.
+2. **Hit frame**: given, or the frame of peak effector speed (:func:`detect_hit_frame`); the source
+   hit point is the effector there.
+3. **Offset in effector space** (§2.2.4) and **importance blend** (§2.2.5): the goal at frame ``t``
+   is the FK effector plus ``blend(t)`` times the offset carried by the effector's frame, with
+   ``blend = clamp(1 − d/falloff, 0, 1)``, ``d`` the FK distance from the effector to the FK hit
+   point. Golf addresses the ball (``d ≈ 0`` at the first frames), so the blend is also tapered
+   to 0 over ``edge`` seconds at both ends: the first and last frames stay the source exactly.
+4. **IK** per frame from that frame's FK pose (§2.2.3) on a chain from the lower spine (never the
+   root, §2.2.2) to the effector, with freedoms, limits and stiffness from :mod:`mjmotion.ik.chains`:
+   ``nlp`` (CasADi/IPOPT, the main solver), ``nlp-shot`` (one problem over the whole shot with both
+   hands), ``dls`` or ``ccd`` (the seed's baselines).
+5. **Second hand** (§2.2.2): a club held in both hands: the other hand goes back, frame by frame,
+   to its source position and orientation relative to the first hand (6-D IK on its arm).
+6. **Report**: goal and grip errors, style error (``style.style_rmse``, METRICS.md "Style"), timing.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from . import kinematics, mjcf
+from . import rotations as rot
+from .errors import MjmotionError
+from .ik import ccd, dls
+from .ik.chains import DEFAULT_MARGIN, Chain, ChainKinematics, Effector, build_chain
+from .skeleton import Motion, Skeleton
+
+SOLVERS = ("nlp", "nlp-shot", "dls", "ccd")
+EFFECTORS = ("club", "left_foot", "right_foot", "left_fist", "right_fist")
+#: Default falloff distance (metres) of the importance blend (§2.2.5; the seed's 70–110 cm for a bat).
+DEFAULT_FALLOFF = 0.6
+#: Seconds over which the blend is tapered to zero at the first and last frames.
+DEFAULT_EDGE = 0.5
+#: A goal counts as reached within this distance (metres).
+REACH_TOLERANCE = 1e-3
+#: Butt of the club above the lead hand's palm along the shaft (metres).
+BUTT_EXTENSION = 0.03
+
+
+# --- the club ---------------------------------------------------------------------------------
+def hand_joints(skeleton: Skeleton) -> dict[str, int]:
+    """``{"left": j, "right": j}``: the hand joint proper of each arm.
+
+    ``Skeleton.hands`` finds CMU's ``lwrist`` first, which is the forearm's roll bone; the hand is
+    its child ``lhand``, so a child named like a hand is preferred.
+    """
+    out = {}
+    for side, j in skeleton.hands().items():
+        kids = [c for c in skeleton.children(j) if "hand" in skeleton.names[c].lower()]
+        out[side] = kids[0] if kids else j
+    return out
+
+
+def _palm(skeleton: Skeleton, j: int) -> np.ndarray:
+    """Offset ``(3,)`` in hand joint ``j``'s frame of its palm: halfway along the hand bone."""
+    tips = [skeleton.offsets[c] for c in skeleton.children(j)]
+    tips += [skeleton.end_offsets[e] for e in np.flatnonzero(skeleton.end_parents == j)]
+    tips = [t for t in tips if np.linalg.norm(t) > 1e-6]
+    return 0.5 * np.asarray(tips[0]) if tips else np.zeros(3)
+
+
+def address_frames(points: np.ndarray, still: float = 0.03) -> int:
+    """Number of frames at the start during which ``points: (T, 3)`` stay within ``still`` metres of frame 0."""
+    moved = np.linalg.norm(points - points[0], axis=1) > still
+    return int(np.argmax(moved)) if moved.any() else len(points)
+
+
+def floor_height(motion: Motion, pose: kinematics.Pose | None = None) -> float:
+    """Height (metres) of the lowest foot joint over the clip: the floor the subject stood on.
+
+    (CMU subject 64's floor is 2–4 cm below the file's zero; SOURCES.md.)
+    """
+    feet = motion.skeleton.feet()
+    if not feet:
+        return 0.0
+    pose = pose or kinematics.forward(mjcf.compile(motion.skeleton), motion)
+    js = [j for a, t in feet.values() for j in (a, t) if j is not None]
+    return float(pose.joint_positions[:, js, 2].min())
+
+
+def fit_club(motion: Motion, kind: str = "club") -> mjcf.Prop:
+    """A club fitted to a two-handed swing: handle through both hands at address, standard length.
+
+    The lead hand is the upper one at address (the left for a right-handed golfer). At each
+    address frame (the clip's first still frames) the shaft passes through the lead palm with its
+    butt ``BUTT_EXTENSION`` above it, heads toward the trail palm in plan view, and is inclined so
+    the head at the standard length (``mjcf.PROP_PRESETS``) rests on the floor
+    (:func:`floor_height`): the hands are only 5–10 cm apart, too close to fix the inclination
+    alone. The club is attached to the lead hand's joint with the transform averaged over the
+    address frames and kept fixed for the clip.
+    """
+    skel = motion.skeleton
+    hands = hand_joints(skel)
+    if "left" not in hands or "right" not in hands:
+        raise MjmotionError(f"{motion.name or 'the clip'}: fitting a club needs both hands, found {sorted(hands) or 'none'} by name")
+    if kind not in mjcf.PROP_PRESETS:
+        raise MjmotionError(f"unknown prop {kind!r}; expected one of {', '.join(mjcf.PROP_PRESETS)}")
+    preset = mjcf.PROP_PRESETS[kind]
+    compiled = mjcf.compile(skel)
+    pose = kinematics.forward(compiled, motion)
+    rots = rot.to_matrix(pose.joint_rotations)
+    palms = {s: pose.joint_positions[:, j] + np.einsum("tab,b->ta", rots[:, j], _palm(skel, j)) for s, j in hands.items()}
+    n = max(address_frames(palms["left"]), 1)
+    lead, trail = ("left", "right") if palms["left"][:n, 2].mean() >= palms["right"][:n, 2].mean() else ("right", "left")
+    j = hands[lead]
+    floor = floor_height(motion, pose)
+    p1 = palms[lead][:n]
+    plan = palms[trail][:n, :2] - p1[:, :2]
+    plan /= np.maximum(np.linalg.norm(plan, axis=1, keepdims=True), 1e-9)
+    dz = np.clip((floor - p1[:, 2]) / (preset["length"] - BUTT_EXTENSION), -1.0, 1.0)
+    shaft = np.column_stack([plan * np.sqrt(1.0 - dz**2)[:, None], dz])
+    grip = p1 - BUTT_EXTENSION * shaft
+    r = rots[:n, j]
+    local_grip = np.einsum("tba,tb->ta", r, grip - pose.joint_positions[:n, j]).mean(axis=0)
+    local_dir = np.einsum("tba,tb->ta", r, shaft).mean(axis=0)
+    quat = mjcf._quat_z_to(local_dir / np.linalg.norm(local_dir))
+    return mjcf.Prop(name=kind, joint=skel.names[j], pos=tuple(local_grip), quat=tuple(quat), **preset)  # type: ignore[arg-type]
+
+
+# --- effectors ---------------------------------------------------------------------------------
+def _first_tip(skeleton: Skeleton, j: int) -> np.ndarray:
+    tips = [skeleton.offsets[c] for c in skeleton.children(j)]
+    tips += [skeleton.end_offsets[e] for e in np.flatnonzero(skeleton.end_parents == j)]
+    tips = [t for t in tips if np.linalg.norm(t) > 1e-6]
+    return np.asarray(tips[0]) if tips else np.zeros(3)
+
+
+def resolve_effector(motion: Motion, name: str, prop: mjcf.Prop | None = None) -> tuple[Effector, mjcf.Prop | None]:
+    """The :class:`Effector` called ``name`` (see ``EFFECTORS``, or a site of the compiled model).
+
+    ``club``: the sweet spot of ``prop`` (default :func:`fit_club`), in the holding joint's frame.
+    ``left_foot``/``right_foot``: the instep, halfway from the ankle to the toe joint.
+    ``left_fist``/``right_fist``: the end of the hand bone (knuckles).
+    """
+    skel = motion.skeleton
+    if name == "club":
+        prop = prop or fit_club(motion)
+        off = np.asarray(prop.pos) + rot.rotate(np.asarray(prop.quat), np.array([0.0, 0.0, prop.sweet_spot]))
+        return Effector("club", skel.index(prop.joint), tuple(off)), prop
+    if name in ("left_foot", "right_foot"):
+        side = name.split("_")[0]
+        feet = skel.feet()
+        if side not in feet:
+            raise MjmotionError(f"--effector {name}: no {side} foot found by name in the skeleton")
+        ankle, toe = feet[side]
+        off = 0.5 * (skel.offsets[toe] if toe is not None else _first_tip(skel, ankle))
+        return Effector(name, ankle, tuple(off)), None
+    if name in ("left_fist", "right_fist"):
+        side = name.split("_")[0]
+        hands = hand_joints(skel)
+        if side not in hands:
+            raise MjmotionError(f"--effector {name}: no {side} hand found by name in the skeleton")
+        return Effector(name, hands[side], tuple(_first_tip(skel, hands[side]))), None
+    compiled = mjcf.compile(skel, (prop,) if prop else ())
+    sid = compiled.site_id(name)
+    body = int(compiled.model.site_bodyid[sid])
+    joints = np.flatnonzero(compiled.body_ids == body)
+    if len(joints) == 0:
+        raise MjmotionError(f"--effector {name}: the site is not on a skeleton joint")
+    return Effector(name, int(joints[0]), tuple(compiled.model.site_pos[sid])), prop
+
+
+# --- hit frame and blend -----------------------------------------------------------------------
+def detect_hit_frame(effector: np.ndarray, fps: float) -> int:
+    """Frame of peak effector speed in the downswing, ``effector: (T, 3)`` metres.
+
+    The downswing is where the effector is in the lower half of its height range and not rising
+    steeply (vertical speed at most a quarter of the speed): a club driven by the lead hand keeps
+    accelerating as it rises into the follow-through, after the ball has gone. Speeds are central
+    differences smoothed over ~25 ms.
+    """
+    if len(effector) < 3:
+        return 0
+    vel = np.gradient(effector, axis=0) * fps
+    width = max(1, int(round(0.025 * fps)))
+    kernel = np.ones(2 * width + 1) / (2 * width + 1)
+    vel = np.column_stack([np.convolve(vel[:, i], kernel, mode="same") for i in range(3)])
+    speed = np.linalg.norm(vel, axis=1)
+    z = effector[:, 2]
+    down = (vel[:, 2] <= 0.25 * speed) & (z <= 0.5 * (z.min() + z.max()))
+    down[[0, -1]] = False
+    if not down.any():
+        down[1:-1] = True
+    return int(np.argmax(np.where(down, speed, -1.0)))
+
+
+def blend_weights(effector: np.ndarray, hit: int, falloff: float, fps: float, edge: float = DEFAULT_EDGE) -> np.ndarray:
+    """Importance blend ``(T,)`` in [0, 1] (§2.2.5), tapered to 0 at the clip's ends.
+
+    ``blend = clamp(1 − |e_t − e_hit| / falloff, 0, 1)``, times a raised-cosine taper over the first
+    and last ``edge`` seconds (1 at the hit frame unless the hit is inside the taper).
+    """
+    if not falloff > 0:
+        raise MjmotionError(f"--falloff must be a positive distance in metres, got {falloff}")
+    d = np.linalg.norm(effector - effector[hit], axis=1)
+    b = np.clip(1.0 - d / falloff, 0.0, 1.0)
+    t = len(effector)
+    n = max(1, int(round(edge * fps)))
+    i = np.arange(t)
+    ramp = np.minimum(np.minimum(i, t - 1 - i) / n, 1.0)
+    return b * 0.5 * (1.0 - np.cos(np.pi * ramp))
+
+
+# --- the problem -------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class HitProblem:
+    """Everything fixed before solving: model, chains, FK of the source, goals.
+
+    Attributes:
+        source: the source clip.
+        compiled: its MuJoCo model with the prop (if any).
+        effector: the moved point; ``lead``: its chain; ``second``: the second hand's chain or ``None``.
+        qpos: ``(T, nq)`` the source's FK poses.
+        effector_fk: ``(T, 3)`` the source effector; ``hit``: the hit frame; ``target``: ``(3,)``.
+        blend: ``(T,)``; ``goals``: ``(T, 3)`` effector goals.
+        second_goals: ``(T, 4, 4)`` source pose of the second hand relative to the lead chain's tip.
+    """
+
+    source: Motion
+    compiled: mjcf.CompiledModel
+    effector: Effector
+    lead: Chain
+    second: Chain | None
+    qpos: np.ndarray
+    effector_fk: np.ndarray
+    hit: int
+    target: np.ndarray
+    blend: np.ndarray
+    goals: np.ndarray
+    second_relative: np.ndarray | None
+    falloff: float
+    prop: mjcf.Prop | None = None
+    extra: dict = field(default_factory=dict)
+
+
+def _frames(pose: kinematics.Pose, j: int) -> np.ndarray:
+    """``(T, 4, 4)`` world transforms of joint ``j``."""
+    t = pose.joint_positions.shape[0]
+    out = np.zeros((t, 4, 4))
+    out[:, :3, :3] = rot.to_matrix(pose.joint_rotations[:, j])
+    out[:, :3, 3] = pose.joint_positions[:, j]
+    out[:, 3, 3] = 1.0
+    return out
+
+
+def _chain_start(skeleton: Skeleton, tip: int) -> int:
+    """The root's child on the path to ``tip`` (the lower spine for a hand, the hip for a foot)."""
+    path = skeleton.chain(0, tip)
+    if len(path) < 2:
+        raise MjmotionError(f"{skeleton.names[tip]!r} is the root; it cannot be an IK chain's tip")
+    return path[1]
+
+
+def _lca(skeleton: Skeleton, a: int, b: int) -> int:
+    pa = skeleton.chain(0, a)
+    pb = skeleton.chain(0, b)
+    common = 0
+    for x, y in zip(pa, pb):
+        if x != y:
+            break
+        common = x
+    return common
+
+
+def setup(
+    motion: Motion,
+    target: np.ndarray | None = None,
+    offset: np.ndarray | None = None,
+    frame: int | None = None,
+    effector: str = "club",
+    falloff: float = DEFAULT_FALLOFF,
+    wrist: str = "locked",
+    lock: tuple[str, ...] | list[str] = (),
+    margin: float = DEFAULT_MARGIN,
+    weights: str = "clip",
+    edge: float = DEFAULT_EDGE,
+    chain_start: str | None = None,
+    prop: mjcf.Prop | None = None,
+) -> HitProblem:
+    """Build the :class:`HitProblem` (see :func:`adapt` for the arguments)."""
+    if (target is None) == (offset is None):
+        raise MjmotionError("give exactly one of a target position or an offset")
+    skel = motion.skeleton
+    eff, prop = resolve_effector(motion, effector, prop)
+    compiled = mjcf.compile(skel, (prop,) if prop is not None else ())
+    pose = kinematics.forward(compiled, motion)
+    tip_frames = _frames(pose, eff.joint)
+    e_fk = np.einsum("tab,b->ta", tip_frames[:, :3, :3], np.asarray(eff.offset)) + tip_frames[:, :3, 3]
+    hit = detect_hit_frame(e_fk, motion.fps) if frame is None else int(frame)
+    if not 0 <= hit < motion.n_frames:
+        raise MjmotionError(f"--frame {frame}: the clip has frames 0..{motion.n_frames - 1}")
+    tgt = np.asarray(target, dtype=float) if target is not None else e_fk[hit] + np.asarray(offset, dtype=float)
+    if tgt.shape != (3,) or not np.all(np.isfinite(tgt)):
+        raise MjmotionError(f"the target must be three finite numbers (metres), got {tgt}")
+    blend = blend_weights(e_fk, hit, falloff, motion.fps, edge)
+    # §2.2.4: the offset is carried in the effector joint's frame.
+    local = tip_frames[hit, :3, :3].T @ (tgt - e_fk[hit])
+    goals = e_fk + blend[:, None] * np.einsum("tab,b->ta", tip_frames[:, :3, :3], local)
+    start = skel.index(chain_start) if chain_start else _chain_start(skel, eff.joint)
+    lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=weights)
+    second = None
+    rel = None
+    if effector == "club":
+        hands = hand_joints(skel)
+        other = [j for j in hands.values() if j != eff.joint]
+        if other:
+            h2 = other[0]
+            anc = _lca(skel, eff.joint, h2)
+            s2 = skel.chain(anc, h2)[1]
+            second = build_chain(motion, s2, h2, None, wrist="swing", margin=margin, weights=weights)
+            rel = np.linalg.inv(tip_frames) @ _frames(pose, h2)
+    return HitProblem(motion, compiled, eff, lead, second, kinematics.qpos(compiled, motion), e_fk, hit, tgt, blend, goals, rel, falloff, prop)
+
+
+# --- solving -----------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Adaptation:
+    """The adapted clip and its report.
+
+    Attributes:
+        motion: the adapted clip (only the two chains' joints differ from the source).
+        report: the JSON report (keys as in the issue).
+        achieved: ``(T, 3)`` effector in the result; ``goal_error``: ``(T,)`` metres;
+        grip_error: ``(T,)`` metres (second hand's distance to its source placement).
+    """
+
+    motion: Motion
+    report: dict
+    achieved: np.ndarray
+    goal_error: np.ndarray
+    grip_error: np.ndarray
+    problem: HitProblem
+
+
+def _rotations(problem: HitProblem, lead_delta: np.ndarray, second_delta: np.ndarray | None) -> np.ndarray:
+    """``(T, J, 4)`` local rotations of the source with both chains' ``δ (T, n)`` applied."""
+    q = problem.source.rotations.copy()
+    ji = problem.lead.joint_indices
+    q[:, ji] = problem.lead.apply(q[:, ji], lead_delta)
+    if problem.second is not None and second_delta is not None:
+        j2 = problem.second.joint_indices
+        q[:, j2] = problem.second.apply(q[:, j2], second_delta)
+    return q
+
+
+def _solve_frames(problem: HitProblem, solver: str) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """Per-frame solve of the lead chain, then the second hand. Returns ``δ``s, seconds, frames solved."""
+    c = problem.compiled
+    t_n = problem.source.n_frames
+    lead, second = problem.lead, problem.second
+    d1 = np.zeros((t_n, lead.n_dof))
+    d2 = np.zeros((t_n, second.n_dof if second else 0))
+    lo1, hi1 = lead.bounds(problem.source)
+    kin1 = ChainKinematics(c, lead)
+    if second is not None:
+        lo2, hi2 = second.bounds(problem.source)
+        kin2 = ChainKinematics(c, second)
+    fs1 = fs2 = None
+    if solver == "nlp":
+        from .ik.nlp import FrameSolver
+
+        fs1 = FrameSolver(c, lead)
+        fs2 = FrameSolver(c, second, six=True) if second is not None else None
+    active = np.flatnonzero(problem.blend > 0)
+    start = time.perf_counter()
+    for t in active:
+        q = problem.qpos[t]
+        if solver == "nlp":
+            kin1.set_frame(q)
+            kin1.set_delta(np.zeros(lead.n_dof))
+            r = fs1.solve(q, kin1.data.xpos, kin1.data.xmat, problem.goals[t], lo1[t], hi1[t])
+        elif solver == "dls":
+            r = dls.solve(kin1, q, problem.goals[t], lo1[t], hi1[t])
+        else:
+            r = ccd.solve(kin1, q, problem.goals[t], lo1[t], hi1[t])
+        d1[t] = r.delta
+        if second is None:
+            continue
+        # §2.2.2: the second hand returns to its source placement relative to the (new) first hand.
+        kin1.set_delta(r.delta)
+        p, rm = kin1.tip_frame()
+        lead_new = np.eye(4)
+        lead_new[:3, :3], lead_new[:3, 3] = rm, p
+        goal = lead_new @ problem.second_relative[t]
+        q2 = kin1.data.qpos.copy()
+        if solver == "nlp":
+            r2 = fs2.solve(q, kin1.data.xpos, kin1.data.xmat, goal[:3, 3], lo2[t], hi2[t], goal_rotation=goal[:3, :3])
+        else:
+            r2 = dls.solve(kin2, q2, goal[:3, 3], lo2[t], hi2[t], goal_rotation=goal[:3, :3])
+        d2[t] = r2.delta
+    return d1, d2, time.perf_counter() - start, len(active)
+
+
+def _solve_shot(problem: HitProblem, smoothness: float) -> tuple[np.ndarray, np.ndarray, float, int]:
+    from .ik.nlp import ShotSolver, SymbolicFK
+
+    c = problem.compiled
+    lead, second = problem.lead, problem.second
+    t_n = problem.source.n_frames
+    d1 = np.zeros((t_n, lead.n_dof))
+    d2 = np.zeros((t_n, second.n_dof if second else 0))
+    active = np.flatnonzero(problem.blend > 0)
+    if len(active) == 0:
+        return d1, d2, 0.0, 0
+    a, b = int(active[0]), int(active[-1]) + 1
+    n = b - a
+    chains = [lead] + ([second] if second else [])
+    fk = SymbolicFK(c, chains)
+    # Base frames come from the source FK (the lead chain's base is never moved).
+    data = mujoco.MjData(c.model)
+    params = np.empty((n, fk.n_params))
+    for i, t in enumerate(range(a, b)):
+        data.qpos[:] = problem.qpos[t]
+        mujoco.mj_kinematics(c.model, data)
+        params[i] = fk.params(problem.qpos[t], data.xpos, data.xmat)
+    goals = problem.goals[a:b]
+    lo1, hi1 = lead.bounds(problem.source)
+    lo, hi = lo1[a:b], hi1[a:b]
+    if second is not None:
+        lo2, hi2 = second.bounds(problem.source)
+        lo, hi = np.hstack([lo, lo2[a:b]]), np.hstack([hi, hi2[a:b]])
+        rel = problem.second_relative[a:b]
+        goals = np.hstack([goals, rel[:, :3, 3], rel[:, :3, :3].transpose(0, 2, 1).reshape(n, 9)])
+    start = time.perf_counter()
+    solver = ShotSolver(c, lead, second, n, smoothness=smoothness)
+    res = solver.solve(params, goals, lo, hi)
+    elapsed = time.perf_counter() - start
+    d1[a:b] = res.lead
+    if second is not None:
+        d2[a:b] = res.second
+    return d1, d2, elapsed, n
+
+
+def adapt(
+    motion: Motion,
+    target: np.ndarray | None = None,
+    offset: np.ndarray | None = None,
+    frame: int | None = None,
+    effector: str = "club",
+    solver: str = "nlp",
+    falloff: float = DEFAULT_FALLOFF,
+    wrist: str = "locked",
+    lock: tuple[str, ...] | list[str] = (),
+    margin: float = DEFAULT_MARGIN,
+    weights: str = "clip",
+    edge: float = DEFAULT_EDGE,
+    smoothness: float = 1e3,
+    chain_start: str | None = None,
+    prop: mjcf.Prop | None = None,
+    style: bool = True,
+) -> Adaptation:
+    """Adapt ``motion`` so its effector meets ``target`` (or the source hit point + ``offset``) at the hit frame.
+
+    Args:
+        motion: the source swing/kick/punch.
+        target, offset: ``(3,)`` metres in the model's world frame (exactly one).
+        frame: the hit frame (default: detected, :func:`detect_hit_frame`).
+        effector: ``club`` (fitted, two hands), ``left_foot``, ``right_foot``, ``left_fist``,
+            ``right_fist`` or a site name of the compiled model.
+        solver: ``nlp`` (per frame, CasADi/IPOPT), ``nlp-shot`` (whole shot), ``dls`` or ``ccd``.
+        falloff: metres, the importance blend's falloff distance (§2.2.5; different values give
+            different trajectories to the same hit, §2.4).
+        wrist: the effector-side wrist's freedom: ``locked`` (§2.3.3), ``swing`` (2 DOF) or ``ball``.
+        lock: further joints to lock.
+        margin: radians added to the clip's range for the rotation limits.
+        weights: stiffness weights, ``clip`` (the coordinate's variance in the clip) or ``uniform``.
+        edge: seconds of taper to the source at both ends.
+        smoothness: weight of the acceleration term (``nlp-shot``).
+        chain_start: override the chain's first joint (default: the root's child toward the effector).
+        prop: the club to use (default: :func:`fit_club`).
+        style: compute ``style_rmse`` (PCA of the source; METRICS.md "Style").
+    """
+    if solver not in SOLVERS:
+        raise MjmotionError(f"--solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
+    problem = setup(motion, target, offset, frame, effector, falloff, wrist, lock, margin, weights, edge, chain_start, prop)
+    if solver == "nlp-shot":
+        d1, d2, elapsed, n = _solve_shot(problem, smoothness)
+    else:
+        d1, d2, elapsed, n = _solve_frames(problem, solver)
+    q = _rotations(problem, d1, d2 if problem.second is not None else None)
+    out = motion.replace(rotations=q, name=f"{motion.name}_hit" if motion.name else "hit")
+    return _report(problem, out, solver, elapsed, n, style)
+
+
+def _report(problem: HitProblem, out: Motion, solver: str, elapsed: float, n: int, style: bool) -> Adaptation:
+    c = problem.compiled
+    pose = kinematics.forward(c, out)
+    tip = _frames(pose, problem.effector.joint)
+    achieved = np.einsum("tab,b->ta", tip[:, :3, :3], np.asarray(problem.effector.offset)) + tip[:, :3, 3]
+    goal_err = np.linalg.norm(achieved - problem.goals, axis=1)
+    grip = np.zeros(out.n_frames)
+    if problem.second is not None:
+        want = tip @ problem.second_relative
+        grip = np.linalg.norm(pose.joint_positions[:, problem.second.tip] - want[:, :3, 3], axis=1)
+    hit_err = float(np.linalg.norm(achieved[problem.hit] - problem.target))
+    reachable = hit_err <= REACH_TOLERANCE
+    rmse = k = None
+    if style:
+        from .style import style_rmse
+
+        r, kk = style_rmse(problem.source, out)
+        rmse, k = float(r), int(kk)
+    report = {
+        "hit_frame": int(problem.hit),
+        "source_effector": problem.effector_fk[problem.hit].tolist(),
+        "target": problem.target.tolist(),
+        "achieved_effector": achieved[problem.hit].tolist(),
+        "hit_error_m": hit_err,
+        "reachable": bool(reachable),
+        "max_goal_error_m": float(goal_err.max()),
+        "style_rmse": rmse,
+        "k": k,
+        "grip_error_m": float(grip.max()),
+        "solve_s_per_frame": float(elapsed / n) if n else 0.0,
+        "solver": solver,
+    }
+    if not reachable:
+        dist = float(np.linalg.norm(problem.target - problem.effector_fk[problem.hit]))
+        report["message"] = (
+            f"target unreachable: it is {dist:.3f} m from the source hit point and the chain "
+            f"{problem.lead.names[0]}..{problem.lead.names[-1]} within its limits got to {hit_err:.3f} m of it "
+            "(best effort kept)"
+        )
+    return Adaptation(out, report, achieved, goal_err, grip, problem)

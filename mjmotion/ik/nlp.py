@@ -1,0 +1,298 @@
+"""The main IK: a CasADi nonlinear program solved by IPOPT (beyond seed 003: §1.10 made exact).
+
+Per frame: minimise the stiffness-weighted deviation from the FK pose, ``Σ δᵢ² / wᵢ`` (Meredith &
+Maddock weights: the weighted DLS step is this problem's linearisation), subject to the goal and
+the limits; freedoms are the parametrisation itself (:mod:`mjmotion.ik.chains`). Over the whole
+shot: the same deviation cost over every frame of the active window, plus a smoothness term on
+the coordinates' second differences (joint accelerations), with the effector goal *and* the
+second hand's pose relative to the first as constraints of one problem.
+
+The chain's forward kinematics is written symbolically (:class:`SymbolicFK`) and checked against
+MuJoCo in the tests. An unreachable goal is solved best-effort: when IPOPT finds the equality
+infeasible, the goal becomes a heavy penalty instead and the result says how far it got.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import mujoco
+import numpy as np
+
+from .. import rotations as rot
+from ..errors import MjmotionError
+from ..mjcf import CompiledModel
+from .chains import Chain
+from .dls import ORIENTATION_SCALE, IKResult, rotation_error
+
+#: Penalty weight of the goal when it cannot be met exactly (per m²).
+SOFT_WEIGHT = 1e6
+_IPOPT = {
+    "ipopt.print_level": 0,
+    "ipopt.sb": "yes",
+    "print_time": False,
+    "ipopt.tol": 1e-10,
+    "ipopt.constr_viol_tol": 1e-9,
+    "ipopt.max_iter": 200,
+}
+
+
+def _axis_matrix(axis: int, a: ca.SX) -> ca.SX:
+    c, s = ca.cos(a), ca.sin(a)
+    if axis == 0:
+        return ca.vertcat(ca.horzcat(1, 0, 0), ca.horzcat(0, c, -s), ca.horzcat(0, s, c))
+    if axis == 1:
+        return ca.vertcat(ca.horzcat(c, 0, s), ca.horzcat(0, 1, 0), ca.horzcat(-s, 0, c))
+    return ca.vertcat(ca.horzcat(c, -s, 0), ca.horzcat(s, c, 0), ca.horzcat(0, 0, 1))
+
+
+class SymbolicFK:
+    """Forward kinematics of one or more disjoint chains as a CasADi expression.
+
+    Joint ``j`` of a chain: ``R_j = R_parent · (R_fk,j B_j) · Rx(δ₁) Ry(δ₂) Rz(δ₃) · B_jᵀ`` and
+    ``x_j = x_parent + R_parent t_j``. The numbers that change per frame — each joint's
+    ``R_fk B`` and local translation ``t``, and the world frame of every joint whose parent is not
+    in the chains (a *base*) — form the parameter vector from :meth:`params`.
+
+    Outputs of :attr:`function` ``(δ, p)``: for each chain, its tip position ``(3,)``, tip rotation
+    ``(9,)`` column-major, and (if it has one) its effector position ``(3,)``.
+    """
+
+    def __init__(self, compiled: CompiledModel, chains: list[Chain]):
+        self.compiled = compiled
+        self.chains = chains
+        self.joints = [cj for c in chains for cj in c.joints]
+        self.index = {cj.joint: i for i, cj in enumerate(self.joints)}
+        if len(self.index) != len(self.joints):
+            raise MjmotionError("chains solved together must not share joints")
+        skel = compiled.skeleton
+        self.bases = sorted({int(skel.parents[cj.joint]) for cj in self.joints if int(skel.parents[cj.joint]) not in self.index})
+        self.n_dof = sum(c.n_dof for c in chains)
+        self.n_params = 12 * len(self.joints) + 12 * len(self.bases)
+        delta = ca.SX.sym("delta", self.n_dof)
+        p = ca.SX.sym("p", self.n_params)
+        frames: dict[int, tuple[ca.SX, ca.SX]] = {}
+        off = 12 * len(self.joints)
+        for b_i, b in enumerate(self.bases):
+            x = p[off + 12 * b_i : off + 12 * b_i + 3]
+            r = ca.reshape(p[off + 12 * b_i + 3 : off + 12 * b_i + 12], 3, 3)
+            frames[b] = (x, r)
+        a = 0
+        for i, cj in enumerate(self.joints):
+            px, pr = frames[int(skel.parents[cj.joint])]
+            m = ca.reshape(p[12 * i : 12 * i + 9], 3, 3)
+            t = p[12 * i + 9 : 12 * i + 12]
+            e = m
+            for k in range(cj.dof):
+                e = e @ _axis_matrix(k, delta[a + k])
+            a += cj.dof
+            frames[cj.joint] = (px + pr @ t, pr @ e @ ca.DM(cj.basis.T))
+        outs = []
+        for c in chains:
+            x, r = frames[c.tip]
+            outs += [x, ca.reshape(r, 9, 1)]
+            if c.effector is not None:
+                outs.append(x + r @ ca.DM(np.asarray(c.effector.offset, dtype=float)))
+        self.delta, self.p = delta, p
+        self.outputs = outs
+        self.function = ca.Function("chain_fk", [delta, p], outs)
+
+    def params(self, qpos_fk: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> np.ndarray:
+        """Parameter vector ``(n_params,)``: joints' FK rotations from ``qpos_fk (nq,)``, base frames
+        from MuJoCo's ``xpos (nbody, 3)`` and ``xmat (nbody, 9)`` of the current state."""
+        c = self.compiled
+        skel = c.skeleton
+        out = np.empty(self.n_params)
+        for i, cj in enumerate(self.joints):
+            a = c.qpos_adr[cj.joint]
+            m = rot.to_matrix(qpos_fk[a : a + 4]) @ cj.basis
+            t = skel.offsets[cj.joint].copy()
+            if c.slide_adr[cj.joint] >= 0:
+                s = c.slide_adr[cj.joint]
+                t = t + qpos_fk[s : s + 3]
+            out[12 * i : 12 * i + 9] = m.ravel(order="F")
+            out[12 * i + 9 : 12 * i + 12] = t
+        off = 12 * len(self.joints)
+        for b_i, b in enumerate(self.bases):
+            body = c.body_ids[b]
+            out[off + 12 * b_i : off + 12 * b_i + 3] = xpos[body]
+            out[off + 12 * b_i + 3 : off + 12 * b_i + 12] = xmat[body].reshape(3, 3).ravel(order="F")
+        return out
+
+
+def _cost(chain_weights: np.ndarray, delta: ca.SX) -> ca.SX:
+    return ca.sumsqr(delta / ca.DM(np.sqrt(chain_weights)))
+
+
+def _orientation_residual(r: ca.SX, goal: ca.SX) -> ca.SX:
+    """``vee(skew(goalᵀ R))``: 3 equations, zero when ``R = goal`` (and smooth near it)."""
+    m = goal.T @ r
+    return ca.vertcat(m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]) * 0.5
+
+
+class FrameSolver:
+    """Per-frame IK of one chain by IPOPT: a position goal for its effector, or a 6-D goal for its tip.
+
+    Build once per chain (symbolic set-up and solver creation take a fraction of a second), then
+    call :meth:`solve` per frame.
+    """
+
+    def __init__(self, compiled: CompiledModel, chain: Chain, six: bool = False):
+        if not six and chain.effector is None:
+            raise MjmotionError("a position goal needs a chain with an effector")
+        self.chain = chain
+        self.six = six
+        self.fk = SymbolicFK(compiled, [chain])
+        d, p = self.fk.delta, self.fk.p
+        g = ca.SX.sym("goal", 12 if six else 3)
+        pars = ca.vertcat(p, g)
+        cost = _cost(np.maximum(chain.weights, 1e-9), d)
+        if six:
+            x, r = self.fk.outputs[0], ca.reshape(self.fk.outputs[1], 3, 3)
+            res = ca.vertcat(x - g[:3], ORIENTATION_SCALE * _orientation_residual(r, ca.reshape(g[3:], 3, 3)))
+        else:
+            res = self.fk.outputs[-1] - g
+        self.hard = ca.nlpsol("ik_hard", "ipopt", {"x": d, "p": pars, "f": cost, "g": res}, _IPOPT)
+        self.soft = ca.nlpsol("ik_soft", "ipopt", {"x": d, "p": pars, "f": cost + SOFT_WEIGHT * ca.sumsqr(res)}, _IPOPT)
+        self.n_res = res.shape[0]
+        self.data = mujoco.MjData(compiled.model)
+        self.model = compiled.model
+
+    def solve(
+        self,
+        qpos_fk: np.ndarray,
+        xpos: np.ndarray,
+        xmat: np.ndarray,
+        goal: np.ndarray,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        goal_rotation: np.ndarray | None = None,
+    ) -> IKResult:
+        """Solve one frame from ``δ = 0``.
+
+        Args:
+            qpos_fk: ``(nq,)`` the frame's FK pose (the chain joints' rotations are read here).
+            xpos, xmat: MuJoCo body frames of the current state (for the chain's base).
+            goal: ``(3,)`` metres; ``goal_rotation`` ``(3, 3)`` for a 6-D solver.
+            lower, upper: ``(n_dof,)`` bounds on ``δ``.
+        """
+        p = self.fk.params(qpos_fk, xpos, xmat)
+        g = np.asarray(goal, dtype=float)
+        if self.six:
+            if goal_rotation is None:
+                raise MjmotionError("a 6-D solver needs goal_rotation")
+            g = np.concatenate([g, np.asarray(goal_rotation).ravel(order="F")])
+        pars = np.concatenate([p, g])
+        x0 = np.zeros(self.chain.n_dof)
+        sol = self.hard(x0=x0, p=pars, lbx=lower, ubx=upper, lbg=0.0, ubg=0.0)
+        stats = self.hard.stats()
+        if not stats["success"]:
+            sol = self.soft(x0=x0, p=pars, lbx=lower, ubx=upper)
+            stats = self.soft.stats()
+        delta = np.asarray(sol["x"]).ravel()
+        out = self.fk.function(delta, p)
+        if self.six:
+            x, r = np.asarray(out[0]).ravel(), np.asarray(out[1]).reshape(3, 3, order="F")
+            return IKResult(delta, float(np.linalg.norm(x - goal)), float(np.linalg.norm(rotation_error(goal_rotation, r))), int(stats["iter_count"]))
+        e = np.asarray(out[-1]).ravel()
+        return IKResult(delta, float(np.linalg.norm(e - goal)), 0.0, int(stats["iter_count"]))
+
+
+@dataclass(frozen=True)
+class ShotResult:
+    """Whole-shot solution over a window of frames.
+
+    Attributes:
+        lead: ``(N, n_lead)`` coordinates of the lead chain per window frame.
+        second: ``(N, n_second)`` of the second chain (empty columns without one).
+        goal_error: ``(N,)`` metres, effector distance to its goal.
+        grip_error: ``(N,)`` metres, second tip's distance to its goal (0 without one).
+        success: IPOPT's verdict on the hard-constrained problem.
+        iterations: IPOPT iterations.
+    """
+
+    lead: np.ndarray
+    second: np.ndarray
+    goal_error: np.ndarray
+    grip_error: np.ndarray
+    success: bool
+    iterations: int
+
+
+class ShotSolver:
+    """Whole-shot IK: all frames of a window in one IPOPT problem, with both hands as constraints.
+
+    Variables: ``δ`` of the lead chain and of the second chain at each of ``N`` frames. Cost:
+    ``Σₜ Σᵢ δᵢ,ₜ²/wᵢ + smoothness · Σₜ Σᵢ (δᵢ,ₜ₋₁ − 2δᵢ,ₜ + δᵢ,ₜ₊₁)²/wᵢ``, with ``δ = 0`` just
+    outside the window (the FK pose). Constraints per frame: the effector at its goal and the
+    second chain's tip at its goal pose (position and orientation), both given by the caller.
+    """
+
+    def __init__(self, compiled: CompiledModel, lead: Chain, second: Chain | None, n_frames: int, smoothness: float = 1e3):
+        chains = [lead] + ([second] if second is not None else [])
+        self.fk = SymbolicFK(compiled, chains)
+        self.lead, self.second, self.n = lead, second, n_frames
+        n1 = lead.n_dof
+        n2 = second.n_dof if second is not None else 0
+        nd = n1 + n2
+        n_goal = 3 + (12 if second is not None else 0)
+        f = self.fk.function
+        d = ca.MX.sym("d", nd, n_frames)
+        p = ca.MX.sym("p", self.fk.n_params, n_frames)
+        g = ca.MX.sym("g", n_goal, n_frames)
+        # One symbolic frame: residuals of the goals.
+        ds, ps, gs = ca.SX.sym("d", nd), ca.SX.sym("p", self.fk.n_params), ca.SX.sym("g", n_goal)
+        outs = f(ds, ps)
+        res = [outs[2] - gs[:3]]
+        if second is not None:
+            # The second tip's goal is its source pose relative to the lead tip, composed with the new lead tip.
+            x1, r1 = outs[0], ca.reshape(outs[1], 3, 3)
+            x2, r2 = outs[3], ca.reshape(outs[4], 3, 3)
+            goal_x = x1 + r1 @ gs[3:6]
+            goal_r = r1 @ ca.reshape(gs[6:15], 3, 3)
+            res += [x2 - goal_x, ORIENTATION_SCALE * _orientation_residual(r2, goal_r)]
+        frame_res = ca.Function("frame_res", [ds, ps, gs], [ca.vertcat(*res)])
+        residuals = frame_res.map(n_frames)(d, p, g)
+        w = np.concatenate([lead.weights] + ([second.weights] if second is not None else []))
+        w = np.maximum(w, 1e-9)
+        iw = ca.DM(1.0 / np.sqrt(w))
+        dw = d * ca.repmat(iw, 1, n_frames)
+        padded = ca.horzcat(ca.MX.zeros(nd, 1), dw, ca.MX.zeros(nd, 1))
+        acc = padded[:, 2:] - 2 * padded[:, 1:-1] + padded[:, :-2]
+        cost = ca.sumsqr(dw) + smoothness * ca.sumsqr(acc)
+        x = ca.vec(d)
+        pars = ca.vertcat(ca.vec(p), ca.vec(g))
+        self.nd, self.n_goal = nd, n_goal
+        opts = dict(_IPOPT)
+        opts["ipopt.max_iter"] = 300
+        self.hard = ca.nlpsol("shot_hard", "ipopt", {"x": x, "p": pars, "f": cost, "g": ca.vec(residuals)}, opts)
+        self.soft = ca.nlpsol("shot_soft", "ipopt", {"x": x, "p": pars, "f": cost + SOFT_WEIGHT * ca.sumsqr(residuals)}, opts)
+        self.residual = ca.Function("res", [x, pars], [residuals])
+
+    def solve(self, params: np.ndarray, goals: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> ShotResult:
+        """Solve the window.
+
+        Args:
+            params: ``(N, n_params)`` from :meth:`SymbolicFK.params` per frame (base frames of the
+                source: the lead chain's base is never moved, and the second chain's base is in it).
+            goals: ``(N, 3)`` effector goals, or ``(N, 15)`` adding the second tip's source pose in
+                the lead tip's frame: position ``(3,)`` and rotation ``(9,)`` column-major.
+            lower, upper: ``(N, nd)`` bounds on ``δ``.
+        """
+        pars = np.concatenate([params.T.ravel(order="F"), goals.T.ravel(order="F")])
+        x0 = np.zeros(self.nd * self.n)
+        lbx, ubx = lower.ravel(), upper.ravel()
+        sol = self.hard(x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=0.0, ubg=0.0)
+        stats = self.hard.stats()
+        ok = bool(stats["success"])
+        if not ok:
+            sol = self.soft(x0=x0, p=pars, lbx=lbx, ubx=ubx)
+            stats = self.soft.stats()
+        xs = np.asarray(sol["x"]).ravel()
+        res = np.asarray(self.residual(xs, pars))
+        d = xs.reshape(self.n, self.nd)
+        n1 = self.lead.n_dof
+        goal_err = np.linalg.norm(res[:3], axis=0)
+        grip_err = np.linalg.norm(res[3:6], axis=0) if self.second is not None else np.zeros(self.n)
+        return ShotResult(d[:, :n1], d[:, n1:], goal_err, grip_err, ok, int(stats["iter_count"]))
