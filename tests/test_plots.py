@@ -86,7 +86,8 @@ def test_foot_contacts_shading_covers_the_contact_frames(tmp_path):
     assert 0.8 < np.ptp(da) / np.ptp(db) < 1.25
     # the left foot's contact is shaded in the left foot's colour (alpha 0.25 over white)
     shade = 255 - 0.25 * (255 - _hex(plots.COLORS[0]))
-    assert _near(a, shade, tol=4).sum() > 1000
+    changed = np.abs(a - base).sum(axis=2) > 30
+    assert _near(a, shade, tol=4)[changed].mean() > 0.7  # what the contact added is mostly the shade
     with pytest.raises(MjmotionError, match="contacts"):
         plots.foot_contacts(t, h, s, none[:10], tmp_path / "x.png")
 
