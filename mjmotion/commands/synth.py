@@ -1,0 +1,78 @@
+"""``mjmotion synth``: the bundled procedural clips, one at a time or the whole library."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from ..errors import MjmotionError
+from ..outputs import check_output, write_text_atomic
+from ._common import output_path
+
+NAME = "synth"
+HELP = "generate a bundled clip (walk, run, sneak, limp, drive, pull, kick, punch) or the whole library"
+KINDS = ("walk", "run", "sneak", "limp", "drive", "pull", "kick", "punch")
+DESCRIPTION = """Generate clean procedural motion on the bundled 22-joint humanoid (Y-up BVH, centimetres,
+60 fps), deterministic for the same arguments. Gaits follow a footstep plan along +X from the
+origin with planted feet; drive and pull swing a bat in the right hand and start and end in
+one batting stance; kick and punch start and end standing.
+
+`synth library DIR` writes every bundled clip as DIR/NAME.bvh plus DIR/manifest.json with the
+ground truth (per-foot contact frames, footprints, hit frame, sweet-spot position, the prop
+and its attachment, known warps), in MuJoCo world metres (Z up).
+
+examples:
+  mjmotion synth walk -o walk.bvh
+  mjmotion synth run --speed 4 --turn -20 --seconds 6 -o run.bvh --truth run.json
+  mjmotion synth drive -o drive.bvh
+  mjmotion synth library clips/
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("kind", choices=(*KINDS, "library"), help="what to generate")
+    p.add_argument("directory", nargs="?", help="for `library`: the folder to write (created if missing)")
+    p.add_argument("-o", "--output", metavar="OUT.bvh", help="the BVH file to write (not for `library`)")
+    p.add_argument("--speed", type=float, metavar="V", help="gaits: speed in m/s (default per gait)")
+    p.add_argument("--turn", type=float, default=0.0, metavar="DEG_PER_S", help="gaits: turning rate, + to the left (default 0)")
+    p.add_argument("--seconds", type=float, metavar="S", help="gaits: duration (default 4 s; run 3 s)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="small deterministic variations (default 0: the nominal clip)")
+    p.add_argument("--truth", metavar="OUT.json", help="also write the clip's ground truth as JSON")
+    p.add_argument("--force", action="store_true", help="replace existing outputs")
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import bvh, synth
+
+    if args.kind == "library":
+        if not args.directory:
+            raise MjmotionError("synth library: give the folder to write, e.g. `mjmotion synth library clips/`")
+        if args.output or args.truth or args.speed is not None or args.seconds is not None or args.turn:
+            raise MjmotionError("synth library: takes only DIR (and --force); the set is fixed")
+        clips = synth.write_library(args.directory, force=args.force)
+        print(f"wrote {len(clips)} clips and manifest.json to {args.directory}")
+        return 0
+    if args.directory:
+        raise MjmotionError(f"synth {args.kind}: unexpected argument {args.directory!r}; write with -o OUT.bvh")
+    if not args.output:
+        raise MjmotionError(f"synth {args.kind}: give the output file with -o OUT.bvh")
+    out = output_path(args)
+    truth = check_output(args.truth, force=args.force, inputs=(args.output,)) if args.truth else None
+    fn, is_gait = synth.GENERATORS[args.kind]
+    if is_gait:
+        kw = {"turn_deg_per_s": args.turn, "seed": args.seed}
+        if args.speed is not None:
+            kw["speed"] = args.speed
+        if args.seconds is not None:
+            kw["seconds"] = args.seconds
+        clip = fn(**kw)
+    else:
+        if args.speed is not None or args.seconds is not None or args.turn:
+            raise MjmotionError(f"synth {args.kind}: --speed, --turn and --seconds apply to gaits only")
+        clip = fn(seed=args.seed)
+    bvh.write(clip.motion, out)
+    if truth is not None:
+        write_text_atomic(truth, json.dumps(clip.to_manifest(out.name), indent=1) + "\n")
+    extra = f", hit frame {clip.hit_frame}" if clip.hit_frame is not None else ""
+    print(f"wrote {out}: {args.kind}, {clip.motion.n_frames} frames at {clip.motion.fps:g} fps{extra}")
+    return 0
