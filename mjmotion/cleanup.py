@@ -262,10 +262,12 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupR
     pose2 = kinematics.forward(compiled, moved) if np.any(shift) else pose
     out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
     # The held foot orientation may tip a sole below where it was: lift those targets and re-solve.
-    old_low = np.minimum(track.heights, 0.0)
-    new_low = ev.foot_heights_speeds(compiled, out).heights
-    lift = np.maximum(old_low - new_low, 0.0)
-    if lift.max() > 1e-4:
+    sole_geoms = [_subtree_geoms(compiled, a) for _, _, a in legs]
+    old_low = np.minimum(_soles(compiled, pose, sole_geoms), 0.0)
+    for _ in range(2):
+        lift = np.maximum(old_low - _soles(compiled, kinematics.forward(compiled, out), sole_geoms), 0.0)
+        if lift.max() <= 1e-4:
+            break
         targets[:, :, 2] += lift + 1e-4 * (lift > 0)
         out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
     out = out.replace(name=motion.name)
@@ -306,10 +308,24 @@ def _solve_legs(
         w_hip = rot.multiply(r_hip, wr[act, h])
         w_knee = rot.multiply(r_hip, rot.multiply(r_knee, wr[act, k]))
         w_parent = wr[act, int(skel.parents[h])]
-        rots[act, h] = rot.multiply(rot.conjugate(w_parent), w_hip)
-        rots[act, k] = rot.multiply(rot.conjugate(w_hip), w_knee)
-        rots[act, a] = rot.multiply(rot.conjugate(w_knee), foot_rot[act, f])
-    rots = rot.normalize(rots)
-    # Keep each quaternion in the captured one's hemisphere (same rotation, continuous signs).
-    rots *= np.where(np.sum(rots * moved.rotations, axis=-1) < 0, -1.0, 1.0)[..., None]
+        for j, q in ((h, rot.multiply(rot.conjugate(w_parent), w_hip)), (k, rot.multiply(rot.conjugate(w_hip), w_knee)), (a, rot.multiply(rot.conjugate(w_knee), foot_rot[act, f]))):
+            q = rot.normalize(q)
+            # Keep each quaternion in the captured one's hemisphere (same rotation, continuous signs).
+            rots[act, j] = q * np.where(np.sum(q * moved.rotations[act, j], axis=-1) < 0, -1.0, 1.0)[:, None]
     return moved.replace(rotations=rots), unreached
+
+
+def _subtree_geoms(compiled: mjcf.CompiledModel, joint: int) -> np.ndarray:
+    """Ids of the character geoms on ``joint``'s body and its descendants (a foot and its toes)."""
+    skel = compiled.skeleton
+    sub = {joint}
+    for c in range(joint + 1, skel.n_joints):
+        if int(skel.parents[c]) in sub:
+            sub.add(c)
+    bodies = {int(compiled.body_ids[j]) for j in sub}
+    return np.array([g for g in compiled.body_geom_ids if int(compiled.model.geom_bodyid[g]) in bodies], dtype=int)
+
+
+def _soles(compiled: mjcf.CompiledModel, pose: kinematics.Pose, geoms: list[np.ndarray]) -> np.ndarray:
+    """``(T, F)`` height of the lowest point of each foot's geoms (boxes and bone capsules)."""
+    return np.stack([ev.lowest_points(compiled, pose, g)[..., 2].min(axis=1) for g in geoms], axis=1)
