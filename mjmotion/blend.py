@@ -219,26 +219,33 @@ def common_rate(motions: list[Motion]) -> list[Motion]:
     return out
 
 
-def registered_clock(registration: Registration, weights: WeightCurve, fps: float, tau0: float | None = None) -> np.ndarray:
-    """Reference times ``τ_n`` of the output frames (seed 000 §3.2; Kovar & Gleicher's timing).
+def segment_frames(registration: Registration, weights: np.ndarray) -> np.ndarray:
+    """Output frames spent in each segment of the registration, ``(M−1,)`` for weights ``(M−1, n)``.
 
-    Playing clip ``k`` alone advances ``τ`` by ``1 / (dt_k/dτ)`` per output frame (one frame of
-    clip ``k``); the blend advances by the weighted mean of those increments, so its speed and
-    duration interpolate the clips'. ``τ`` runs from ``tau0`` (default the curve's start) to the
-    curve's end. Weights may vary with time, so the clock is integrated frame by frame.
+    Between two samples of the registration every clip's time is linear, so clip ``k`` alone
+    spends ``Δt_k`` output frames there (one frame of clip ``k`` per output frame). The blend's
+    parameter increment per frame is the weighted mean of the clips' (Kovar & Gleicher), hence
+    ``1 / Σ_k w_k / Δt_k`` frames: a weighted harmonic mean of the clips' frame counts.
+    """
+    seg = np.diff(registration.times, axis=0)  # (M-1, n), all > 0
+    return 1.0 / np.sum(np.asarray(weights) / seg, axis=1)
+
+
+def registered_clock(registration: Registration, weights: WeightCurve, fps: float) -> np.ndarray:
+    """Reference times ``τ_n`` ``(N,)`` of the output frames (seed 000 §3.2's timing).
+
+    Exact for constant weights (with weight 1 on one clip the clip plays frame by frame); for
+    weights that change with output time the frame count is found by a few fixed-point passes,
+    evaluating the weights at each segment's current output time.
     """
     ref = registration.times[:, registration.reference]
-    inv_rate = 1.0 / np.gradient(registration.times, ref, axis=0)  # (M, n) dτ per frame of clip k
-    tau = ref[0] if tau0 is None else float(tau0)
-    out = [tau]
-    while True:
-        w = weights(np.array([len(out) / fps]))[0]
-        dtau = float(w @ np.array([np.interp(tau, ref, inv_rate[:, k]) for k in range(inv_rate.shape[1])]))
-        tau += dtau
-        if tau > ref[-1] + 1e-9:
-            break
-        out.append(tau)
-    return np.asarray(out)
+    n_seg = len(ref) - 1
+    nodes = np.arange(n_seg + 1, dtype=float)  # first guess: one output frame per segment
+    for _ in range(1 if len(weights.keys) == 1 else 6):
+        mid = 0.5 * (nodes[:-1] + nodes[1:]) / fps
+        nodes = np.r_[0.0, np.cumsum(segment_frames(registration, weights(mid)))]
+    n_out = int(np.floor(nodes[-1] + 1e-9)) + 1
+    return np.interp(np.arange(n_out, dtype=float), nodes, ref)
 
 
 def blend(

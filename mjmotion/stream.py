@@ -181,13 +181,25 @@ class MotionStream:
         self.registration = reg.register_many(loco, reference=0, positions=positions)
         r = self.registration
         self._ref = r.times[:, r.reference]
-        self._inv_rate = 1.0 / np.gradient(r.times, self._ref, axis=0)  # (M, n) dτ per clip frame
+        self._seg = np.diff(r.times, axis=0)  # (M-1, n) frames of each clip per segment
         # self-distances of the reference clip, for loop points (seed 000 loops its clips)
         w = reg.joint_weights(loco[0].skeleton)
         self._self_cost = reg.distance_grid(positions[r.reference], positions[r.reference], w).cost
 
-    def _dtau(self, tau: float, w: np.ndarray) -> float:
-        return float(w @ np.array([np.interp(tau, self._ref, self._inv_rate[:, k]) for k in range(len(w))]))
+    def _advance(self, tau: float, w: np.ndarray) -> float:
+        """``τ`` one output frame later at clip weights ``w`` (exact per segment, as
+        :func:`mjmotion.blend.segment_frames`); stops at the end of the registration."""
+        ref = self._ref
+        m = int(min(np.searchsorted(ref, tau, side="right") - 1, len(ref) - 2))
+        remaining = 1.0
+        while remaining > 1e-12 and m < len(ref) - 1:
+            frames = 1.0 / float(np.sum(w / self._seg[m]))  # output frames across segment m
+            span = ref[m + 1] - ref[m]
+            left = (ref[m + 1] - tau) / span * frames
+            if left >= remaining:
+                return tau + remaining / frames * span
+            tau, remaining, m = ref[m + 1], remaining - left, m + 1
+        return float(tau)  # the end of the curve, or a round-off short of a segment boundary
 
     def loop_point(self, tau: float) -> float:
         """An earlier reference time whose pose best matches ``tau`` (at least a third of the span back)."""
@@ -218,14 +230,13 @@ class MotionStream:
         for n in range(n_out):
             w = loc_w[n]
             for c in cursors:
-                d = self._dtau(c.tau, w) if n > 0 else 0.0
-                d = min(d, self._ref[-1] - c.tau)  # a fading cursor never runs past the curve
-                c.tau += d
-                c.taus[n], c.dtaus[n] = c.tau, d
+                new_tau = self._advance(c.tau, w) if n > 0 else c.tau  # never past the curve's end
+                c.taus[n], c.dtaus[n] = new_tau, new_tau - c.tau
+                c.tau = new_tau
             if fading is None:
                 cursors[-1].fade[n] = 1.0
                 head = cursors[-1]
-                if head.tau + 1.5 * fade_n * max(self._dtau(head.tau, w), 1e-6) >= self._ref[-1]:
+                if head.tau + 1.5 * fade_n * max(self._advance(head.tau, w) - head.tau, 1e-6) >= self._ref[-1]:
                     new = _Cursor(self.loop_point(head.tau), n_out)
                     new.taus[n] = new.tau
                     cursors.append(new)
