@@ -1,0 +1,149 @@
+"""The motion-stream controller: walk → walk/fast blend → kick → walk without jumps or spikes."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from mjmotion import bvh, evaluate
+from mjmotion import stream as S
+from mjmotion.commands._common import parse_frames
+from mjmotion.errors import MjmotionError
+
+ASF = "cmu_asfamc_converted"
+KICK = (500, 720)  # 10_01: approach, right-foot kick near frame 596, recovery (SOURCES.md)
+
+
+def _load(path: str, frames: str | None):
+    m = bvh.read(path)
+    return m[parse_frames(frames, m.n_frames)] if frames else m
+
+
+def _script(mocap, **extra) -> dict:
+    d = mocap / ASF
+    data = {
+        "duration": 7.0,
+        "clips": {
+            "walk": {"file": str(d / "16_15.bvh"), "frames": "2:"},  # frames 0-1: zeroed left arm (SOURCES.md)
+            "fast": {"file": str(d / "16_24.bvh")},
+            "kick": {"file": str(d / "10_01.bvh"), "frames": f"{KICK[0]}:{KICK[1]}"},
+        },
+        "locomotion": ["walk", "fast"],
+        "commands": [
+            {"time": 0.0, "weights": {"walk": 1}},
+            {"time": 1.0, "weights": {"walk": 0.4, "fast": 0.6}, "ramp": 0.8},
+            {"time": 3.0, "play": "kick", "blend": 0.3},
+            {"time": 4.0, "weights": {"walk": 1}, "ramp": 0.5},
+        ],
+    }
+    data.update(extra)
+    return data
+
+
+@pytest.fixture(scope="module")
+def streamed():
+    from conftest import require_data
+
+    mocap = require_data()
+    script = S.parse_script(_script(mocap), mocap, _load)
+    return script, S.stream(script)
+
+
+def _speeds(m) -> np.ndarray:
+    return np.linalg.norm(np.diff(m.root_positions[:, :2], axis=0), axis=1) * m.fps
+
+
+def test_stream_has_no_root_jump_and_no_joint_speed_spike(streamed):
+    script, out = streamed
+    sources = list(script.clips.values())
+    assert out.n_frames == round(7.0 * script.fps)
+    assert evaluate.root_jump_m(out, sources) <= 1e-9
+    assert evaluate.max_joint_speed_ratio(out, sources) <= 1.5
+    # stricter than METRICS' ratio (which a source's own spike can mask): joint by joint
+    res = evaluate.joint_angular_speeds(out).max(axis=0)
+    src = np.max([evaluate.joint_angular_speeds(s).max(axis=0) for s in sources], axis=0)
+    moving = src > 1e-6
+    assert np.all(res[moving] <= 1.5 * src[moving])
+    assert np.all(res[~moving] < 1e-6)
+    # heading never jumps (seed 000 §4.1's time blip turned the character in one frame)
+    from mjmotion.blend import yaw_of
+
+    dyaw = np.abs(np.diff(np.unwrap(yaw_of(out.rotations[:, 0]))))
+    src_dyaw = max(np.abs(np.diff(np.unwrap(yaw_of(s.rotations[:, 0])))).max() for s in sources)
+    assert dyaw.max() <= 1.5 * src_dyaw
+
+
+def test_stream_follows_its_commands(streamed):
+    script, out = streamed
+    fps = script.fps
+    v = _speeds(out)
+    walk, fast, kick = (script.clips[k] for k in ("walk", "fast", "kick"))
+    v_walk, v_fast = _speeds(walk).mean(), _speeds(fast).mean()
+    early = v[int(0.2 * fps) : int(0.9 * fps)].mean()
+    blended = v[int(2.0 * fps) : int(2.9 * fps)].mean()
+    assert early == pytest.approx(v_walk, rel=0.15)
+    assert early < blended < v_fast * 1.05  # 40/60 walk/fast is faster than the walk
+    # the kick is played: the right toe reaches (most of) the kick's peak speed inside its window
+    from mjmotion import kinematics
+
+    toe = script.clips["kick"].skeleton.index("rtoes")
+    toe_speed = np.linalg.norm(np.diff(kinematics.joint_positions(out)[:, toe], axis=0), axis=1) * fps
+    kick_peak = (np.linalg.norm(np.diff(kinematics.joint_positions(kick)[:, toe], axis=0), axis=1) * fps).max()
+    in_kick = slice(int(3.0 * fps), int(3.0 * fps) + kick.n_frames)
+    assert toe_speed[in_kick].max() > 0.9 * kick_peak
+    assert toe_speed[: int(3.0 * fps)].max() < 0.6 * kick_peak
+    # back to walking after the kick, at the walk's pace
+    late = v[int(5.5 * fps) :].mean()
+    assert late == pytest.approx(v_walk, rel=0.2)
+
+
+def test_stream_loops_locomotion_longer_than_its_clips(mocap):
+    data = _script(mocap, duration=9.0, commands=[{"time": 0.0, "weights": {"walk": 1}}])
+    script = S.parse_script(data, mocap, _load)
+    ms = S.MotionStream(script)
+    span = (ms.registration.times[-1, 0] - ms.registration.times[0, 0]) / script.fps
+    out = ms.run()
+    assert out.duration > 2.5 * span  # it had to loop at least twice
+    assert evaluate.root_jump_m(out, [script.clips["walk"], script.clips["fast"]]) <= 1e-9
+    v = _speeds(out)
+    assert v.min() > 0.5 * _speeds(script.clips["walk"]).mean()  # keeps walking through the loops
+
+
+@pytest.mark.parametrize(
+    "change,message",
+    [
+        ({"locomotion": ["walk", "jog"]}, "no clip named 'jog'"),
+        ({"commands": [{"time": 0, "weights": {"walk": 0.5, "fast": 0.6}}]}, "sum to 1.1"),
+        ({"commands": [{"time": 0, "play": "dance"}]}, r"commands\[0\].play"),
+        ({"commands": [{"time": -1, "weights": {"walk": 1}}]}, r"commands\[0\].time"),
+        ({"duration": "long"}, "script.duration"),
+        ({"speed": 2}, "unknown field"),
+    ],
+)
+def test_script_errors_name_the_field(mocap, change, message):
+    with pytest.raises(MjmotionError, match=message):
+        S.parse_script(_script(mocap, **change), mocap, _load)
+
+
+def test_script_with_another_topology_refused(mocap):
+    data = _script(mocap)
+    data["clips"]["kick"] = {"file": str(mocap / "cmu_cgspeed_daz" / "09_01.bvh")}
+    with pytest.raises(MjmotionError, match="topolog"):
+        S.parse_script(data, mocap, _load)
+
+
+def test_cli_stream(mocap, tmp_path):
+    script = tmp_path / "s.json"
+    data = _script(mocap, duration=2.0, commands=[{"time": 0.0, "weights": {"walk": 1}}, {"time": 0.5, "play": "kick", "blend": 0.3}])
+    script.write_text(json.dumps(data))
+    out = tmp_path / "s.bvh"
+    r = subprocess.run([sys.executable, "-m", "mjmotion.cli", "stream", str(script), "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert bvh.read(str(out)).n_frames == 240
+    (tmp_path / "bad.json").write_text("{not json")
+    r = subprocess.run([sys.executable, "-m", "mjmotion.cli", "stream", str(tmp_path / "bad.json"), "-o", str(tmp_path / "b.bvh")], capture_output=True, text=True)
+    assert r.returncode == 2 and "not valid JSON" in r.stderr
