@@ -43,8 +43,12 @@ DEFAULT_FALLOFF = 0.6
 DEFAULT_EDGE = 0.5
 #: A goal counts as reached within this distance (metres).
 REACH_TOLERANCE = 1e-3
+#: Second-hand error (metres) above which a per-frame NLP result is retried with DLS.
+GRIP_TOLERANCE = 1e-5
 #: Butt of the club above the lead hand's palm along the shaft (metres).
 BUTT_EXTENSION = 0.03
+#: A hand whose local rotation changes more than this in one frame (radians) is a data glitch.
+MAX_HAND_JUMP = np.deg2rad(90.0)
 
 
 # --- the club ---------------------------------------------------------------------------------
@@ -91,7 +95,8 @@ def floor_height(motion: Motion, pose: kinematics.Pose | None = None) -> float:
 def fit_club(motion: Motion, kind: str = "club") -> mjcf.Prop:
     """A club fitted to a two-handed swing: handle through both hands at address, standard length.
 
-    The lead hand is the upper one at address (the left for a right-handed golfer). At each
+    The lead hand is the upper one at address (the left for a right-handed golfer), unless its
+    rotation jumps by more than ``MAX_HAND_JUMP`` in one frame and the other's does not. At each
     address frame (the clip's first still frames) the shaft passes through the lead palm with its
     butt ``BUTT_EXTENSION`` above it, heads toward the trail palm in plan view, and is inclined so
     the head at the standard length (``mjcf.PROP_PRESETS``) rests on the floor
@@ -112,6 +117,10 @@ def fit_club(motion: Motion, kind: str = "club") -> mjcf.Prop:
     palms = {s: pose.joint_positions[:, j] + np.einsum("tab,b->ta", rots[:, j], _palm(skel, j)) for s, j in hands.items()}
     n = max(address_frames(palms["left"]), 1)
     lead, trail = ("left", "right") if palms["left"][:n, 2].mean() >= palms["right"][:n, 2].mean() else ("right", "left")
+    jumps = {s: float(np.max(rot.angle_between(motion.rotations[:-1, j], motion.rotations[1:, j]), initial=0.0)) for s, j in hands.items()}
+    if jumps[lead] > MAX_HAND_JUMP and jumps[trail] <= MAX_HAND_JUMP:
+        # A flipped hand in the data (64_03's lhand turns 179° at frame 101) would throw the club.
+        lead, trail = trail, lead
     j = hands[lead]
     floor = floor_height(motion, pose)
     p1 = palms[lead][:n]
@@ -395,6 +404,10 @@ def _solve_frames(problem: HitProblem, solver: str) -> tuple[np.ndarray, np.ndar
         q2 = kin1.data.qpos.copy()
         if solver == "nlp":
             r2 = fs2.solve(q, kin1.data.xpos, kin1.data.xmat, goal[:3, 3], lo2[t], hi2[t], goal_rotation=goal[:3, :3])
+            if r2.error > GRIP_TOLERANCE:
+                # IPOPT gave up on the equality (a local infeasibility near a limit): DLS may still get there.
+                r3 = dls.solve(kin2, q2, goal[:3, 3], lo2[t], hi2[t], goal_rotation=goal[:3, :3])
+                r2 = r3 if r3.error < r2.error else r2
         else:
             r2 = dls.solve(kin2, q2, goal[:3, 3], lo2[t], hi2[t], goal_rotation=goal[:3, :3])
         d2[t] = r2.delta

@@ -2,8 +2,8 @@
 
 Each iteration takes the Meredith & Maddock weighted, damped step
 ``Δδ = W Jᵀ (J W Jᵀ + λ² I)⁻¹ e`` (``W`` the stiffness weights, ``J`` from ``mujoco.mj_jac``), then
-clips ``δ`` to the limits; a coordinate stuck at a limit gets weight 0 for the rest of the solve
-(the clamping loop), so the others finish the job.
+clips ``δ`` to the limits; a coordinate at a limit that the step would push further out gets
+weight 0 for that step (the clamping loop), so the others finish the job.
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def solve(
     chain = kin.chain
     n = chain.n_dof
     delta = np.zeros(n)
-    w0 = chain.weights.copy()
+    w0 = chain.weights
     kin.set_frame(qpos)
     six = goal_rotation is not None
     it = 0
@@ -81,12 +81,16 @@ def solve(
         jac = kin.jacobian(rotation=six)
         if six:
             jac[3:] *= ORIENTATION_SCALE
-        jw = jac * w0
-        step = w0 * (jac.T @ np.linalg.solve(jw @ jac.T + damping**2 * np.eye(len(e)), e))
-        new = np.clip(delta + step, lower, upper)
-        # Clamping loop: a coordinate that reached its limit stops moving; the others take over.
-        w0 = np.where(new != delta + step, 0.0, w0)
-        delta = new
+        w = w0.copy()
+        for _ in range(4):
+            jw = jac * w
+            step = w * (jac.T @ np.linalg.solve(jw @ jac.T + damping**2 * np.eye(len(e)), e))
+            # Clamping loop: a coordinate at a limit that the step pushes outward sits out this step.
+            out = ((delta <= lower + 1e-12) & (step < 0)) | ((delta >= upper - 1e-12) & (step > 0))
+            if not np.any(out & (w > 0)):
+                break
+            w = np.where(out, 0.0, w)
+        delta = np.clip(delta + step, lower, upper)
         it += 1
     if six:
         p, r = kin.tip_frame()
