@@ -279,8 +279,9 @@ def punch(seed: int = 0) -> SynthClip:
     keys = [0.0, 0.4, 0.8, 1.05, 1.25, 1.5, 1.75, 2.2, 2.6]
     st = STAND
     root = [st["root"], st["root"], (0.0, 0.0, 0.97), (0.0, 0.0, 0.97), (0.04, 0.01, 0.96), (0.0, 0.0, 0.97), (0.0, 0.0, 0.97), st["root"], st["root"]]
-    pelvis = [st["pelvis"], st["pelvis"], (10.0, 0.0, 4.0), (10.0, 0.0, 4.0), (-15.0, 0.0, 6.0), (10.0, 0.0, 4.0), (8.0, 0.0, 4.0), st["pelvis"], st["pelvis"]]
-    spine = [st["spine"], st["spine"], (10.0, 0.0, 6.0), (10.0, 0.0, 6.0), (-25.0, 0.0, 10.0), (10.0, 0.0, 6.0), (8.0, 0.0, 6.0), st["spine"], st["spine"]]
+    # Positive yaw brings the right shoulder forward: wind up (-), drive through (+).
+    pelvis = [st["pelvis"], st["pelvis"], (-10.0, 0.0, 4.0), (-10.0, 0.0, 4.0), (15.0, 0.0, 6.0), (-10.0, 0.0, 4.0), (-8.0, 0.0, 4.0), st["pelvis"], st["pelvis"]]
+    spine = [st["spine"], st["spine"], (-10.0, 0.0, 6.0), (-10.0, 0.0, 6.0), (25.0, 0.0, 10.0), (-10.0, 0.0, 6.0), (-8.0, 0.0, 6.0), st["spine"], st["spine"]]
     head = [st["head"]] * 2 + [(0.0, 2.0)] * 5 + [st["head"]] * 2
     n = int(round(keys[-1] * FPS)) + 1
     t = np.arange(n) / FPS

@@ -114,6 +114,11 @@ class SynthClip:
             t = motion.n_frames
             if int(entry["n_frames"]) != t:
                 raise MjmotionError(f"manifest: clip {name!r} has {entry['n_frames']} frames but its BVH has {t}")
+            fps = float(entry["fps"])
+            if abs(fps - motion.fps) > 1e-6 * fps:
+                raise MjmotionError(f"manifest: clip {name!r} is at {fps:g} fps but its BVH at {motion.fps:g}")
+            # BVH keeps the frame time to 10 digits; the manifest has the exact rate.
+            motion = motion.replace(fps=fps)
             contacts = np.zeros((t, 2), dtype=bool)
             for i, side in enumerate(("left", "right")):
                 for a, b in entry["contacts"][side]:

@@ -1,0 +1,393 @@
+"""The bundled procedural clips: clean by METRICS.md, exact ground truth, round trips, determinism.
+
+Metrics are computed here from ``shared/docs/METRICS.md`` directly, through MuJoCo's own
+kinematics of the compiled model (independent of the NumPy FK the generators use).
+"""
+
+from __future__ import annotations
+
+import json
+import mujoco
+import numpy as np
+import pytest
+
+from mjmotion import bvh, kinematics, synth
+from mjmotion import rotations as rot
+from mjmotion.cli import main
+from mjmotion.errors import MjmotionError
+from mjmotion.skeleton import CM
+from mjmotion.synth.library import same_ground_truth
+
+GAITS = ("walk", "walk_fast", "walk_turn_left", "run", "run_turn_right", "sneak", "limp")
+H_C = 0.05  # METRICS.md contact height
+V_C = 0.5  # METRICS.md contact speed, m/s
+
+
+@pytest.fixture(scope="module")
+def lib() -> dict[str, synth.SynthClip]:
+    return synth.library()
+
+
+class Ground:
+    """Per-frame MuJoCo geometry of a clip: METRICS.md foot points and the lowest body-geom point."""
+
+    def __init__(self, clip: synth.SynthClip):
+        c = clip.compile()
+        m = c.model
+        q = kinematics.qpos(c, clip.motion)
+        d = mujoco.MjData(m)
+        feet = clip.motion.skeleton.feet()
+        body = c.body_geom_ids
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+        t = len(q)
+        self.fps = clip.motion.fps
+        self.points = {s: [] for s in ("left", "right")}
+        self.lowest_body = np.empty(t)
+        for i in range(t):
+            d.qpos[:] = q[i]
+            mujoco.mj_kinematics(m, d)
+            pos, mat, size = d.geom_xpos[body], d.geom_xmat[body].reshape(-1, 3, 3), m.geom_size[body]
+            is_box = m.geom_type[body] == mujoco.mjtGeom.mjGEOM_BOX
+            box_low = pos[:, 2] - np.einsum("gk,gk->g", np.abs(mat[:, 2, :]), size)
+            cap_low = pos[:, 2] - np.abs(mat[:, 2, 2]) * size[:, 1] - size[:, 0]
+            self.lowest_body[i] = np.where(is_box, box_low, cap_low).min()
+            for s, (ankle, toe) in feet.items():
+                g = np.asarray(c.foot_geoms[s])
+                corners = d.geom_xpos[g][:, None] + np.einsum("gij,gkj->gki", d.geom_xmat[g].reshape(-1, 3, 3), signs[None] * m.geom_size[g][:, None])
+                self.points[s].append(np.vstack([d.xpos[c.body_ids[ankle]], d.xpos[c.body_ids[toe]], corners.reshape(-1, 3)]))
+        self.points = {s: np.asarray(v) for s, v in self.points.items()}  # (T, P, 3)
+
+    def height(self, side: str) -> np.ndarray:
+        """``(T,)`` lowest foot point above the floor."""
+        return self.points[side][:, :, 2].min(axis=1)
+
+    def lowest_speed(self, side: str) -> np.ndarray:
+        """``(T,)`` horizontal speed (m/s) of the material point that is lowest (central differences)."""
+        p = self.points[side]
+        k = np.argmin(p[:, :, 2], axis=1)
+        v = np.gradient(p[:, :, :2], 1.0 / self.fps, axis=0)
+        return np.linalg.norm(v[np.arange(len(k)), k], axis=1)
+
+
+@pytest.fixture(scope="module")
+def ground(lib) -> dict[str, Ground]:
+    return {name: Ground(clip) for name, clip in lib.items()}
+
+
+def labelled_skate_mm_per_s(clip: synth.SynthClip, g: Ground) -> float:
+    """METRICS.md ``skate_mm_per_s`` over labelled contacts (the label at t and t−1)."""
+    speeds = []
+    for i, side in enumerate(("left", "right")):
+        c = clip.contacts[:, i]
+        both = np.zeros_like(c)
+        both[1:] = c[1:] & c[:-1]
+        speeds.append(g.lowest_speed(side)[both])
+    return 1000.0 * float(np.mean(np.concatenate(speeds)))
+
+
+# --- the skeleton --------------------------------------------------------------------------------
+def test_skeleton_names_parts_and_writes_standard_y_up_cm_bvh():
+    s = synth.skeleton()
+    assert 20 <= s.n_joints <= 25
+    names = s.names
+    assert {n: names[j] for n, j in s.hands().items()} == {"left": "LeftHand", "right": "RightHand"}
+    assert {k: (names[a], names[t]) for k, (a, t) in s.feet().items()} == {
+        "left": ("LeftFoot", "LeftToe"),
+        "right": ("RightFoot", "RightToe"),
+    }
+    assert 1.6 < s.stature() < 2.0
+    # Adult proportions: legs about half the height, arms span about the height (T-pose).
+    rest = s.rest_positions()
+    assert rest[s.index("Hips"), 2] == pytest.approx(1.0)
+    assert 1.5 < s.height() < 1.95
+    text = bvh.format_motion(synth.walk(seconds=0.5).motion)
+    root_offset = [float(x) for x in text.splitlines()[3].split()[1:]]
+    assert root_offset == pytest.approx([0.0, 100.0, 0.0])  # centimetres, Y up
+    back = bvh.parse(text)
+    assert back.skeleton.scale == CM and np.allclose(back.skeleton.offsets, s.offsets, atol=1e-9)
+
+
+def test_planted_flat_foot_rests_on_the_floor_with_nothing_below_it():
+    fg = synth.foot_geometry()
+    clip = synth.kick()
+    g = Ground(clip)
+    # Frame 0 stands on both flat feet: the lowest body point is the floor, to MuJoCo's geometry.
+    assert g.lowest_body[0] == pytest.approx(0.0, abs=1e-9)
+    for side in ("left", "right"):
+        ankle = g.points[side][0, 0]
+        assert ankle[2] == pytest.approx(fg.ankle_height, abs=1e-9)
+        assert g.height(side)[0] < 0.02  # METRICS foot height: the foot box's sole
+    assert 0.05 < fg.ankle_height < 0.12 and 0.0 < fg.toe_height < fg.ankle_height
+
+
+# --- locomotion ----------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", GAITS)
+def test_gait_is_clean_by_the_metrics(lib, ground, name):
+    clip, g = lib[name], ground[name]
+    assert labelled_skate_mm_per_s(clip, g) < 5.0
+    assert -g.lowest_body.min() * 1000.0 < 2.0  # penetrate_mm, worst frame
+    for i, side in enumerate(("left", "right")):
+        c = clip.contacts[:, i]
+        assert c.any() and (~c).any()  # every foot both stands and swings
+        h = g.height(side)
+        assert np.all(h[c] < H_C)  # labels agree with METRICS contact by height…
+        both = np.zeros_like(c)
+        both[1:] = c[1:] & c[:-1]
+        assert np.all(g.lowest_speed(side)[both] < V_C)  # …and by speed
+        assert h[~c].max() > 0.06  # the swing foot leaves the floor
+    assert -g.lowest_body.min() <= 0.002
+
+
+@pytest.mark.parametrize("name", GAITS)
+def test_stance_feet_are_on_their_planned_footprints(lib, ground, name):
+    clip, g = lib[name], ground[name]
+    assert len(clip.footprints) >= 4  # several cycles
+    toe_idx = 1
+    for f in clip.footprints:
+        toe = g.points[f.side][f.start : f.end + 1, toe_idx]
+        assert np.abs(toe - np.asarray(f.position)).max() < 1e-3
+        i = ("left", "right").index(f.side)
+        assert clip.contacts[f.start : f.end + 1, i].all()
+    # The heading of the foot in its flat phase is the planned heading.
+    skel = clip.motion.skeleton
+    pose = kinematics.forward(clip.compile(), clip.motion)
+    for f in clip.footprints:
+        if f.flat_end < f.start:
+            continue
+        ankle, toe = skel.feet()[f.side]
+        d = pose.joint_positions[f.start : f.flat_end + 1, toe] - pose.joint_positions[f.start : f.flat_end + 1, ankle]
+        assert np.allclose(np.arctan2(d[:, 1], d[:, 0]), np.angle(np.exp(1j * f.heading)), atol=1e-6)
+
+
+def test_walk_always_has_a_foot_down_and_run_has_flight(lib, ground):
+    assert lib["walk"].contacts.any(axis=1).all()
+    assert (lib["walk"].contacts.all(axis=1)).any()  # double support
+    run, g = lib["run"], ground["run"]
+    flight = ~run.contacts.any(axis=1)
+    assert flight.sum() >= 10
+    assert not run.contacts.all(axis=1).any()  # no double support in a run
+    # METRICS: both feet above h_c in some frames, and the body clear of the floor in all flight frames.
+    both_up = (g.height("left") > H_C) & (g.height("right") > H_C)
+    assert both_up.sum() >= 3
+    # Every flight phase lifts the whole body clear of the floor (feet lift off and land at rest,
+    # so the phase's ends touch it).
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], flight.astype(int), [0]])))
+    for a, b in zip(edges[::2], edges[1::2]):
+        assert g.lowest_body[a:b].max() > 0.02 and g.lowest_body[a:b].min() >= 0.0
+
+
+@pytest.mark.parametrize("kind,speed,turn", [("walk", 1.1, 0.0), ("walk", 1.3, 30.0), ("run", 4.0, -20.0), ("sneak", 0.5, 0.0)])
+def test_gait_follows_requested_speed_and_turn(kind, speed, turn):
+    clip = synth.generate(kind, speed=speed, seconds=4.0, turn_deg_per_s=turn)
+    fps = clip.motion.fps
+    # Footprints of the same foot one cycle apart: path length per cycle = speed × period, and
+    # the heading advances at the turning rate.
+    for side in ("left", "right"):
+        fs = [f for f in clip.footprints if f.side == side and f.start > 0]  # touch-down inside the clip
+        a, b = fs[0], fs[-1]
+        assert b.start > a.start
+        dt = (b.start - a.start) / fps
+        dpsi = np.angle(np.exp(1j * (b.heading - a.heading)))
+        assert np.degrees(dpsi) == pytest.approx(turn * dt, abs=max(0.05 * abs(turn * dt), 1.0))
+        if turn == 0:
+            chord = np.linalg.norm(np.subtract(b.position, a.position)[:2])
+            assert chord == pytest.approx(speed * dt, rel=0.03)
+    # The pelvis travels at the requested speed (its path length includes a little sway).
+    root = clip.motion.root_positions[:, :2]
+    length = np.linalg.norm(np.diff(root, axis=0), axis=1).sum()
+    assert length / clip.motion.duration == pytest.approx(speed, rel=0.03)
+    # The clip starts at the origin heading +X.
+    assert np.linalg.norm(clip.motion.root_positions[0, :2]) < 0.05
+
+
+def test_limp_is_asymmetric_and_variations_are_deterministic():
+    limp = synth.limp()
+    left, right = limp.contacts.mean(axis=0)
+    assert left > right + 0.1  # the painful right leg carries weight for less time
+    a, b = synth.walk(seed=3), synth.walk(seed=3)
+    assert bvh.format_motion(a.motion) == bvh.format_motion(b.motion)
+    assert bvh.format_motion(a.motion) != bvh.format_motion(synth.walk().motion)
+
+
+def test_bad_gait_requests_are_refused():
+    with pytest.raises(MjmotionError, match="speed"):
+        synth.walk(speed=5.0)
+    with pytest.raises(MjmotionError, match="turn"):
+        synth.walk(speed=1.0, turn_deg_per_s=80.0)  # radius 0.7 m
+    with pytest.raises(MjmotionError, match="seconds"):
+        synth.run(seconds=0.1)
+    with pytest.raises(MjmotionError, match="unknown gait"):
+        synth.generate("hop")
+
+
+# --- shots ---------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["drive", "pull"])
+def test_shot_hits_its_declared_sweet_spot_through_mujoco(lib, ground, name):
+    clip = lib[name]
+    assert clip.prop is not None and clip.prop.joint == "RightHand" and clip.hit_frame is not None
+    compiled = clip.compile()
+    pose = kinematics.forward(compiled, clip.motion)
+    sweet = pose.site(f"{clip.prop.name}/sweet_spot")
+    assert np.linalg.norm(sweet[clip.hit_frame] - clip.sweet_spot) < 1e-3
+    # Impact happens in the fast part of the swing, with the bat above the floor throughout.
+    speed = np.linalg.norm(np.gradient(sweet, 1.0 / clip.motion.fps, axis=0), axis=1)
+    assert speed[clip.hit_frame] > 5.0 and speed[clip.hit_frame] > 0.6 * speed.max()
+    assert pose.site(f"{clip.prop.name}/tip")[:, 2].min() > -0.002
+    assert 10 < clip.hit_frame < clip.motion.n_frames - 10
+    # The top hand stays on the handle: the left hand is a fixed distance from the grip.
+    lh = pose.joint_positions[:, clip.motion.skeleton.index("LeftHand")]
+    d = np.linalg.norm(lh - pose.site(f"{clip.prop.name}/grip"), axis=1)
+    assert np.ptp(d) < 1e-3
+    g = ground[name]
+    assert labelled_skate_mm_per_s(clip, g) < 5.0
+    assert -g.lowest_body.min() < 0.002
+
+
+def test_shots_start_and_end_in_one_shared_stance(lib):
+    drive, pull = lib["drive"].motion, lib["pull"].motion
+    for m in (drive, pull):
+        assert rot.angle_between(m.rotations[0], m.rotations[-1]).max() < 1e-9
+        assert np.abs(m.root_positions[0] - m.root_positions[-1]).max() < 1e-9
+    assert rot.angle_between(drive.rotations[0], pull.rotations[0]).max() < 1e-9
+    assert np.abs(drive.root_positions[0] - pull.root_positions[0]).max() < 1e-9
+    # …and the two swings differ in between (the drive's impact is low, the pull's at the chest).
+    assert lib["drive"].sweet_spot[2] < 0.4 < 0.8 < lib["pull"].sweet_spot[2]
+
+
+# --- kick and punch ------------------------------------------------------------------------------
+def _root_frame_pose(m, frames) -> np.ndarray:
+    """Joint positions relative to the root, in its heading frame, ``(F, J, 3)``."""
+    p = kinematics.joint_positions(m[frames[0] : frames[-1] + 1])[np.asarray(frames) - frames[0]]
+    fwd = rot.rotate(m.rotations[frames, 0], np.array([1.0, 0.0, 0.0]))
+    h = np.arctan2(fwd[:, 1], fwd[:, 0])
+    local = p - p[:, :1]
+    c, s = np.cos(-h)[:, None], np.sin(-h)[:, None]
+    return np.stack([c * local[..., 0] - s * local[..., 1], s * local[..., 0] + c * local[..., 1], local[..., 2]], axis=-1)
+
+
+@pytest.mark.parametrize("name", ["kick", "punch"])
+def test_transitions_start_and_end_near_the_locomotion_stance(lib, ground, name):
+    clip, walk = lib[name], lib["walk"]
+    m = clip.motion
+    assert rot.angle_between(m.rotations[0], m.rotations[-1]).max() < 1e-9
+    ends = _root_frame_pose(m, [0])[0]
+    # Double-support frames of the walk are the nearest locomotion poses.
+    ds = np.flatnonzero(walk.contacts.all(axis=1))
+    walk_poses = _root_frame_pose(walk.motion, list(range(ds[0], ds[-1] + 1)))
+    dist = np.linalg.norm(walk_poses - ends[None], axis=2).max(axis=1)
+    assert dist.min() < 0.3  # every joint within 30 cm of some walking pose (root-relative)
+    g = ground[name]
+    assert labelled_skate_mm_per_s(clip, g) < 5.0
+    assert -g.lowest_body.min() < 0.002
+    skel = m.skeleton
+    pose = kinematics.forward(clip.compile(), m)
+    if name == "kick":
+        foot = pose.joint_positions[:, skel.index("RightFoot")]
+        assert foot[:, 2].max() > 0.7 and foot[:, 0].max() - foot[0, 0] > 0.5
+        assert clip.contacts[:, 0].all() and not clip.contacts[:, 1].all()
+    else:
+        hand = pose.joint_positions[:, skel.index("RightHand")]
+        chest = pose.joint_positions[:, skel.index("Spine2")]
+        assert (hand[:, 0] - chest[:, 0]).max() > 0.4
+        assert clip.contacts.all()
+
+
+# --- warps ---------------------------------------------------------------------------------------
+def test_smooth_warp_is_strictly_increasing_and_covers_the_clip():
+    w = synth.smooth_warp(241, 200, strength=0.5, seed=3)
+    assert w.shape == (200,) and w[0] == 0.0 and w[-1] == pytest.approx(240.0)
+    assert np.all(np.diff(w) > 0)
+    assert np.ptp(np.diff(w)) > 0.1  # not a linear map
+    with pytest.raises(MjmotionError):
+        synth.smooth_warp(10, 10, strength=1.5)
+
+
+def test_warp_carries_the_ground_truth(lib):
+    walk = lib["walk"]
+    # An integer shift: contacts and footprints move by exactly that many frames.
+    shift = 17
+    moved = synth.warp(walk, lambda i: i + shift, 0.0, (0.0, 0.0), n_frames=walk.motion.n_frames - shift)
+    assert np.array_equal(moved.contacts, walk.contacts[shift:])
+    assert np.allclose(moved.motion.rotations, walk.motion.rotations[shift:])
+    # A smooth warp plus a rigid move: planted feet sit on the moved footprints.
+    ww = lib["walk_warped"]
+    assert ww.warp is not None and ww.warp.source == "walk"
+    g = Ground(ww)
+    for f in ww.footprints:
+        toe = g.points[f.side][f.start : f.end + 1, 1]
+        assert np.abs(toe[:, :2] - np.asarray(f.position[:2])).max() < 1e-3
+    # The truth is the foundation's timewarp + floor_transform of the source.
+    from mjmotion.transform import floor_transform, timewarp
+
+    src = ww.warp.source_frames
+    expect = floor_transform(timewarp(walk.motion, lambda i: src, len(src)), ww.warp.rotation, ww.warp.translation)
+    assert np.allclose(expect.root_positions, ww.motion.root_positions)
+    # A warped shot keeps a consistent hit: MuJoCo's sweet spot at the new hit frame.
+    drive = lib["drive"]
+    w = synth.smooth_warp(drive.motion.n_frames, 140, 0.3, seed=1)
+    dw = synth.warp(drive, w, -0.4, (2.0, 1.0))
+    pose = kinematics.forward(dw.compile(), dw.motion)
+    assert np.linalg.norm(pose.site("bat/sweet_spot")[dw.hit_frame] - dw.sweet_spot) < 1e-3
+    assert abs(w[dw.hit_frame] - drive.hit_frame) <= 1.0
+
+
+# --- files ---------------------------------------------------------------------------------------
+def test_library_round_trips_through_bvh_and_manifest_deterministically(tmp_path, lib):
+    a, b = tmp_path / "a", tmp_path / "b"
+    synth.write_library(a, clips=lib)
+    synth.write_library(b)  # freshly generated: the same bytes
+    files = sorted(p.name for p in a.iterdir())
+    assert files == sorted(p.name for p in b.iterdir()) and "manifest.json" in files
+    for name in files:
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+    loaded = synth.load_library(a)
+    assert set(loaded) == set(lib)
+    for name, clip in lib.items():
+        back = loaded[name]
+        assert same_ground_truth(clip, back), name
+        assert rot.angle_between(clip.motion.rotations, back.motion.rotations).max() < 1e-6
+        assert np.abs(clip.motion.root_positions - back.motion.root_positions).max() < 1e-6
+        assert back.motion.fps == clip.motion.fps
+        compiled = back.compile()
+        assert compiled.model.nq == 7 + 4 * (back.motion.skeleton.n_joints - 1)
+        if back.hit_frame is not None:
+            pose = kinematics.forward(compiled, back.motion[back.hit_frame : back.hit_frame + 1])
+            assert np.linalg.norm(pose.site("bat/sweet_spot")[0] - back.sweet_spot) < 1e-3
+    manifest = json.loads((a / "manifest.json").read_text())
+    assert manifest["clips"]["drive"]["prop"]["joint"] == "RightHand"
+    with pytest.raises(MjmotionError, match="already exists"):
+        synth.write_library(a, clips={"walk": lib["walk"]})
+
+
+def test_load_library_reports_bad_manifests(tmp_path):
+    with pytest.raises(MjmotionError, match="no manifest"):
+        synth.load_library(tmp_path)
+    (tmp_path / "manifest.json").write_text("{not json")
+    with pytest.raises(MjmotionError, match="JSON"):
+        synth.load_library(tmp_path)
+    (tmp_path / "manifest.json").write_text(json.dumps({"version": 1, "clips": {"w": {"file": "w.bvh", "n_frames": 3}}}))
+    bvh.write(synth.walk(seconds=0.5).motion, tmp_path / "w.bvh")
+    with pytest.raises(MjmotionError, match="'w'"):
+        synth.load_library(tmp_path)
+
+
+def test_cli_writes_the_same_clip_and_reports_errors(tmp_path, capsys):
+    out = tmp_path / "run.bvh"
+    truth = tmp_path / "run.json"
+    argv = ["synth", "run", "--speed", "4", "--turn", "-20", "--seconds", "2", "-o", str(out), "--truth", str(truth)]
+    assert main(argv) == 0
+    clip = synth.run(speed=4.0, turn_deg_per_s=-20.0, seconds=2.0)
+    assert out.read_text() == bvh.format_motion(clip.motion)
+    entry = json.loads(truth.read_text())
+    assert entry["n_frames"] == clip.motion.n_frames and entry["params"]["speed"] == 4.0
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error:") and "already exists" in err
+    assert main(["synth", "drive", "--speed", "3", "-o", str(tmp_path / "d.bvh")]) == 2
+    err = capsys.readouterr().err
+    assert "gaits only" in err and "Traceback" not in err
+    assert main(["synth", "library"]) == 2
+    assert "folder" in capsys.readouterr().err
+    assert main(["synth", "library", str(tmp_path / "lib")]) == 0
+    assert set(synth.load_library(tmp_path / "lib")) == set(synth.library())
