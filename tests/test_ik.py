@@ -1,0 +1,145 @@
+"""IK chains and solvers on a real golf swing: exact FK, Jacobians, limits, agreement between solvers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+from mjmotion import bvh, kinematics, mjcf
+from mjmotion import rotations as rot
+from mjmotion.errors import MjmotionError
+from mjmotion.ik import ccd, chains, dls, nlp
+
+
+@pytest.fixture(scope="module")
+def swing():
+    from conftest import require_data
+
+    d = require_data()
+    m = bvh.read(d / "cmu_asfamc_converted" / "64_01.bvh")
+    s = m.skeleton
+    eff = chains.Effector("fist", s.index("lhand"), (0.08, 0.02, 0.0))
+    lead = chains.build_chain(m, "lowerback", "lhand", eff, wrist="swing")
+    second = chains.build_chain(m, "rclavicle", "rhand", None, wrist="swing")
+    cm = mjcf.compile(s)
+    return m, cm, lead, second, kinematics.qpos(cm, m)
+
+
+def test_freedoms_follow_roles_and_the_root_is_refused(swing):
+    m, _, lead, _, _ = swing
+    freedoms = dict(zip(lead.names, (j.freedom for j in lead.joints)))
+    assert freedoms["lradius"] == "hinge" and freedoms["lwrist"] == "hinge"  # elbow, forearm roll bone
+    assert freedoms["lhand"] == "swing" and freedoms["lhumerus"] == "ball"
+    locked = chains.build_chain(m, "lowerback", "lhand", lead.effector, wrist="locked")
+    assert locked.n_dof == lead.n_dof - 2
+    with pytest.raises(MjmotionError):
+        chains.build_chain(m, "root", "lhand")
+
+
+def test_hinge_axis_is_the_clips_own(swing):
+    """CMU elbows are 1-DOF in the data: every frame's elbow rotation is about the found axis."""
+    m, _, lead, _, _ = swing
+    j = next(c for c in lead.joints if m.skeleton.names[c.joint] == "lradius")
+    v = rot.log(rot.multiply(rot.conjugate(j.q_ref), m.rotations[:, j.joint]))
+    off_axis = v - np.outer(v @ j.basis[:, 0], j.basis[:, 0])
+    assert np.abs(off_axis).max() < 1e-5  # the file stores degrees to 6 decimals
+
+
+def test_zero_delta_is_the_fk_pose_and_limits_contain_it(swing):
+    m, cm, lead, _, q = swing
+    kin = chains.ChainKinematics(cm, lead)
+    kin.set_frame(q[300])
+    kin.set_delta(np.zeros(lead.n_dof))
+    assert np.array_equal(kin.data.qpos, q[300])
+    lo, hi = lead.bounds(m)
+    assert np.all(lo <= 0) and np.all(hi >= 0) and np.all(hi - lo > 0)
+
+
+def test_jacobian_matches_finite_differences(swing):
+    _, cm, lead, _, q = swing
+    kin = chains.ChainKinematics(cm, lead)
+    kin.set_frame(q[200])
+    d = np.random.default_rng(1).normal(0, 0.2, lead.n_dof)
+    kin.set_delta(d)
+    jac = kin.jacobian(rotation=True)
+    e0 = kin.effector().copy()
+    h = 1e-7
+    num = np.zeros((3, lead.n_dof))
+    for i in range(lead.n_dof):
+        dd = d.copy()
+        dd[i] += h
+        kin.set_delta(dd)
+        num[:, i] = (kin.effector() - e0) / h
+    assert np.abs(jac[:3] - num).max() < 1e-5
+
+
+def test_symbolic_fk_matches_mujoco_to_a_nanometre(swing):
+    """Both chains together (the second's base, thorax, is inside the first), random coordinates."""
+    _, cm, lead, second, q = swing
+    fk = nlp.SymbolicFK(cm, [lead, second])
+    rng = np.random.default_rng(2)
+    k1, k2 = chains.ChainKinematics(cm, lead), chains.ChainKinematics(cm, second)
+    rh = cm.body_ids[second.tip]
+    for t in (0, 250, 330):
+        d1, d2 = rng.normal(0, 0.4, lead.n_dof), rng.normal(0, 0.4, second.n_dof)
+        k1.set_frame(q[t])
+        k1.set_delta(d1)
+        k2.set_frame(k1.data.qpos.copy())
+        k2.set_delta(d2)
+        out = fk.function(np.concatenate([d1, d2]), fk.params(q[t], k1.data.xpos, k1.data.xmat))
+        assert np.abs(np.asarray(out[2]).ravel() - k1.effector()).max() < 1e-9
+        assert np.abs(np.asarray(out[3]).ravel() - k2.data.xpos[rh]).max() < 1e-9
+        assert np.abs(np.asarray(out[4]).reshape(3, 3, order="F") - k2.data.xmat[rh].reshape(3, 3)).max() < 1e-9
+
+
+def test_nlp_optimum_agrees_with_scipy_on_mujoco_fk_and_beats_dls(swing):
+    """The NLP's weighted least deviation equals SLSQP's on the same problem through MuJoCo FK."""
+    m, cm, lead, _, q = swing
+    t = 320
+    kin = chains.ChainKinematics(cm, lead)
+    kin.set_frame(q[t])
+    kin.set_delta(np.zeros(lead.n_dof))
+    goal = kin.effector() + np.array([0.05, -0.08, 0.1])
+    lo, hi = lead.bounds(m)
+    fs = nlp.FrameSolver(cm, lead)
+    r = fs.solve(q[t], kin.data.xpos, kin.data.xmat, goal, lo[t], hi[t])
+    w = lead.weights
+    cost = lambda d: float(np.sum(d**2 / w))  # noqa: E731
+
+    def eff(d):
+        kin.set_delta(d)
+        return kin.effector() - goal
+
+    ref = minimize(cost, np.zeros(lead.n_dof), jac=lambda d: 2 * d / w, method="SLSQP", bounds=list(zip(lo[t], hi[t])),
+                   constraints={"type": "eq", "fun": eff}, options={"ftol": 1e-14, "maxiter": 500})
+    assert r.error < 1e-9 and np.linalg.norm(eff(ref.x)) < 1e-6
+    assert cost(r.delta) == pytest.approx(cost(ref.x), rel=1e-4)
+    rd = dls.solve(kin, q[t], goal, lo[t], hi[t])
+    assert rd.error < 1e-4
+    assert cost(r.delta) <= cost(rd.delta) * (1 + 1e-6)
+    assert np.all(r.delta >= lo[t] - 1e-9) and np.all(r.delta <= hi[t] + 1e-9)
+
+
+def test_dls_six_d_goal_and_ccd_position_goal(swing):
+    m, cm, lead, second, q = swing
+    t = 300
+    k2 = chains.ChainKinematics(cm, second)
+    k2.set_frame(q[t])
+    k2.set_delta(np.full(second.n_dof, 0.05))
+    p, r = k2.tip_frame()
+    lo, hi = second.bounds(m)
+    res = dls.solve(k2, q[t], p, lo[t], hi[t], goal_rotation=r)
+    assert res.error < 1e-4 and res.rotation_error < 1e-3
+    kin = chains.ChainKinematics(cm, lead)
+    kin.set_frame(q[t])
+    kin.set_delta(np.zeros(lead.n_dof))
+    goal = kin.effector() + np.array([0.0, 0.05, 0.05])
+    lo1, hi1 = lead.bounds(m)
+    rc = ccd.solve(kin, q[t], goal, lo1[t], hi1[t])
+    assert rc.error < 1e-4
+    assert np.all(rc.delta >= lo1[t]) and np.all(rc.delta <= hi1[t])
+    # Starting at the goal is no work at all (§2.2.3).
+    kin.set_delta(np.zeros(lead.n_dof))
+    r0 = ccd.solve(kin, q[t], kin.effector().copy(), lo1[t], hi1[t])
+    assert r0.iterations == 0 and not r0.delta.any()
