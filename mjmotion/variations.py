@@ -19,7 +19,7 @@ relative to the first hand with two-bone arm IK).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +49,8 @@ class ScorePath:
         frame_a, frame_b: ``(T',) int`` source frames each frame stands for …
         weight: ``(T',)`` … as ``(1 − w)·frame_a + w·frame_b``.
         label: a name for plots and reports.
+        shift_b: ``(3,)`` metres added to the source's world positions at ``frame_b`` (an abort
+            that returns to the rest pose where the character stands, not where the source ended).
     """
 
     scores: np.ndarray
@@ -57,6 +59,7 @@ class ScorePath:
     frame_b: np.ndarray
     weight: np.ndarray
     label: str = ""
+    shift_b: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     @property
     def n_frames(self) -> int:
@@ -137,15 +140,43 @@ def default_abort_frames(path: ScorePath, frame: int, rest_frame: int, fps: floa
     return max(need, int(round(0.25 * fps)), 2)
 
 
+def rest_in_place(space: PoseSpace, path: ScorePath, frame: int, rest_frame: int) -> tuple[np.ndarray, np.ndarray]:
+    """Scores ``(C,)`` of the rest pose moved over the floor to where the character stands at ``frame``, and that move ``(3,)``.
+
+    "Where it stands" is its feet: the rest pose is shifted so its ankles' mean floor position
+    matches the one at ``frame`` (a golfer's feet stay put; a kick's run-up is not undone). The
+    rest frame's parameters come back exactly from all its scores; the root moves by the shift
+    and the result is projected again on every component, so nothing is lost.
+    """
+    x = space.parameters_of_scores(path.scores[[frame, rest_frame]])
+    two = space.motion_of_parameters(x)
+    feet = [a for a, _ in space.skeleton.feet().values()]
+    if feet:
+        p = kinematics.forward(mjcf.compile(space.skeleton), two).joint_positions[:, feet]
+        delta = p[0].mean(axis=0) - p[1].mean(axis=0)
+    else:
+        delta = x[0, :3] - x[1, :3]
+    move = np.array([delta[0], delta[1], 0.0])
+    x[1, :2] += move[:2]
+    return space.scores_of_parameters(x[1:2])[0], move
+
+
 def aborted_path(
-    path: ScorePath, frame: int, n_frames: int | None = None, rest_frame: int = -1, fps: float = 120.0
+    path: ScorePath,
+    frame: int,
+    n_frames: int | None = None,
+    rest_frame: int = -1,
+    fps: float = 120.0,
+    space: PoseSpace | None = None,
 ) -> ScorePath:
     """Follow ``path`` up to ``frame``, then head for the rest pose's scores over ``n_frames`` (§3.2.3, Figure 3.7).
 
     The return leg is a cubic Hermite from the score (and score velocity) at ``frame`` to the
     rest pose's score at rest, so the motion neither jerks at ``frame`` nor at the end. The
     detail components fade from frame ``frame``'s to the rest frame's with the same timing.
-    Output: ``frame + 1 + n_frames`` frames, the last one the rest pose.
+    Output: ``frame + 1 + n_frames`` frames, the last one the rest pose. With ``space``, the
+    rest pose is taken where the character stands at ``frame`` (:func:`rest_in_place`): a shot
+    with a run-up or a step does not glide back to where the source ended.
     """
     t = path.n_frames
     if not (0 < frame < t - 1):
@@ -157,7 +188,9 @@ def aborted_path(
     if n < 1:
         raise MjmotionError(f"abort needs at least 1 frame to reach the rest pose, got {n_frames}")
     p0 = path.scores[frame]
-    p1 = path.scores[rest]
+    p1, move = path.scores[rest], np.zeros(3)
+    if space is not None:
+        p1, move = rest_in_place(space, path, frame, rest)
     v0 = np.zeros_like(p0)
     v0[: path.k] = path.scores[frame, : path.k] - path.scores[frame - 1, : path.k]  # score velocity per frame
     u = (np.arange(1, n + 1) / n)[:, None]
@@ -167,7 +200,7 @@ def aborted_path(
     w = np.concatenate([np.zeros(frame + 1), h01[:, 0]])
     fa = np.concatenate([path.frame_a[: frame + 1], np.full(n, path.frame_a[frame])])
     fb = np.concatenate([path.frame_b[: frame + 1], np.full(n, path.frame_b[rest])])
-    return ScorePath(scores, path.k, fa, fb, w, f"abort at {frame}")
+    return ScorePath(scores, path.k, fa, fb, w, f"abort at {frame}", path.shift_b + move)
 
 
 def explicit_path(space: PoseSpace, scores: np.ndarray, detail: bool = True) -> ScorePath:
@@ -234,6 +267,12 @@ def _source_at(source_values: np.ndarray, path: ScorePath) -> np.ndarray:
     """Per path frame, the source's ``values`` at the frames it stands for (linear blend)."""
     w = path.weight.reshape(-1, *([1] * (source_values.ndim - 1)))
     return (1.0 - w) * source_values[path.frame_a] + w * source_values[path.frame_b]
+
+
+def _source_positions_at(source_positions: np.ndarray, path: ScorePath) -> np.ndarray:
+    """Like :func:`_source_at` for world positions ``(T, ..., 3)``: frame_b's are moved by ``path.shift_b``."""
+    w = path.weight.reshape(-1, *([1] * (source_positions.ndim - 1)))
+    return (1.0 - w) * source_positions[path.frame_a] + w * (source_positions[path.frame_b] + path.shift_b)
 
 
 def _quat_source_at(source_q: np.ndarray, path: ScorePath) -> np.ndarray:
@@ -369,6 +408,10 @@ def hold_source_feet(
     compiled = mjcf.compile(skel)
     src = kinematics.forward(compiled, source)
     var = kinematics.forward(compiled, motion)
+    from .evaluate import foot_heights_speeds
+
+    track = foot_heights_speeds(compiled, source, src)
+    lowest = track.lowest  # (T, F, 3) each foot's lowest point (METRICS.md foot points)
     local = motion.rotations.copy()
     held: dict[str, int] = {}
     worst = 0.0
@@ -376,10 +419,24 @@ def hold_source_feet(
     for side, (ankle, toe) in feet.items():
         pts = [ankle] + ([toe] if toe is not None else [])
         low_src = np.min(src.joint_positions[:, pts, 2], axis=1) < plant_height
-        low = np.where(path.weight < 0.5, low_src[path.frame_a], low_src[path.frame_b])
+        # between two source frames a foot down at either end stays held (released, it would
+        # swing to wherever the blended pose puts it)
+        low_a, low_b = low_src[path.frame_a], low_src[path.frame_b]
+        low = np.where(path.weight <= 0, low_a, np.where(path.weight >= 1, low_b, low_a | low_b))
         if not low.any() or skel.parents[skel.parents[ankle]] < 0:
             continue
-        target = _source_at(src.joint_positions[:, ankle], path)
+        target = _source_positions_at(src.joint_positions[:, ankle], path)
+        target_rot = _quat_source_at(src.joint_rotations[:, ankle], path)
+        between = (path.weight > 0) & (path.weight < 1)
+        if between.any():
+            # between two source frames (an abort's return) the foot pivots about the point it
+            # stands on at the end, instead of sliding the ankle from one footprint to the other
+            fb, fa, w = path.frame_b[between], path.frame_a[between], path.weight[between, None]
+            low_pt = lowest[:, track.sides.index(side)]
+            c = rot.rotate(rot.conjugate(src.joint_rotations[fb, ankle]), low_pt[fb] - src.joint_positions[fb, ankle])
+            p_a = src.joint_positions[fa, ankle] + rot.rotate(src.joint_rotations[fa, ankle], c)
+            pivot = (1.0 - w) * p_a + w * (low_pt[fb] + path.shift_b)
+            target[between] = pivot - rot.rotate(target_rot[between], c)
         # one horizontal shift per plant, where the variant's foot touched down; frames between
         # plants (fading in and out) take the nearest plant's shift so the target does not jump
         runs = _runs(low)
@@ -390,7 +447,6 @@ def hold_source_feet(
         dist = np.array([np.where(t < a, a - t, np.where(t >= b, t - b + 1, 0)) for a, b in runs])
         nearest = np.argmin(dist + 1e-6 * np.abs(t[None] - centres[:, None]), axis=0)
         target[:, :2] += shifts[nearest]
-        target_rot = _quat_source_at(src.joint_rotations[:, ankle], path)
         solved, err = two_bone_ik(skel, var.joint_positions, var.joint_rotations, local, ankle, target, target_rot)
         if toe is not None:
             for j in [toe, *_descendants(skel, toe)]:
@@ -559,13 +615,22 @@ def plot_score_paths(paths: dict[str, np.ndarray], out_png: str | Path, dims: in
 
 
 # --- measurements ------------------------------------------------------------------------------
+#: Median distance (m) between the hands under which a clip counts as two-handed (golf: 4–10 cm).
+TWO_HANDED_M = 0.2
+
+
 def first_hand_for(source: Motion) -> str | None:
     """The hand the other is held to: the club's hand when ``hitpoint.fit_club`` fits one, else left.
 
-    ``None`` when the skeleton does not have two hands.
+    ``None`` when the skeleton does not have two hands or they are not together (median distance
+    over ``TWO_HANDED_M``): a walk or a kick has no grip to keep.
     """
-    if set(source.skeleton.hands()) != {"left", "right"}:
+    hands = source.skeleton.hands()
+    if set(hands) != {"left", "right"}:
         return None
+    p = kinematics.forward(mjcf.compile(source.skeleton), source).joint_positions
+    if np.median(np.linalg.norm(p[:, hands["left"]] - p[:, hands["right"]], axis=-1)) > TWO_HANDED_M:
+        return None  # the hands are not holding one thing
     from .skeleton import side_of
 
     prop = fitted_club(source)

@@ -271,3 +271,20 @@ def test_cli_evaluate_errors(tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err
     (tmp_path / "empty").mkdir()
     assert main(["evaluate", str(tmp_path / "empty")]) == 2
+
+
+def test_cli_evaluate_hit_and_grid(tmp_path, capsys):
+    d = require_data()
+    f = str(d / "cmu_asfamc_converted/64_01.bvh")
+    m = bvh.read(f)
+    prop = mjcf.parse_prop_option(m.skeleton, "club:rwrist")
+    spot = kinematics.forward(mjcf.compile(m.skeleton, (prop,)), m).site(prop.site)[325]
+    out = tmp_path / "hit.json"
+    args = ["evaluate", f, "--prop", "club:rwrist", "--ball", *map(str, spot), "--frame", "325", "--hit-grid", "2", "--json", str(out)]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "hit_error_m=-0.036" in text and "contact=True" in text and "hit grid, wrist locked" in text
+    doc = json.loads(out.read_text())[0]
+    assert doc["report"]["hit"]["launch_contacted"] and set(doc["hit_grid"]) == {"locked", "world"}
+    assert main(["evaluate", f, "--ball", "0", "0", "0"]) == 2
+    assert "--frame" in capsys.readouterr().err

@@ -185,3 +185,26 @@ def test_cli_render(gl_works, mocap, tmp_path, capsys):
     assert "one per clip" in capsys.readouterr().err
     assert main(["render", clip, "--trail", "nosuchjoint", "--frames", "0:10", "-o", str(tmp_path / "y.mp4")]) == 2
     assert "nosuchjoint" in capsys.readouterr().err
+
+
+def test_broken_egl_gives_one_error_line_not_a_traceback(mocap, tmp_path):
+    """With EGL's vendor library hidden (libglvnd), the verb fails cleanly or falls back to OSMesa."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, __EGL_VENDOR_LIBRARY_FILENAMES=str(tmp_path / "none.json"))
+    env.pop("MUJOCO_GL", None)
+    env.pop("PYOPENGL_PLATFORM", None)
+    out = tmp_path / "x.gif"
+    clip = str(mocap / "cmu_asfamc_converted" / "16_15.bvh")
+    cmd = [sys.executable, "-m", "mjmotion.cli", "render", clip, "--frames", "0:20", "-o", str(out), "--width", "32", "--height", "18"]
+    p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
+    if p.returncode == 0:  # EGL still found a driver, or OSMesa took over
+        assert out.exists()
+    else:
+        assert p.returncode == 2, p.stderr
+        assert "Traceback" not in p.stderr
+        last = p.stderr.strip().splitlines()[-1]
+        assert last.startswith("error: no offscreen OpenGL backend works") and "egl:" in last
+        assert not out.exists()

@@ -58,6 +58,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ball-radius", type=float, default=0.036, metavar="R", help="ball radius in m (default 0.036, cricket)")
     p.add_argument("--ball-velocity", nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar=("VX", "VY", "VZ"), help="incoming ball velocity at impact, m/s")
     p.add_argument("--frame", type=int, metavar="H", help="hit frame (0-based, of the file) for --ball")
+    p.add_argument("--hit-grid", type=int, metavar="N", help="seed 003 Figure 2.6: adapt the shot to an N x N grid of hit points around "
+                   "the sweet spot at --frame (arm IK, wrist locked vs club orientation kept), launch a ball from each and print "
+                   "the rank correlation of launch direction with hit point (needs --prop and --frame)")
+    p.add_argument("--grid-step", type=float, default=0.05, metavar="M", help="hit-grid spacing in m (default 0.05)")
     p.add_argument("--frames", metavar="A:B", help="evaluate only these frames")
     p.add_argument("--keep-start", action="store_true", help="do not skip a leading T-pose/transition")
     p.add_argument("--h-c", type=float, default=0.05, metavar="M", help="contact height threshold (default 0.05 m)")
@@ -163,6 +167,12 @@ def run(args: argparse.Namespace) -> int:
         if not os.path.isfile(args.path):
             raise MjmotionError(f"{args.path}: no such file or folder")
         results = [evaluate_file(args.path, opts)]
+    if args.hit_grid:
+        if os.path.isdir(args.path) or not args.prop or args.frame is None:
+            raise MjmotionError("--hit-grid needs one clip, --prop and --frame")
+        grid = _hit_grid(args, opts)
+        for r in results:
+            r["hit_grid"] = grid
     ok = [r for r in results if "error" not in r]
     rows = [r["row"] for r in ok]
     sys.stdout.write(format_table(rows, args.csv))
@@ -176,13 +186,34 @@ def run(args: argparse.Namespace) -> int:
             print("h_c sensitivity: " + "; ".join(f"h_c={s['h_c']}: skate {s['skate_mm_per_s']:.0f} mm/s, ratio {s['skating_ratio']:.3f}" for s in rep["sensitivity"]))
             if rep.get("hit"):
                 print("hit: " + ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in rep["hit"].items()))
+            for mode, g in (ok[0].get("hit_grid") or {}).items():
+                print(f"hit grid, wrist {mode}: Spearman rho(lateral, azimuth) = {g['rho_azimuth']:.3f}, "
+                      f"rho(vertical, elevation) = {g['rho_elevation']:.3f}, azimuth slope {g['slope_deg_per_m']:.1f} deg/m")
+                for row in g["rows"]:
+                    print("   " + "  ".join(f"{k}={v:8.3f}" for k, v in row.items()))
     for r in results:
         if "error" in r:
             sys.stderr.write(f"error: {r['file']}: {r['error']}\n")
     if out is not None:
-        write_text_atomic(out, json.dumps([{"file": r["file"], "skipped_frames": r.get("skipped_frames"), **({"report": r["report"]} if "report" in r else {"error": r["error"]})} for r in results], indent=1, default=_json_default))
+        write_text_atomic(out, json.dumps([{"file": r["file"], "skipped_frames": r.get("skipped_frames"), **({"report": r["report"]} if "report" in r else {"error": r["error"]}), **({"hit_grid": r["hit_grid"]} if "hit_grid" in r else {})} for r in results], indent=1, default=_json_default))
         print(f"wrote {out}")
     return 0 if len(ok) == len(results) else 2
+
+
+def _hit_grid(args: argparse.Namespace, opts: dict[str, Any]) -> dict[str, Any]:
+    """Seed 003 §2.3.2 on this clip: launch predictability for both wrist treatments."""
+    from .. import physics
+
+    m = load(args.path, argparse.Namespace(**opts))
+    prop = _prop(m, args.prop[0])
+    if not 0 <= args.frame < m.n_frames:
+        raise MjmotionError(f"--frame {args.frame}: outside the clip's 0..{m.n_frames - 1}")
+    offsets = physics.grid_offsets(m, prop, args.frame, args.hit_grid, args.grid_step)
+    out = {}
+    for mode in ("locked", "world"):
+        p = physics.hit_grid(m, prop, args.frame, offsets, wrist=mode, ball_radius=args.ball_radius, ball_velocity=tuple(args.ball_velocity))
+        out[mode] = dict(rho_azimuth=p.rho_azimuth, rho_elevation=p.rho_elevation, slope_deg_per_m=p.slope_deg_per_m, rows=p.rows())
+    return out
 
 
 def _json_default(o: Any) -> Any:

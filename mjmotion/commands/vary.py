@@ -90,7 +90,8 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError("--pcs is set by the number of columns of --scores; drop --pcs")
 
     source = load(args.file, args)
-    space = PoseSpace.fit(source)
+    # inner-joint translations (some rigs animate them) are parameters too, so nothing is lost
+    space = PoseSpace.fit(source, translations=True)
     if args.scores:
         scores = variations.read_scores(args.scores)
         path = variations.explicit_path(space, scores, detail=not args.no_detail)
@@ -105,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
                 seg = (a, b)
             path = variations.scaled_path(base, args.scale, seg)
         else:
-            path = variations.aborted_path(base, args.abort_at, args.abort_frames, args.rest_frame, source.fps)
+            path = variations.aborted_path(base, args.abort_at, args.abort_frames, args.rest_frame, source.fps, space=space)
     k = path.k
 
     raw = variations.synthesise(space, path)
