@@ -187,7 +187,7 @@ def shot(kind: str, seed: int = 0) -> SynthClip:
             stance_bat,
             stance_bat,
         ]
-        left_steps = [(0.85, 1.10, 0.12, 0.10, np.radians(35.0)), (1.90, 2.30, *st["left"])]
+        left_steps = [(0.85, 1.10, 0.12, 0.10, np.radians(35.0)), (1.70, 2.00, *st["left"])]
         right_steps = [(0.45, 0.75, 0.22, -0.34, np.radians(-25.0)), (2.05, 2.40, *st["right"])]
     grip_j = np.asarray(grip) + np.vstack([np.zeros((1, 3)), _jitter(seed, 0.02, (len(keys) - 2, 3)), np.zeros((1, 3))])
     grip_j[-2] = grip_j[0]
