@@ -357,12 +357,15 @@ def open_gl_context(width: int, height: int, backends: Sequence[str] | None = No
     """An offscreen OpenGL context (made current) from the first backend that works.
 
     ``backends`` default: ``MUJOCO_GL`` if it names ``egl`` or ``osmesa``, then the others of
-    :data:`OFFSCREEN_BACKENDS`. Raises :class:`MjmotionError` listing why each failed.
+    :data:`OFFSCREEN_BACKENDS`. PyOpenGL binds one platform per process, so once one backend has
+    loaded it another cannot be tried here; a fresh process is then asked whether it would work,
+    and the error says which ``MUJOCO_GL`` to run with. Raises :class:`MjmotionError` listing why
+    each backend failed.
     """
     if backends is None:
         env = os.environ.get("MUJOCO_GL", "").lower().strip()
         backends = ([env] if env in OFFSCREEN_BACKENDS else []) + [b for b in OFFSCREEN_BACKENDS if b != env]
-    failures = []
+    failures, locked = [], []
     for name in backends:
         saved = os.environ.get("PYOPENGL_PLATFORM")
         try:
@@ -371,16 +374,33 @@ def open_gl_context(width: int, height: int, backends: Sequence[str] | None = No
             ctx.make_current()
             return ctx
         except Exception as exc:  # noqa: BLE001 - each backend fails in its own way (ImportError, OSError, GLError…)
-            failures.append(f"{name}: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}")
+            text = str(exc).splitlines()[0] if str(exc) else ""
+            failures.append(f"{name}: {type(exc).__name__}: {text}")
+            if "PYOPENGL_PLATFORM" in text:
+                locked.append(name)
             if "OpenGL" not in sys.modules:  # PyOpenGL not loaded yet: the next backend may still set its platform
                 if saved is None:
                     os.environ.pop("PYOPENGL_PLATFORM", None)
                 else:
                     os.environ["PYOPENGL_PLATFORM"] = saved
+    hint = next((f" {b} works in a fresh process: run with MUJOCO_GL={b}." for b in locked if _backend_works(b)), "")
     raise MjmotionError(
-        "no offscreen OpenGL backend works (" + "; ".join(failures) + "). Install Mesa's EGL (libegl1, "
-        "libegl-mesa0) or OSMesa (libosmesa6), or set MUJOCO_GL=egl|osmesa before starting Python."
+        "no offscreen OpenGL backend works (" + "; ".join(failures) + ")." + hint
+        + (" Otherwise install" if hint else " Install") + " Mesa's EGL (libegl1, libegl-mesa0) or OSMesa (libosmesa6)."
     )
+
+
+def _backend_works(name: str) -> bool:
+    """Whether a fresh Python process can open a ``name`` (egl/osmesa) context."""
+    import subprocess
+
+    env = {k: v for k, v in os.environ.items() if k != "PYOPENGL_PLATFORM"}
+    env["MUJOCO_GL"] = name
+    code = f"import mujoco.{name} as b; c = b.GLContext(16, 16); c.make_current(); c.free()"
+    try:
+        return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, timeout=60).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        return False
 
 
 class Renderer:
@@ -636,14 +656,10 @@ def render(
     indices = range(scene.n_frames)[frames or slice(None)]
     if len(indices) == 0:
         raise MjmotionError("render: no frames selected")
-    bar = None
-    if progress:
+    with Renderer(scene, width, height, **renderer_options) as r:  # type: ignore[arg-type]
+        if not progress:
+            return write_video(r.frames(indices), path, scene.fps, (width, height))
         from tqdm import tqdm
 
-        bar = tqdm(total=len(indices), unit="frame", desc=f"render {Path(path).name}", file=sys.stderr)
-    try:
-        with Renderer(scene, width, height, **renderer_options) as r:  # type: ignore[arg-type]
-            return write_video(r.frames(indices), path, scene.fps, (width, height), bar.update if bar else None)
-    finally:
-        if bar is not None:
-            bar.close()
+        with tqdm(total=len(indices), unit="frame", desc=f"render {Path(path).name}", file=sys.stderr) as bar:
+            return write_video(r.frames(indices), path, scene.fps, (width, height), bar.update)
