@@ -236,6 +236,22 @@ def test_shot_hits_its_declared_sweet_spot_through_mujoco(lib, ground, name):
     assert speed[clip.hit_frame] > 5.0 and speed[clip.hit_frame] > 0.6 * speed.max()
     assert pose.site(f"{clip.prop.name}/tip")[:, 2].min() > -0.002
     assert 10 < clip.hit_frame < clip.motion.n_frames - 10
+    # The face looks along the swing, so the ball is struck along ``hit_normal``; a ball placed by
+    # ``hit_ball`` touches the sweet spot (METRICS hit_error_m = 0) and MuJoCo reports the contact.
+    site_x = pose.site_rotations[clip.hit_frame, pose.site_names.index(f"{clip.prop.name}/sweet_spot")][:, 0]
+    assert np.allclose(clip.hit_normal, -site_x, atol=1e-6)
+    v = np.gradient(sweet, 1.0 / clip.motion.fps, axis=0)[clip.hit_frame]
+    assert v @ clip.hit_normal > 0.95 * np.linalg.norm(v)
+    ball = clip.hit_ball()
+    assert np.linalg.norm(sweet[clip.hit_frame] - np.asarray(ball.position)) - ball.radius == pytest.approx(0.0, abs=1e-6)
+    with_ball = clip.compile(ball)
+    d = mujoco.MjData(with_ball.model)
+    d.qpos[:] = kinematics.qpos(with_ball, clip.motion[clip.hit_frame : clip.hit_frame + 1])[0]
+    mujoco.mj_forward(with_ball.model, d)
+    bat_id = mujoco.mj_name2id(with_ball.model, mujoco.mjtObj.mjOBJ_GEOM, clip.prop.name)
+    ball_id = mujoco.mj_name2id(with_ball.model, mujoco.mjtObj.mjOBJ_GEOM, "ball")
+    pairs = {frozenset((int(c.geom1), int(c.geom2))) for c in d.contact[: d.ncon]}
+    assert frozenset((bat_id, ball_id)) in pairs
     # The top hand stays on the handle: the left hand is a fixed distance from the grip.
     lh = pose.joint_positions[:, clip.motion.skeleton.index("LeftHand")]
     d = np.linalg.norm(lh - pose.site(f"{clip.prop.name}/grip"), axis=1)

@@ -76,6 +76,13 @@ def prop_site(motion: Motion, prop: mjcf.Prop, frame: int, site: str = "sweet_sp
     return pos[0, j] + rot.rotate(wq[0, j], local)
 
 
+def prop_frame(motion: Motion, prop: mjcf.Prop, frame: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sweet-spot position ``(3,)`` and face normal ``(3,)`` (the prop frame's -x) at ``frame``."""
+    _, wq = forward_kinematics(motion.root_positions[frame : frame + 1], motion.rotations[frame : frame + 1], motion.skeleton)
+    q = rot.multiply(wq[0, motion.skeleton.index(prop.joint)], np.asarray(prop.quat))
+    return prop_site(motion, prop, frame), rot.rotate(q, np.array([-1.0, 0.0, 0.0]))
+
+
 # --- shared pieces -------------------------------------------------------------------------------
 def _torso(pb: PoseBuilder, t: np.ndarray, keys: list[float], pelvis: list, spine: list, head: list) -> None:
     """Pelvis (yaw, roll, pitch), spine (twist, side bend, lean; spread over three joints) and a
@@ -218,7 +225,8 @@ def shot(kind: str, seed: int = 0) -> SynthClip:
     pb.arm("Left", left_wrist, down + np.array([0.0, 0.6, 0.0]), left_hand)
     hit = int(round(keys[hit_key] * FPS))
     clip = _finish(pb, kind, kind, contacts, prints, prop=BAT, hit_frame=hit, params=(("seed", float(seed)),))
-    return replace(clip, sweet_spot=prop_site(clip.motion, BAT, hit))
+    sweet, normal = prop_frame(clip.motion, BAT, hit)
+    return replace(clip, sweet_spot=sweet, hit_normal=normal)
 
 
 # --- transitions ---------------------------------------------------------------------------------

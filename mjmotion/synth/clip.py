@@ -53,6 +53,8 @@ class SynthClip:
         footprints: the planned stances (:class:`~mjmotion.synth.gait.Footprint`), by start frame.
         hit_frame: the impact frame of a shot, else ``None``.
         sweet_spot: ``(3,)`` world position (metres) of the prop's sweet spot at ``hit_frame``.
+        hit_normal: ``(3,)`` unit vector, where the blade's face looks at ``hit_frame`` (the
+            prop frame's -x axis): the ball is struck along it.
         prop: the held prop (:class:`~mjmotion.mjcf.Prop`) or ``None``.
         warp: the :class:`Warp` that made this clip from another, or ``None``.
         params: the generator's arguments (for the manifest).
@@ -65,9 +67,18 @@ class SynthClip:
     footprints: tuple[Footprint, ...] = ()
     hit_frame: int | None = None
     sweet_spot: np.ndarray | None = None
+    hit_normal: np.ndarray | None = None
     prop: mjcf.Prop | None = None
     warp: Warp | None = None
     params: tuple[tuple[str, float], ...] = ()
+
+    def hit_ball(self, radius: float = 0.036, mass: float = 0.16) -> mjcf.Ball:
+        """A ball just touching the sweet spot at the hit frame, on the face side: METRICS.md
+        ``hit_error_m`` is 0 for it (cricket ball: radius 0.036 m, 0.16 kg)."""
+        if self.sweet_spot is None or self.hit_normal is None:
+            raise MjmotionError(f"clip {self.name!r} has no hit frame")
+        pos = self.sweet_spot + radius * self.hit_normal
+        return mjcf.Ball(position=(float(pos[0]), float(pos[1]), float(pos[2])), radius=radius, mass=mass)
 
     def compile(self, ball: mjcf.Ball | None = None) -> mjcf.CompiledModel:
         """The MuJoCo model of the clip's skeleton with its prop (and an optional ball)."""
@@ -95,6 +106,7 @@ class SynthClip:
             ],
             "hit_frame": self.hit_frame,
             "sweet_spot": None if self.sweet_spot is None else [float(x) for x in self.sweet_spot],
+            "hit_normal": None if self.hit_normal is None else [float(x) for x in self.hit_normal],
             "prop": None if self.prop is None else _prop_dict(self.prop),
             "warp": None
             if self.warp is None
@@ -143,6 +155,7 @@ class SynthClip:
             p = entry.get("prop")
             prop = None if p is None else mjcf.Prop(**{**p, "pos": tuple(p["pos"]), "quat": tuple(p["quat"])})
             sweet = entry.get("sweet_spot")
+            normal = entry.get("hit_normal")
             return cls(
                 name=name,
                 kind=str(entry["kind"]),
@@ -151,6 +164,7 @@ class SynthClip:
                 footprints=fps_,
                 hit_frame=None if entry.get("hit_frame") is None else int(entry["hit_frame"]),
                 sweet_spot=None if sweet is None else np.asarray(sweet, dtype=float),
+                hit_normal=None if normal is None else np.asarray(normal, dtype=float),
                 prop=prop,
                 warp=warp,
                 params=tuple((str(k), float(v)) for k, v in entry.get("params", {}).items()),
@@ -228,10 +242,10 @@ def warp(
                 heading=float(f.heading + rotation),
             )
         )
-    hit, sweet = None, None
+    hit, sweet, normal = None, None, None
     if clip.hit_frame is not None:
         hit = int(np.argmin(np.abs(src - clip.hit_frame)))
-        sweet = _sweet_spot(moved, clip.prop, hit)
+        sweet, normal = _sweet_spot(moved, clip.prop, hit)
     return replace(
         clip,
         name=name or f"{clip.name}_warped",
@@ -240,6 +254,7 @@ def warp(
         footprints=tuple(prints),
         hit_frame=hit,
         sweet_spot=sweet,
+        hit_normal=normal,
         warp=info,
     )
 
@@ -261,9 +276,9 @@ def smooth_warp(n_source: int, n_frames: int, strength: float = 0.25, seed: int 
     return cum / cum[-1] * (n_source - 1)
 
 
-def _sweet_spot(motion: Motion, prop: mjcf.Prop | None, frame: int) -> np.ndarray:
-    from .actions import prop_site
+def _sweet_spot(motion: Motion, prop: mjcf.Prop | None, frame: int) -> tuple[np.ndarray, np.ndarray]:
+    from .actions import prop_frame
 
     if prop is None:
         raise MjmotionError("a clip with a hit frame needs a prop")
-    return prop_site(motion, prop, frame)
+    return prop_frame(motion, prop, frame)

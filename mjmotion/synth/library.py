@@ -164,6 +164,7 @@ def same_ground_truth(a: SynthClip, b: SynthClip) -> bool:
         and a.footprints == b.footprints
         and a.hit_frame == b.hit_frame
         and close(a.sweet_spot, b.sweet_spot)
+        and close(a.hit_normal, b.hit_normal)
         and a.prop == b.prop
         and ((a.warp is None and b.warp is None) or (a.warp is not None and b.warp is not None and close(a.warp.source_frames, b.warp.source_frames) and a.warp.rotation == b.warp.rotation and a.warp.translation == b.warp.translation))
     )
