@@ -1,0 +1,78 @@
+"""The lab's experiments: each module reproduces a table or figure of a seed on our data.
+
+Every experiment is a function ``run(out_dir, data_dir=None, quick=False) -> Table``: with
+``data_dir`` it reads real mocap (``MJMOTION_DATA``), without it the bundled procedural clips;
+``quick`` is the short version ``mjmotion demo`` runs. Each writes ``out_dir/table.md`` plus
+PNGs (and MP4s where it renders). The scripts in the repository's ``experiments/`` folder call
+these with the real data.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import MjmotionError
+
+
+@dataclass
+class Table:
+    """A results table: a title, column names, rows of values, and notes (parameters, sources)."""
+
+    title: str
+    columns: Sequence[str]
+    rows: list[Sequence[object]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)
+
+    def add(self, *values: object) -> None:
+        if len(values) != len(self.columns):
+            raise ValueError(f"row has {len(values)} values for {len(self.columns)} columns")
+        self.rows.append(values)
+
+    def markdown(self) -> str:
+        def cell(v: object) -> str:
+            if isinstance(v, float):
+                if v != v:
+                    return "–"
+                return f"{v:.4g}" if abs(v) < 1e4 else f"{v:.3e}"
+            if isinstance(v, bool):
+                return "yes" if v else "no"
+            return str(v)
+
+        lines = [f"## {self.title}", "", "| " + " | ".join(self.columns) + " |", "|" + "---|" * len(self.columns)]
+        lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in self.rows]
+        if self.notes:
+            lines += [""] + [f"- {n}" for n in self.notes]
+        if self.files:
+            lines += [""] + [f"![{Path(f).stem}]({Path(f).name})" if f.endswith(".png") else f"- [{Path(f).name}]({Path(f).name})" for f in self.files]
+        return "\n".join(lines) + "\n"
+
+    def write(self, out_dir: Path) -> Path:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        path = out_dir / "table.md"
+        path.write_text(self.markdown(), encoding="utf-8")
+        return path
+
+
+def data_dir(explicit: str | os.PathLike[str] | None = None, required: bool = True) -> Path | None:
+    """The real mocap directory: ``explicit``, else ``MJMOTION_DATA``, else ``../shared/mocap``."""
+    if explicit is not None:
+        p = Path(explicit)
+    elif os.environ.get("MJMOTION_DATA"):
+        p = Path(os.environ["MJMOTION_DATA"])
+    else:
+        p = Path(__file__).resolve().parents[2].parent / "shared" / "mocap"
+    if p.is_dir():
+        return p
+    if required:
+        raise MjmotionError(f"{p}: mocap directory not found; set MJMOTION_DATA or pass --data DIR")
+    return None
+
+
+def results_dir(name: str, root: str | os.PathLike[str] = "results") -> Path:
+    out = Path(root) / name
+    out.mkdir(parents=True, exist_ok=True)
+    return out
