@@ -48,6 +48,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--azimuth", type=float, help="camera heading in degrees (default: from the clips' travel direction)")
     p.add_argument("--elevation", type=float, default=-10.0, help="camera elevation in degrees (default -10)")
     p.add_argument("--distance", type=float, help="camera distance in metres (default: fit the characters)")
+    p.add_argument("--no-shadows", action="store_true", help="faster: no shadows")
     p.add_argument("--fast", action="store_true", help="no shadows and no floor reflection: about twice as fast in software GL")
     add_input_options(p)
 
@@ -71,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     ball = mjcf.Ball(position=tuple(args.ball)) if args.ball else None
     view = render.View(azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
     scene = render.build_scene(actors, fps=args.fps, ball=ball, spacing=args.spacing, view=view)
-    quality = {"shadows": False, "reflections": False} if args.fast else {}
+    quality = {"shadows": not (args.fast or args.no_shadows), "reflections": not args.fast}
     render.render(scene, out, width=args.width, height=args.height, **quality)
     print(f"wrote {out}: {scene.n_frames} frames, {args.width}x{args.height} at {args.fps:g} fps, {len(actors)} character(s)")
     return 0
