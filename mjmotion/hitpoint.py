@@ -326,7 +326,8 @@ def setup(
             h2 = other[0]
             anc = _lca(skel, eff.joint, h2)
             s2 = skel.chain(anc, h2)[1]
-            second = build_chain(motion, s2, h2, None, wrist="swing", margin=margin, weights=weights)
+            # The second arm only follows the first hand; its limits get twice the margin.
+            second = build_chain(motion, s2, h2, None, wrist="swing", margin=2 * margin, weights=weights)
             rel = np.linalg.inv(tip_frames) @ _frames(pose, h2)
     return HitProblem(motion, compiled, eff, lead, second, kinematics.qpos(compiled, motion), e_fk, hit, tgt, blend, goals, rel, falloff, prop)
 
