@@ -395,7 +395,7 @@ def hold_source_feet(
 ) -> tuple[Motion, dict[str, int], float]:
     """Feet that slide or float (§3.3) put back on the source's footprints with two-bone leg IK.
 
-    Where the source's foot (ankle or toe) is within ``plant_height`` of the floor at the
+    Where the source's foot (its lowest point, METRICS.md) is within ``plant_height`` of the floor at the
     frames a path frame stands for, the ankle follows the source's ankle (position and world
     orientation, toes as in the source) shifted by the variant's mean horizontal offset over
     that plant; corrections fade in and out over ``FADE_S``. Returns the motion, frames held per
@@ -412,13 +412,11 @@ def hold_source_feet(
 
     track = foot_heights_speeds(compiled, source, src)
     lowest = track.lowest  # (T, F, 3) each foot's lowest point (METRICS.md foot points)
-    local = motion.rotations.copy()
     held: dict[str, int] = {}
-    worst = 0.0
     n_fade = max(1, int(round(FADE_S * motion.fps)))
+    plans = []
     for side, (ankle, toe) in feet.items():
-        pts = [ankle] + ([toe] if toe is not None else [])
-        low_src = np.min(src.joint_positions[:, pts, 2], axis=1) < plant_height
+        low_src = track.heights[:, track.sides.index(side)] < plant_height
         # between two source frames a foot down at either end stays held (released, it would
         # swing to wherever the blended pose puts it)
         low_a, low_b = low_src[path.frame_a], low_src[path.frame_b]
@@ -447,17 +445,66 @@ def hold_source_feet(
         dist = np.array([np.where(t < a, a - t, np.where(t >= b, t - b + 1, 0)) for a, b in runs])
         nearest = np.argmin(dist + 1e-6 * np.abs(t[None] - centres[:, None]), axis=0)
         target[:, :2] += shifts[nearest]
+        plans.append((side, ankle, toe, low, target, target_rot, _fade(low, n_fade)))
+    if not plans:
+        return motion, {}, 0.0
+    # an exaggerated pose can lift the hips beyond the legs' reach: lower/move the root first
+    shift = _root_shift_for_reach(skel, var, [(a, tg, w) for _, a, _, _, tg, _, w in plans], motion.fps)
+    if np.any(shift):
+        motion = motion.replace(root_positions=motion.root_positions + shift)
+        var = kinematics.forward(compiled, motion)
+    local = motion.rotations.copy()
+    worst = 0.0
+    for side, ankle, toe, low, target, target_rot, w in plans:
         solved, err = two_bone_ik(skel, var.joint_positions, var.joint_rotations, local, ankle, target, target_rot)
         if toe is not None:
             for j in [toe, *_descendants(skel, toe)]:
                 solved[:, j] = _quat_source_at(source.rotations[:, j], path)
-        w = _fade(low, n_fade)
         chain = [int(skel.parents[skel.parents[ankle]]), int(skel.parents[ankle]), ankle]
         chain += [j for j in ([toe, *_descendants(skel, toe)] if toe is not None else [])]
         local[:, chain] = _blend_local(local[:, chain], solved[:, chain], w)
         held[side] = int(low.sum())
         worst = max(worst, float(np.max(err[low])))
     return motion.replace(rotations=local), held, worst
+
+
+#: Fraction of a leg's full length the root shift aims for (a straight knee is a singular pose).
+REACH = 0.995
+#: Seconds of the Hann window that spreads a root shift over neighbouring frames.
+ROOT_WINDOW_S = 0.3
+
+
+def _root_shift_for_reach(
+    skel: Skeleton, pose: kinematics.Pose, legs: list[tuple[int, np.ndarray, np.ndarray]], fps: float
+) -> np.ndarray:
+    """``(T, 3)`` root translation bringing every held ankle target within ``REACH`` of its leg.
+
+    Per frame, the largest shortfall (weighted by the hold's fade) along the hip→target line;
+    then a Hann-window smoothing (``ROOT_WINDOW_S``) rescaled so the peak is still covered.
+    """
+    t = pose.joint_positions.shape[0]
+    need = np.zeros((t, 3))
+    for ankle, target, w in legs:
+        knee = int(skel.parents[ankle])
+        hip = int(skel.parents[knee])
+        p = pose.joint_positions
+        reach = REACH * (np.linalg.norm(p[:, knee] - p[:, hip], axis=-1) + np.linalg.norm(p[:, ankle] - p[:, knee], axis=-1))
+        vec = target - p[:, hip]
+        dist = np.linalg.norm(vec, axis=-1)
+        n = vec / np.maximum(dist, 1e-12)[:, None] * (w * np.maximum(dist - reach, 0.0))[:, None]
+        bigger = np.linalg.norm(n, axis=-1) > np.linalg.norm(need, axis=-1)
+        need[bigger] = n[bigger]
+    peak = np.linalg.norm(need, axis=-1)
+    if not peak.any():
+        return need
+    half = max(1, int(round(0.5 * ROOT_WINDOW_S * fps)))
+    kernel = np.hanning(2 * half + 3)[1:-1]
+    kernel /= kernel.sum()
+    smooth = np.stack([np.convolve(need[:, i], kernel, mode="same") for i in range(3)], axis=1)
+    norm = np.linalg.norm(smooth, axis=-1)
+    hit = peak > 0
+    gain = float(np.max(peak[hit] / np.maximum(norm[hit], 1e-12)))
+    return smooth * min(gain, 3.0)
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
