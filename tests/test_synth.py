@@ -178,9 +178,14 @@ def test_walk_always_has_a_foot_down_and_run_has_flight(lib, ground):
         assert g.lowest_body[a:b].max() > 0.02 and g.lowest_body[a:b].min() >= 0.0
 
 
-@pytest.mark.parametrize("kind,speed,turn", [("walk", 1.1, 0.0), ("walk", 1.3, 30.0), ("run", 4.0, -20.0), ("sneak", 0.5, 0.0)])
-def test_gait_follows_requested_speed_and_turn(kind, speed, turn):
-    clip = synth.generate(kind, speed=speed, seconds=4.0, turn_deg_per_s=turn)
+@pytest.mark.parametrize(
+    "kind,speed,turn,step",
+    [("walk", 1.1, 0.0, None), ("walk", 1.0, 0.0, 0.5), ("walk", 1.3, 30.0, None), ("run", 4.0, -20.0, 1.4), ("sneak", 0.5, 0.0, None)],
+)
+def test_gait_follows_requested_speed_turn_and_step_length(kind, speed, turn, step):
+    clip = getattr(synth, kind)(speed=speed, seconds=4.0, turn_deg_per_s=turn, step_length=step)
+    if step is not None:
+        assert dict(clip.params)["step_length"] == step
     fps = clip.motion.fps
     # Footprints of the same foot one cycle apart: path length per cycle = speed × period, and
     # the heading advances at the turning rate.
@@ -194,6 +199,9 @@ def test_gait_follows_requested_speed_and_turn(kind, speed, turn):
         if turn == 0:
             chord = np.linalg.norm(np.subtract(b.position, a.position)[:2])
             assert chord == pytest.approx(speed * dt, rel=0.03)
+            if step is not None:  # a cycle is two steps
+                cycles = round(chord / (2 * step))
+                assert cycles >= 1 and chord == pytest.approx(2 * step * cycles, rel=0.01)
     # The pelvis travels at the requested speed (its path length includes a little sway).
     root = clip.motion.root_positions[:, :2]
     length = np.linalg.norm(np.diff(root, axis=0), axis=1).sum()
@@ -220,6 +228,10 @@ def test_bad_gait_requests_are_refused():
         synth.run(seconds=0.1)
     with pytest.raises(MjmotionError, match="unknown gait"):
         synth.generate("hop")
+    with pytest.raises(MjmotionError, match="shorter step"):
+        synth.walk(step_length=1.6)  # the feet could not stay planted
+    with pytest.raises(MjmotionError, match="seed"):
+        synth.drive(seed=-1)
 
 
 # --- shots ---------------------------------------------------------------------------------------

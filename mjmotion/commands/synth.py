@@ -24,6 +24,7 @@ and its attachment, known warps), in MuJoCo world metres (Z up).
 examples:
   mjmotion synth walk -o walk.bvh
   mjmotion synth run --speed 4 --turn -20 --seconds 6 -o run.bvh --truth run.json
+  mjmotion synth walk --speed 1.0 --step-length 0.5 --seed 3 -o short_steps.bvh
   mjmotion synth drive -o drive.bvh
   mjmotion synth library clips/
 """
@@ -36,6 +37,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--speed", type=float, metavar="V", help="gaits: speed in m/s (default per gait)")
     p.add_argument("--turn", type=float, default=0.0, metavar="DEG_PER_S", help="gaits: turning rate, + to the left (default 0)")
     p.add_argument("--seconds", type=float, metavar="S", help="gaits: duration (default 4 s; run 3 s)")
+    p.add_argument("--step-length", type=float, metavar="M", help="gaits: metres per step (default per gait, scaled with speed)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="small deterministic variations (default 0: the nominal clip)")
     p.add_argument("--truth", metavar="OUT.json", help="also write the clip's ground truth as JSON")
     p.add_argument("--force", action="store_true", help="replace existing outputs")
@@ -47,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     if args.kind == "library":
         if not args.directory:
             raise MjmotionError("synth library: give the folder to write, e.g. `mjmotion synth library clips/`")
-        if args.output or args.truth or args.speed is not None or args.seconds is not None or args.turn:
+        if args.output or args.truth or args.speed is not None or args.seconds is not None or args.turn or args.step_length is not None:
             raise MjmotionError("synth library: takes only DIR (and --force); the set is fixed")
         clips = synth.write_library(args.directory, force=args.force)
         print(f"wrote {len(clips)} clips and manifest.json to {args.directory}")
@@ -65,10 +67,12 @@ def run(args: argparse.Namespace) -> int:
             kw["speed"] = args.speed
         if args.seconds is not None:
             kw["seconds"] = args.seconds
+        if args.step_length is not None:
+            kw["step_length"] = args.step_length
         clip = fn(**kw)
     else:
-        if args.speed is not None or args.seconds is not None or args.turn:
-            raise MjmotionError(f"synth {args.kind}: --speed, --turn and --seconds apply to gaits only")
+        if args.speed is not None or args.seconds is not None or args.turn or args.step_length is not None:
+            raise MjmotionError(f"synth {args.kind}: --speed, --turn, --seconds and --step-length apply to gaits only")
         clip = fn(seed=args.seed)
     bvh.write(clip.motion, out)
     if truth is not None:

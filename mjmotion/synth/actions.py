@@ -22,7 +22,7 @@ from ..errors import MjmotionError
 from ..skeleton import Motion
 from .body import PoseBuilder, axis_angle, compose, foot_geometry, forward_kinematics, joint, lower_pelvis, skeleton, yaw
 from .clip import SynthClip
-from .gait import FPS, STYLES, Footprint, _foot_track
+from .gait import FPS, STYLES, Footprint, _foot_track, check_seed
 
 #: The bat: in the right (bottom) hand, grip across the palm, the blade out of the little-finger
 #: side; the prop's -x axis is the palm normal (the face of the blade looks where the palm does).
@@ -139,7 +139,7 @@ def _finish(pb: PoseBuilder, name: str, kind: str, contacts: np.ndarray, prints:
 
 def _jitter(seed: int, scale: float, shape: tuple[int, ...]) -> np.ndarray:
     """Small deterministic key variations (zero for seed 0)."""
-    if seed == 0:
+    if check_seed(seed) == 0:
         return np.zeros(shape)
     return np.random.default_rng(seed).uniform(-scale, scale, shape)
 

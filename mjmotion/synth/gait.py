@@ -115,6 +115,13 @@ class Gait:
     style: GaitStyle
 
 
+def check_seed(seed: int) -> int:
+    """``seed`` as a non-negative int, or a clear error."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise MjmotionError(f"--seed {seed!r}: expected a whole number ≥ 0")
+    return int(seed)
+
+
 def _path(t: np.ndarray, speed: float, omega: float) -> tuple[np.ndarray, np.ndarray]:
     """Path points ``(N, 2)`` and headings ``(N,)`` at times ``t``: constant speed and turning rate
     from the origin heading +X (negative times extend it backwards)."""
@@ -168,13 +175,14 @@ def generate(
             f"--turn {turn_deg_per_s:g}: expected at most 90 deg/s and a turning radius (speed/rate) of at least 1 m"
         )
     step = base.step_length * np.sqrt(v / base.speed) if step_length is None else float(step_length)
-    if not (0.15 <= step <= 2.5):
+    if not (0.15 <= step <= 2.5):  # (NaN fails too)
         raise MjmotionError(f"step length {step:g} m: expected 0.15–2.5 m")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(check_seed(seed))
     jitter = (lambda: 1.0) if seed == 0 else (lambda: float(1.0 + rng.uniform(-0.12, 0.12)))
     style = replace(
         base,
         speed=v,
+        step_length=step,
         step_width=base.step_width * jitter(),
         bob=base.bob * jitter(),
         sway=base.sway * jitter(),
@@ -254,10 +262,16 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
 
     # Legs, then arms.
     pelvis_fwd = _dir(heading + p_yaw)
-    for side in SIDES:
+    for i, side in enumerate(SIDES):
         f = feet[side]
         pole = _dir(f["heading"]) + pelvis_fwd
-        pb.leg(side, f["ankle"], f["foot"], f["toe"], pole)
+        reached = pb.leg(side, f["ankle"], f["foot"], f["toe"], pole)
+        miss = np.linalg.norm(reached - f["ankle"], axis=1)[contacts[:, i]]
+        if miss.size and miss.max() > 1e-6:
+            raise MjmotionError(
+                f"a {style.name} with {step:.2f} m steps at {style.speed:g} m/s cannot keep its feet planted "
+                "(the legs are too short for it); choose a shorter step length"
+            )
     _arms(pb, style, phase)
     motion = pb.motion(fps, style.name)
     return Gait(motion=motion, contacts=contacts, footprints=tuple(footprints), style=style)

@@ -19,8 +19,10 @@ from .clip import MANIFEST_VERSION, SynthClip, smooth_warp, warp
 from .gait import generate
 
 
-def _gait_clip(kind: str, speed: float | None, seconds: float, turn_deg_per_s: float, seed: int, name: str | None) -> SynthClip:
-    g = generate(kind, speed=speed, seconds=seconds, turn_deg_per_s=turn_deg_per_s, seed=seed)
+def _gait_clip(
+    kind: str, speed: float | None, seconds: float, turn_deg_per_s: float, seed: int, name: str | None, step_length: float | None
+) -> SynthClip:
+    g = generate(kind, speed=speed, seconds=seconds, turn_deg_per_s=turn_deg_per_s, seed=seed, step_length=step_length)
     label = name or kind
     return SynthClip(
         name=label,
@@ -28,28 +30,72 @@ def _gait_clip(kind: str, speed: float | None, seconds: float, turn_deg_per_s: f
         motion=g.motion.replace(name=label),
         contacts=g.contacts,
         footprints=g.footprints,
-        params=(("speed", g.style.speed), ("seconds", float(seconds)), ("turn_deg_per_s", float(turn_deg_per_s)), ("seed", float(seed))),
+        params=(
+            ("speed", g.style.speed),
+            ("step_length", g.style.step_length),
+            ("seconds", float(seconds)),
+            ("turn_deg_per_s", float(turn_deg_per_s)),
+            ("seed", float(seed)),
+        ),
     )
 
 
-def walk(speed: float = 1.3, seconds: float = 4.0, turn_deg_per_s: float = 0.0, seed: int = 0, name: str | None = None) -> SynthClip:
-    """A walk along +X from the origin (turning left for positive ``turn_deg_per_s``), 60 fps."""
-    return _gait_clip("walk", speed, seconds, turn_deg_per_s, seed, name)
+def walk(
+    speed: float = 1.3,
+    seconds: float = 4.0,
+    turn_deg_per_s: float = 0.0,
+    seed: int = 0,
+    name: str | None = None,
+    step_length: float | None = None,
+) -> SynthClip:
+    """A walk along +X from the origin, 60 fps.
+
+    Args:
+        speed: m/s along the path.
+        seconds: duration.
+        turn_deg_per_s: turning rate, positive to the left (turning radius ≥ 1 m).
+        seed: small deterministic variations (0 = the nominal gait).
+        name: the clip's name (default: the gait's).
+        step_length: metres per step (default: 0.70 m at 1.3 m/s, scaled with sqrt(speed)).
+    """
+    return _gait_clip("walk", speed, seconds, turn_deg_per_s, seed, name, step_length)
 
 
-def run(speed: float = 3.2, seconds: float = 3.0, turn_deg_per_s: float = 0.0, seed: int = 0, name: str | None = None) -> SynthClip:
-    """A run with a flight phase (both feet off the ground between stances)."""
-    return _gait_clip("run", speed, seconds, turn_deg_per_s, seed, name)
+def run(
+    speed: float = 3.2,
+    seconds: float = 3.0,
+    turn_deg_per_s: float = 0.0,
+    seed: int = 0,
+    name: str | None = None,
+    step_length: float | None = None,
+) -> SynthClip:
+    """A run with a flight phase (both feet off the ground between stances); arguments as :func:`walk`."""
+    return _gait_clip("run", speed, seconds, turn_deg_per_s, seed, name, step_length)
 
 
-def sneak(speed: float = 0.6, seconds: float = 4.0, turn_deg_per_s: float = 0.0, seed: int = 0, name: str | None = None) -> SynthClip:
-    """A crouched, slow, leaning walk with long double support."""
-    return _gait_clip("sneak", speed, seconds, turn_deg_per_s, seed, name)
+def sneak(
+    speed: float = 0.6,
+    seconds: float = 4.0,
+    turn_deg_per_s: float = 0.0,
+    seed: int = 0,
+    name: str | None = None,
+    step_length: float | None = None,
+) -> SynthClip:
+    """A crouched, slow, leaning walk with long double support; arguments as :func:`walk`."""
+    return _gait_clip("sneak", speed, seconds, turn_deg_per_s, seed, name, step_length)
 
 
-def limp(speed: float = 0.9, seconds: float = 4.0, turn_deg_per_s: float = 0.0, seed: int = 0, name: str | None = None) -> SynthClip:
-    """An asymmetric walk favouring the right leg: short right stance, pelvis drop and trunk lean over it."""
-    return _gait_clip("limp", speed, seconds, turn_deg_per_s, seed, name)
+def limp(
+    speed: float = 0.9,
+    seconds: float = 4.0,
+    turn_deg_per_s: float = 0.0,
+    seed: int = 0,
+    name: str | None = None,
+    step_length: float | None = None,
+) -> SynthClip:
+    """An asymmetric walk favouring the right leg (short right stance, pelvis drop and trunk lean
+    over it); arguments as :func:`walk`."""
+    return _gait_clip("limp", speed, seconds, turn_deg_per_s, seed, name, step_length)
 
 
 def drive(seed: int = 0) -> SynthClip:
