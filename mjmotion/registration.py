@@ -20,6 +20,7 @@ World is Z-up: the floor is the ``(x, y)`` plane, so seed 000's ``(x, z)`` are o
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 import time
@@ -137,9 +138,13 @@ def distance_grid(
         raise MjmotionError(f"the window half-width must be ≥ 0 frames, got {window}")
     check_grid_size(len(pa), len(pb), max_cells)
     w = np.ones(pa.shape[1]) if weights is None else np.asarray(weights, dtype=float)
-    ca, cb = _window_clouds(pa, window, w), _window_clouds(pb, window, w)
-    a = ca["x"] @ cb["x"].T + ca["y"] @ cb["y"].T
-    b = ca["y"] @ cb["x"].T - ca["x"] @ cb["y"].T
+    keep = w > 0  # joints of weight zero add nothing but work
+    ca, cb = _window_clouds(pa[:, keep], window, w[keep]), _window_clouds(pb[:, keep], window, w[keep])
+    # a and b from one product: [[x, y], [y, −x]]_A · [x, y]_Bᵀ
+    right = np.concatenate([cb["x"], cb["y"]], axis=1)
+    left = np.block([[ca["x"], ca["y"]], [ca["y"], -ca["x"]]])
+    ab = left @ right.T
+    a, b = ab[: len(pa)], ab[len(pa) :]
     zz = ca["z"] @ cb["z"].T
     cost = ca["hh"][:, None] + cb["hh"][None, :] - 2.0 * np.hypot(a, b)
     cost += ca["zz"][:, None] + cb["zz"][None, :] - 2.0 * zz
@@ -155,12 +160,12 @@ def rigid_2d(cloud_a: np.ndarray, cloud_b: np.ndarray, weights: np.ndarray) -> n
     """
     w = np.asarray(weights, dtype=float)
     w = w / w.sum()
-    ma = np.einsum("p,npc->nc", w, cloud_a[:, :, :2])
-    mb = np.einsum("p,npc->nc", w, cloud_b[:, :, :2])
-    ca = cloud_a[:, :, :2] - ma[:, None]
-    cb = cloud_b[:, :, :2] - mb[:, None]
-    a = np.einsum("p,np->n", w, ca[..., 0] * cb[..., 0] + ca[..., 1] * cb[..., 1])
-    b = np.einsum("p,np->n", w, ca[..., 1] * cb[..., 0] - ca[..., 0] * cb[..., 1])
+    ma = np.stack([cloud_a[:, :, 0] @ w, cloud_a[:, :, 1] @ w], axis=1)  # (N, 2) weighted means
+    mb = np.stack([cloud_b[:, :, 0] @ w, cloud_b[:, :, 1] @ w], axis=1)
+    ax, ay = cloud_a[:, :, 0] - ma[:, :1], cloud_a[:, :, 1] - ma[:, 1:]
+    bx, by = cloud_b[:, :, 0] - mb[:, :1], cloud_b[:, :, 1] - mb[:, 1:]
+    a = (ax * bx + ay * by) @ w
+    b = (ay * bx - ax * by) @ w
     theta = np.arctan2(b, a)
     c, s = np.cos(theta), np.sin(theta)
     tx = ma[:, 0] - (c * mb[:, 0] - s * mb[:, 1])
@@ -246,57 +251,42 @@ def _reachable(di: int, dj: int, run_h: int, run_v: int, slope: SlopeLimit) -> b
     return di - dj <= slope.vertical * (dj + 1) - run_v
 
 
-def dp_path(cost: np.ndarray, slope: SlopeLimit, free_end: bool = True, start: tuple[int, int] = (0, 0)) -> Path:
-    """Exact minimal-cost path by dynamic programming over (cell, run) states.
-
-    States at a cell: arrived diagonally (``D``), by the r-th consecutive A-only step
-    (``V_r``, r ≤ W_v) or by the r-th consecutive B-only step (``H_r``, r ≤ W_h). One NumPy pass
-    per row: ``D`` and ``V`` come from the previous row, ``H_r`` from ``H_{r−1}`` one column to the
-    left (the slope limit makes every within-row chain a fixed number of shifts).
-    ``free_end``: end on the last row or column with the least average cost (seed 004 §4.3);
-    otherwise end at the far corner.
-    """
-    c = np.asarray(cost, dtype=float)[start[0] :, start[1] :]
+def _dp_tables_numpy(c: np.ndarray, wv: int, wh: int, bp_dtype) -> tuple[np.ndarray, ...]:
+    """Row-by-row NumPy DP (see :func:`dp_path`): back-pointers and the boundary values."""
     n_a, n_b = c.shape
-    wv, wh = slope.vertical, slope.horizontal
     s_n = 1 + wv + wh  # state 0 = D, 1..wv = V_r, wv+1..wv+wh = H_r
-    iv = slice(1, 1 + wv)
-    ih = slice(1 + wv, s_n)
     not_v = np.r_[0, np.arange(1 + wv, s_n)]
     not_h = np.arange(0, 1 + wv)
-    inf = np.inf
-    bp_d = np.zeros((n_a, n_b), dtype=np.int8)
-    bp_v = np.zeros((n_a, n_b), dtype=np.int8)
-    bp_h = np.zeros((n_a, n_b), dtype=np.int8)
-    last_col = np.full((n_a, s_n), inf)
+    cols = np.arange(n_b)
+    bp_d = np.zeros((n_a, n_b), dtype=bp_dtype)
+    bp_v = np.zeros((n_a, n_b), dtype=bp_dtype)
+    bp_h = np.zeros((n_a, n_b), dtype=bp_dtype)
+    last_col = np.full((n_a, s_n), np.inf)
     last_col_len = np.zeros((n_a, s_n))
     prev = prev_len = None
     for i in range(n_a):
         ci = c[i]
-        cur = np.full((s_n, n_b), inf)
+        cur = np.full((s_n, n_b), np.inf)
         cur_len = np.zeros((s_n, n_b))
         if i == 0:
             cur[0, 0] = ci[0]
             cur_len[0, 0] = 1
         else:
             k = np.argmin(prev, axis=0)
-            best = prev[k, np.arange(n_b)]
-            best_len = prev_len[k, np.arange(n_b)]
-            cur[0, 1:] = ci[1:] + best[:-1]
-            cur_len[0, 1:] = best_len[:-1] + 1
+            cur[0, 1:] = ci[1:] + prev[k, cols][:-1]
+            cur_len[0, 1:] = prev_len[k, cols][:-1] + 1
             bp_d[i, 1:] = k[:-1]
             if wv:
                 kv = np.argmin(prev[not_v], axis=0)
-                cur[1] = ci + prev[not_v][kv, np.arange(n_b)]
-                cur_len[1] = prev_len[not_v][kv, np.arange(n_b)] + 1
+                cur[1] = ci + prev[not_v][kv, cols]
+                cur_len[1] = prev_len[not_v][kv, cols] + 1
                 bp_v[i] = not_v[kv]
                 cur[2 : 1 + wv] = ci + prev[1:wv]
                 cur_len[2 : 1 + wv] = prev_len[1:wv] + 1
         if wh:
             kh = np.argmin(cur[not_h], axis=0)
-            h1 = cur[not_h][kh, np.arange(n_b)]
-            cur[1 + wv, 1:] = ci[1:] + h1[:-1]
-            cur_len[1 + wv, 1:] = cur_len[not_h][kh, np.arange(n_b)][:-1] + 1
+            cur[1 + wv, 1:] = ci[1:] + cur[not_h][kh, cols][:-1]
+            cur_len[1 + wv, 1:] = cur_len[not_h][kh, cols][:-1] + 1
             bp_h[i, 1:] = not_h[kh][:-1]
             for r in range(2, wh + 1):
                 cur[wv + r, 1:] = ci[1:] + cur[wv + r - 1, :-1]
@@ -304,6 +294,109 @@ def dp_path(cost: np.ndarray, slope: SlopeLimit, free_end: bool = True, start: t
         last_col[i] = cur[:, -1]
         last_col_len[i] = cur_len[:, -1]
         prev, prev_len = cur, cur_len
+    return bp_d, bp_v, bp_h, prev, prev_len, last_col, last_col_len
+
+
+@functools.lru_cache(maxsize=1)
+def _dp_tables_numba():
+    """The same DP as one compiled loop over cells (Numba), or ``None`` without Numba."""
+    try:
+        import numba
+    except ImportError:
+        return None
+
+    @numba.njit(cache=True, nogil=True)
+    def tables(c, wv, wh, bp_d, bp_v, bp_h):  # pragma: no cover - compiled
+        n_a, n_b = c.shape
+        s_n = 1 + wv + wh
+        inf = np.inf
+        prev = np.full((n_b, s_n), inf)  # [column, state]: a cell's states are contiguous
+        prev_len = np.zeros((n_b, s_n))
+        cur = np.full((n_b, s_n), inf)
+        cur_len = np.zeros((n_b, s_n))
+        last_col = np.full((n_a, s_n), inf)
+        last_col_len = np.zeros((n_a, s_n))
+        for i in range(n_a):
+            for j in range(n_b):
+                cij = c[i, j]
+                for s in range(s_n):
+                    cur[j, s] = inf
+                    cur_len[j, s] = 0.0
+                if i == 0 and j == 0:
+                    cur[0, 0] = cij
+                    cur_len[0, 0] = 1.0
+                if i > 0 and j > 0:  # diagonal from any state
+                    k = 0
+                    for s in range(1, s_n):
+                        if prev[j - 1, s] < prev[j - 1, k]:
+                            k = s
+                    cur[j, 0] = cij + prev[j - 1, k]
+                    cur_len[j, 0] = prev_len[j - 1, k] + 1.0
+                    bp_d[i, j] = k
+                if i > 0 and wv > 0:  # first A-only step: from D or any H
+                    k = 0
+                    for s in range(1 + wv, s_n):
+                        if prev[j, s] < prev[j, k]:
+                            k = s
+                    cur[j, 1] = cij + prev[j, k]
+                    cur_len[j, 1] = prev_len[j, k] + 1.0
+                    bp_v[i, j] = k
+                    for r in range(2, wv + 1):
+                        cur[j, r] = cij + prev[j, r - 1]
+                        cur_len[j, r] = prev_len[j, r - 1] + 1.0
+                if j > 0 and wh > 0:  # first B-only step: from D or any V
+                    k = 0
+                    for s in range(1, 1 + wv):
+                        if cur[j - 1, s] < cur[j - 1, k]:
+                            k = s
+                    cur[j, 1 + wv] = cij + cur[j - 1, k]
+                    cur_len[j, 1 + wv] = cur_len[j - 1, k] + 1.0
+                    bp_h[i, j] = k
+                    for r in range(2, wh + 1):
+                        cur[j, wv + r] = cij + cur[j - 1, wv + r - 1]
+                        cur_len[j, wv + r] = cur_len[j - 1, wv + r - 1] + 1.0
+            for s in range(s_n):
+                last_col[i, s] = cur[n_b - 1, s]
+                last_col_len[i, s] = cur_len[n_b - 1, s]
+            prev, cur = cur, prev
+            prev_len, cur_len = cur_len, prev_len
+        return prev.T.copy(), prev_len.T.copy(), last_col, last_col_len
+
+    return tables
+
+
+def dp_path(
+    cost: np.ndarray,
+    slope: SlopeLimit,
+    free_end: bool = True,
+    start: tuple[int, int] = (0, 0),
+    backend: str = "auto",
+) -> Path:
+    """Exact minimal-cost path by dynamic programming over (cell, run) states.
+
+    States at a cell: arrived diagonally (``D``), by the r-th consecutive A-only step
+    (``V_r``, r ≤ W_v) or by the r-th consecutive B-only step (``H_r``, r ≤ W_h); the slope
+    limit is part of the state, so the optimum is exact. ``free_end``: end on the last row or
+    column, at the boundary cell whose cheapest path has the least average cost (seed 004 §4.3);
+    otherwise end at the far corner. ``backend``: ``"numpy"`` (one vectorised pass per row: ``D``
+    and ``V`` from the previous row, ``H_r`` by shifts within the row), ``"numba"`` (a compiled
+    loop over cells, measured faster in benchmarks/bench_registration.py) or ``"auto"`` (Numba
+    when installed).
+    """
+    c = np.ascontiguousarray(np.asarray(cost, dtype=float)[start[0] :, start[1] :])
+    n_a, n_b = c.shape
+    wv, wh = slope.vertical, slope.horizontal
+    bp_dtype = np.int8 if 1 + wv + wh <= 127 else np.int32
+    kernel = _dp_tables_numba() if backend in ("auto", "numba") else None
+    if backend == "numba" and kernel is None:
+        raise MjmotionError("the numba DP backend needs numba (pip install numba)")
+    if backend not in ("auto", "numba", "numpy"):
+        raise MjmotionError(f"unknown DP backend {backend!r}; expected auto, numba or numpy")
+    if kernel is not None:
+        bp_d, bp_v, bp_h = (np.zeros((n_a, n_b), dtype=bp_dtype) for _ in range(3))
+        prev, prev_len, last_col, last_col_len = kernel(c, wv, wh, bp_d, bp_v, bp_h)
+    else:
+        bp_d, bp_v, bp_h, prev, prev_len, last_col, last_col_len = _dp_tables_numpy(c, wv, wh, bp_dtype)
     if free_end:
         # per boundary cell its cheapest path (any state), then the least average (seed 004 §4.3)
         cands = []
@@ -518,21 +611,22 @@ class TimewarpCurve:
         return np.interp(t_b, self.samples[:, 1], self.samples[:, 0])
 
 
-def _monotone_lsq(design, target: np.ndarray, weights: np.ndarray, eps: float) -> np.ndarray:
-    """Least-squares B-spline coefficients with ``c[k+1] − c[k] ≥ eps`` (hence a strictly
-    increasing spline: its derivative is a spline with positive coefficients)."""
-    dm = design.toarray() * weights[:, None]
-    y = target * weights
-    coef, *_ = np.linalg.lstsq(dm, y, rcond=None)
-    if np.all(np.diff(coef) >= eps):
-        return coef
-    # c = L δ with L lower-triangular ones: δ_0 free, δ_k ≥ eps
-    n = dm.shape[1]
-    lower = np.tril(np.ones((n, n)))
-    lb = np.full(n, eps)
-    lb[0] = -np.inf
-    res = optimize.lsq_linear(dm @ lower, y, bounds=(lb, np.full(n, np.inf)), method="bvls")
-    return lower @ res.x
+def _monotone_lsq(design: np.ndarray, targets: np.ndarray, eps: np.ndarray) -> np.ndarray:
+    """Least-squares B-spline coefficients ``(n, C)`` for ``targets: (P, C)`` with
+    ``c[k+1] − c[k] ≥ eps[col]`` (hence strictly increasing splines: a spline's derivative is a
+    spline whose coefficients are these differences). ``design: (P, n)`` already weighted."""
+    coef, *_ = np.linalg.lstsq(design, targets, rcond=None)
+    n = design.shape[1]
+    for col in range(targets.shape[1]):
+        if np.all(np.diff(coef[:, col]) >= eps[col]):
+            continue
+        # c = L δ with L lower-triangular ones: δ_0 free, δ_k ≥ eps
+        lower = np.tril(np.ones((n, n)))
+        lb = np.full(n, eps[col])
+        lb[0] = -np.inf
+        res = optimize.lsq_linear(design @ lower, targets[:, col], bounds=(lb, np.full(n, np.inf)), method="bvls")
+        coef[:, col] = lower @ res.x
+    return coef
 
 
 def timewarp_curve(path: Path | np.ndarray, knot_spacing: float = 8.0, n_samples: int | None = None) -> TimewarpCurve:
@@ -557,12 +651,9 @@ def timewarp_curve(path: Path | np.ndarray, knot_spacing: float = 8.0, n_samples
     w[[0, -1]] = 100.0  # pin the ends
     n = n_samples or len(cells)
     us = np.linspace(u[0], u[-1], n)
-    out = []
-    for col in range(2):
-        span = max(cells[-1, col] - cells[0, col], 1e-9)
-        coef = _monotone_lsq(design, cells[:, col], w, eps=1e-3 * span / len(knots))
-        out.append(interpolate.BSpline(knots, coef, k)(us))
-    samples = np.stack(out, axis=1)
+    span = np.maximum(cells[-1] - cells[0], 1e-9)
+    coef = _monotone_lsq(design.toarray() * w[:, None], cells * w[:, None], eps=1e-3 * span / len(knots))
+    samples = interpolate.BSpline(knots, coef, k)(us)
     samples = np.clip(samples, cells.min(axis=0), cells.max(axis=0))
     keep = np.r_[True, np.all(np.diff(samples, axis=0) > 0, axis=1)]
     return TimewarpCurve(samples=samples[keep], kind="bspline")
@@ -625,10 +716,11 @@ def alignment_curve(
     off = np.arange(-window, window + 1)
     ta = samples[:, 0:1] + off[None]
     tb = samples[:, 1:2] + off[None]
-    ca = _interp_positions(positions_a, ta).reshape(len(samples), -1, 3)
-    cb = _interp_positions(positions_b, tb).reshape(len(samples), -1, 3)
     w = np.ones(positions_a.shape[1]) if weights is None else np.asarray(weights, dtype=float)
-    out = rigid_2d(ca, cb, np.tile(w, len(off)))
+    keep = w > 0
+    ca = _interp_positions(positions_a[:, keep], ta).reshape(len(samples), -1, 3)
+    cb = _interp_positions(positions_b[:, keep], tb).reshape(len(samples), -1, 3)
+    out = rigid_2d(ca, cb, np.tile(w[keep], len(off)))
     out[:, 0] = np.unwrap(out[:, 0])
     if smooth_frames > 0 and len(out) > 1:
         out = gaussian_filter1d(out, smooth_frames, axis=0, mode="nearest")

@@ -86,8 +86,9 @@ def Motion_of(rng, skel, n):
 
 
 # --------------------------------------------------------------------------- paths
+@pytest.mark.parametrize("backend", ["numpy", "auto"])  # auto = the Numba kernel when installed
 @pytest.mark.parametrize("seed", range(40))
-def test_dp_equals_brute_force_on_small_random_grids(seed):
+def test_dp_equals_brute_force_on_small_random_grids(seed, backend):
     rng = np.random.default_rng(seed)
     n_a, n_b = rng.integers(1, 8, 2)
     cost = rng.random((n_a, n_b))
@@ -97,9 +98,9 @@ def test_dp_equals_brute_force_on_small_random_grids(seed):
             bf = R.brute_path(cost, slope, free)
         except MjmotionError:
             with pytest.raises(MjmotionError, match="slope limit"):
-                R.dp_path(cost, slope, free)
+                R.dp_path(cost, slope, free, backend=backend)
             continue
-        dp = R.dp_path(cost, slope, free)
+        dp = R.dp_path(cost, slope, free, backend=backend)
         assert dp.cost == pytest.approx(bf.cost, rel=1e-12)
         np.testing.assert_array_equal(dp.cells, bf.cells)
         R.check_path(dp.cells, slope)
