@@ -106,10 +106,18 @@ def main() -> None:
     t_fk, (pa, pb) = timed(lambda: (R.positions_of(a), R.positions_of(b)), args.repeats)
     t_grid, grid = timed(lambda: R.distance_grid(pa, pb, weights, window), args.repeats)
     start = R.auto_start(grid.cost)
-    t_path, path = timed(lambda: R.find_path(grid.cost, "dp", start=start), args.repeats)
+    slope = R.SlopeLimit.default(N, N)
+    t_path_np, path = timed(lambda: R.dp_path(grid.cost, slope, True, start, backend="numpy"), args.repeats)
+    try:
+        R.dp_path(grid.cost, slope, True, start, backend="numba")  # compile / load the cache once
+        t_path, path_nb = timed(lambda: R.dp_path(grid.cost, slope, True, start, backend="numba"), args.repeats)
+        assert np.array_equal(path_nb.cells, path.cells)
+        numba_row = f"; Numba kernel {t_path * 1e3:.1f} ms (same path)"
+    except R.MjmotionError:
+        t_path, numba_row = t_path_np, "; Numba not installed"
     t_curve, curve = timed(lambda: R.timewarp_curve(path), args.repeats)
     t_align, align = timed(lambda: R.alignment_curve(pa, pb, curve.samples, weights, window), args.repeats)
-    t_all, reg = timed(lambda: R.register(a, b, positions=(pa, pb)), args.repeats)
+    t_all, reg = timed(lambda: R.register(a, b, positions=(pa, pb)), args.repeats)  # "auto" DP backend
     t_all_fk, _ = timed(lambda: R.register(a, b), args.repeats)
 
     dense = np.linspace(0, N - 1, 20 * N)
@@ -119,7 +127,7 @@ def main() -> None:
     print(f"two {N}-frame clips ({a.skeleton.n_joints} joints, {int((weights > 0).sum())} weighted), window {2 * window + 1} frames; median of {args.repeats}")
     print(f"  forward kinematics (MuJoCo, both clips) {t_fk * 1e3:8.1f} ms")
     print(f"  grid  (vectorised, {N}×{N})           {t_grid * 1e3:8.1f} ms")
-    print(f"  path  (DP, free end, slope limit 2)    {t_path * 1e3:8.1f} ms  ({len(path.cells)} cells)")
+    print(f"  path  (DP, free end, slope limit 2)    {t_path_np * 1e3:8.1f} ms  NumPy rows ({len(path.cells)} cells){numba_row}")
     print(f"  curve (monotone B-spline) + alignment  {(t_curve + t_align) * 1e3:8.1f} ms  ({t_curve * 1e3:.1f} + {t_align * 1e3:.1f})")
     print(f"  whole registration                     {t_all * 1e3:8.1f} ms  (goal < 50 ms); with FK {t_all_fk * 1e3:.1f} ms")
     print(f"  recovered timewarp RMS {rms:.2f} frames; alignment theta {np.degrees(np.median(reg.alignment[:, 0])):.2f}° (true {-np.degrees(0.9):.2f}°)")
@@ -140,9 +148,13 @@ def main() -> None:
         return
     dtw_path_from_metric(grid.cost[:50, :50], metric="precomputed")  # compile numba once
     t_ts, (ts_path, _) = timed(lambda: dtw_path_from_metric(grid.cost, metric="precomputed"), args.repeats)
-    t_ours, _ = timed(lambda: R.find_path(grid.cost, "dp", loop=True), args.repeats)
-    print(f"  tslearn DTW (corners, no slope limit)  {t_ts * 1e3:8.1f} ms; ours (corners, slope limit 2) {t_ours * 1e3:.1f} ms: "
-          f"tslearn/ours = {t_ts / t_ours:.2f}")
+    for backend in ("numpy", "numba"):
+        try:
+            t_ours, _ = timed(lambda: R.dp_path(grid.cost, slope, False, backend=backend), args.repeats)
+        except R.MjmotionError:
+            continue
+        print(f"  tslearn DTW (corners, no slope limit)  {t_ts * 1e3:8.1f} ms; ours (corners, slope limit 2, {backend}) "
+              f"{t_ours * 1e3:.1f} ms: tslearn/ours = {t_ts / t_ours:.2f}")
     # cross-check: with a slope limit as long as tslearn's longest straight run, the optima agree
     ts_cells = np.array(ts_path)
     ts_cost = float(grid.cost[ts_cells[:, 0], ts_cells[:, 1]].sum())

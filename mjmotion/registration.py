@@ -23,6 +23,7 @@ from __future__ import annotations
 import functools
 import math
 import re
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -41,6 +42,8 @@ MAX_CELLS = 25_000_000
 _UNWEIGHTED = re.compile(r"finger|thumb|index|mid\d|ring|pinky|eye|carpal|nub", re.IGNORECASE)
 
 METHODS = ("dp", "greedy", "threshold", "brute")
+#: Grids from this size use the Numba DP kernel by default (below it NumPy's is quicker than loading Numba).
+NUMBA_MIN_CELLS = 2_000_000
 
 
 # --------------------------------------------------------------------------------------------
@@ -381,13 +384,16 @@ def dp_path(
     otherwise end at the far corner. ``backend``: ``"numpy"`` (one vectorised pass per row: ``D``
     and ``V`` from the previous row, ``H_r`` by shifts within the row), ``"numba"`` (a compiled
     loop over cells, measured faster in benchmarks/bench_registration.py) or ``"auto"`` (Numba
-    when installed).
+    when installed and the grid has at least :data:`NUMBA_MIN_CELLS` cells or Numba is loaded).
     """
     c = np.ascontiguousarray(np.asarray(cost, dtype=float)[start[0] :, start[1] :])
     n_a, n_b = c.shape
     wv, wh = slope.vertical, slope.horizontal
     bp_dtype = np.int8 if 1 + wv + wh <= 127 else np.int32
-    kernel = _dp_tables_numba() if backend in ("auto", "numba") else None
+    # Numba's import and cache load cost ~0.3–1 s once, so "auto" takes it only where it pays:
+    # big grids, or a process that has loaded it already
+    use_numba = backend == "numba" or (backend == "auto" and (c.size >= NUMBA_MIN_CELLS or "numba" in sys.modules))
+    kernel = _dp_tables_numba() if use_numba else None
     if backend == "numba" and kernel is None:
         raise MjmotionError("the numba DP backend needs numba (pip install numba)")
     if backend not in ("auto", "numba", "numpy"):

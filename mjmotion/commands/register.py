@@ -56,8 +56,8 @@ def load_clips(files: list[str], args: argparse.Namespace) -> list:
         m = load(f, args)
         if r:
             m = m[parse_frames(r, m.n_frames)]
-        if args.fps:
-            if not args.fps > 0:
+        if args.fps is not None:
+            if not (args.fps > 0 and args.fps < float("inf")):
                 raise MjmotionError(f"--fps {args.fps}: expected a positive frame rate")
             m = m.resample(args.fps)
         clips.append(m)
