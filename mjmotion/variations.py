@@ -450,6 +450,8 @@ def hold_source_feet(
         return motion, {}, 0.0
     # an exaggerated pose can lift the hips beyond the legs' reach: lower/move the root first
     shift = _root_shift_for_reach(skel, var, [(a, tg, w) for _, a, _, _, tg, _, w in plans], motion.fps)
+    # frames that are the source's own poses (before an abort, outside a scaled segment) stay so
+    shift *= 1.0 - _fade(copied_frames(source, motion, path), max(1, int(round(0.5 * ROOT_WINDOW_S * motion.fps))))[:, None]
     if np.any(shift):
         motion = motion.replace(root_positions=motion.root_positions + shift)
         var = kinematics.forward(compiled, motion)
@@ -466,6 +468,17 @@ def hold_source_feet(
         held[side] = int(low.sum())
         worst = max(worst, float(np.max(err[low])))
     return motion.replace(rotations=local), held, worst
+
+
+def copied_frames(source: Motion, motion: Motion, path: ScorePath, tol: float = 1e-9) -> np.ndarray:
+    """``(T',) bool``: frames of ``motion`` that are exactly a source frame (moved by ``path.shift_b`` at frame_b)."""
+    out = np.zeros(path.n_frames, dtype=bool)
+    for sel, frames, move in ((path.weight <= 0, path.frame_a, 0.0), (path.weight >= 1, path.frame_b, path.shift_b)):
+        f = frames[sel]
+        same_q = np.all(np.abs(np.abs(np.sum(motion.rotations[sel] * source.rotations[f], axis=-1)) - 1.0) < tol, axis=1)
+        same_r = np.all(np.abs(motion.root_positions[sel] - (source.root_positions[f] + move)) < 1e-7, axis=1)
+        out[sel] = same_q & same_r
+    return out
 
 
 #: Fraction of a leg's full length the root shift aims for (a straight knee is a singular pose).
@@ -488,10 +501,12 @@ def _root_shift_for_reach(
         knee = int(skel.parents[ankle])
         hip = int(skel.parents[knee])
         p = pose.joint_positions
-        reach = REACH * (np.linalg.norm(p[:, knee] - p[:, hip], axis=-1) + np.linalg.norm(p[:, ankle] - p[:, knee], axis=-1))
+        length = np.linalg.norm(p[:, knee] - p[:, hip], axis=-1) + np.linalg.norm(p[:, ankle] - p[:, knee], axis=-1)
         vec = target - p[:, hip]
         dist = np.linalg.norm(vec, axis=-1)
-        n = vec / np.maximum(dist, 1e-12)[:, None] * (w * np.maximum(dist - reach, 0.0))[:, None]
+        # only targets truly out of reach move the root (a captured straight leg stays as it is)
+        short = np.where(dist > length * (1.0 - 1e-9), dist - REACH * length, 0.0)
+        n = vec / np.maximum(dist, 1e-12)[:, None] * (w * short)[:, None]
         bigger = np.linalg.norm(n, axis=-1) > np.linalg.norm(need, axis=-1)
         need[bigger] = n[bigger]
     peak = np.linalg.norm(need, axis=-1)
