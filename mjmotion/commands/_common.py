@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 from .. import bvh
-from ..errors import MjmotionError
+from ..errors import MjmotionError, OutputExistsError
 from ..outputs import check_output
 from ..skeleton import ASF_UNIT, CM, METRE, MM, Motion
 
@@ -47,8 +47,25 @@ def units_scale(text: str) -> float | None:
 
 
 def load(path: str, args: argparse.Namespace) -> Motion:
-    """Read a BVH clip with the verb's ``--units``/``--up``."""
+    """Read a BVH clip with the verb's ``--units``/``--up``.
+
+    Refuses a clip that is the verb's ``-o`` output: inputs named inside another input (a
+    stream script's clips) escape the check ``output_path`` makes before the work starts.
+    """
+    out = getattr(args, "output", None)
+    if out and check_same_file(out, path):
+        raise OutputExistsError(f"{out}: is an input of this command ({path}); choose another output path")
     return bvh.read(path, scale=units_scale(getattr(args, "units", "auto")), up=getattr(args, "up", "y"))
+
+
+def check_same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """Whether two paths name the same file (through links too)."""
+    try:
+        if os.path.exists(a) and os.path.exists(b) and os.path.samefile(a, b):
+            return True
+    except OSError:
+        pass
+    return Path(a).resolve() == Path(b).resolve()
 
 
 def output_path(args: argparse.Namespace, *inputs: str) -> Path:
