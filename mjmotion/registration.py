@@ -847,12 +847,6 @@ class Registration:
         ref = self.times[:, self.reference]
         return np.stack([np.interp(tau, ref, self.times[:, k]) for k in range(self.n_clips)], axis=1)
 
-    def rates(self, tau: np.ndarray) -> np.ndarray:
-        """``dt_k/dτ`` ``(len(tau), n)``: frames of clip k per frame of the reference."""
-        ref = self.times[:, self.reference]
-        d = np.gradient(self.times, ref, axis=0)
-        return np.stack([np.interp(tau, ref, d[:, k]) for k in range(self.n_clips)], axis=1)
-
 
 def choose_reference(motions: list[Motion], positions: list[np.ndarray], window: int = DEFAULT_WINDOW) -> int:
     """The clip most like the others: least summed mean path cost (seed 000: prefer a walk to a sprint)."""

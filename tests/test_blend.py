@@ -133,6 +133,15 @@ def test_registered_blends_skate_less_than_linear_and_keep_the_rhythm(walk_run):
     assert np.all(np.diff(cadence) > 0)
 
 
+def test_three_way_blend(mocap):
+    walk, run = _clip(mocap, "07_01"), _clip(mocap, "09_01")
+    slow = transform.timewarp(walk, lambda i: 0.75 * i, int((walk.n_frames - 1) / 0.75))
+    b = B.blend([walk, slow, run], [0.4, 0.3, 0.3])
+    speeds = sorted(mean_speed(m) for m in (walk, slow, run))
+    assert speeds[0] < mean_speed(b) < speeds[-1]
+    assert b.skeleton is walk.skeleton and b.fps == walk.fps
+
+
 def test_time_varying_weights(mocap):
     walk, run = _clip(mocap, "07_01"), _clip(mocap, "09_01")
     curve = B.WeightCurve(((0.0, 0.0, np.array([1.0, 0.0])), (0.3, 0.6, np.array([0.0, 1.0]))))
