@@ -21,6 +21,7 @@ World is Z-up: the floor is the ``(x, y)`` plane, so seed 000's ``(x, z)`` are o
 from __future__ import annotations
 
 import functools
+import heapq
 import math
 import re
 import sys
@@ -451,32 +452,19 @@ def _search(
     slope: SlopeLimit,
     free_end: bool,
     start: tuple[int, int],
-    prune_above: float = np.inf,
-    memo: bool = False,
-    max_nodes: int | None = None,
 ) -> Path:
-    """Depth-first enumeration of paths (Sako's recursion, seed 004 Fig. 13), optionally pruned.
+    """Depth-first enumeration of every path (Sako's brute-force recursion, seed 004 Fig. 13).
 
     Tracks, per end cell, the cheapest path; ``free_end`` then picks the least average cost like
-    :func:`dp_path`. ``prune_above`` skips cells costlier than it (the area threshold);
-    ``memo`` drops a partial path that reaches a (cell, run) state no cheaper than before.
+    :func:`dp_path`.
     """
     n_a, n_b = cost.shape
     end_best: dict[tuple[int, int], tuple[float, list]] = {}
     seen: dict[tuple[int, int, int, int], float] = {}
     si, sj = start
-    if cost[si, sj] > prune_above:
-        raise MjmotionError("the start cell is above the area threshold; raise the threshold")
     stack = [(si, sj, 0, 0, float(cost[si, sj]), ((si, sj),))]
-    nodes = 0
     while stack:
         i, j, rh, rv, total, path = stack.pop()
-        nodes += 1
-        if max_nodes is not None and nodes > max_nodes:
-            raise MjmotionError(
-                f"the threshold search expanded more than {max_nodes:,} partial paths on a {n_a} × {n_b} grid; "
-                "use --method dp (exact and fast) or lower the area threshold"
-            )
         on_end = (i == n_a - 1 or j == n_b - 1) if free_end else (i == n_a - 1 and j == n_b - 1)
         if on_end:
             old = end_best.get((i, j))
@@ -485,22 +473,72 @@ def _search(
         children = []
         for di, dj, nrh, nrv in _moves(rh, rv, slope):
             ni, nj = i + di, j + dj
+            if ni >= n_a or nj >= n_b:
+                continue
+            if not free_end and not _reachable(n_a - 1 - ni, n_b - 1 - nj, nrh, nrv, slope):
+                continue
+            children.append((ni, nj, nrh, nrv, total + float(cost[ni, nj]), path + ((ni, nj),)))
+        stack.extend(reversed(children))  # pop order: diagonal, then the straight steps
+    if not end_best:
+        raise MjmotionError(f"no path joins the corners of a {n_a} × {n_b} grid within the slope limit")
+    best = min(end_best.values(), key=lambda v: v[0] / len(v[1]) if free_end else v[0])
+    return Path(cells=np.array(best[1], dtype=int), cost=best[0])
+
+
+def _pruned_search(
+    cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[int, int], prune_above: float, max_nodes: int
+) -> Path:
+    """Sako's recursion with an area threshold, expanding partial paths in order of progress.
+
+    Cells costlier than ``prune_above`` are never entered. Partial paths are expanded by
+    increasing ``i + j`` (ties: diagonal-first, Sako's shorter-path preference) and a path
+    reaching a (cell, run) state no cheaper than an earlier one is dropped, so every state is
+    expanded once with its cheapest cost; Sako's depth-first order re-expands states and is
+    exponential in the worst case (her Table 4: 21–36 s).
+    """
+    n_a, n_b = cost.shape
+    si, sj = start
+    if cost[si, sj] > prune_above:
+        raise MjmotionError("the start cell is above the area threshold; raise the threshold")
+    best: dict[tuple[int, int, int, int], tuple[float, int, tuple | None]] = {(si, sj, 0, 0): (float(cost[si, sj]), 1, None)}
+    heap = [(si + sj, si, sj, 0, 0)]
+    end_best: dict[tuple[int, int], tuple[float, int, tuple]] = {}
+    nodes = 0
+    while heap:
+        _, i, j, rh, rv = heapq.heappop(heap)
+        key = (i, j, rh, rv)
+        total, length, _ = best[key]
+        nodes += 1
+        if nodes > max_nodes:
+            raise MjmotionError(
+                f"the threshold search expanded more than {max_nodes:,} partial paths on a {n_a} × {n_b} grid; "
+                "use --method dp (exact and fast) or lower the area threshold"
+            )
+        on_end = (i == n_a - 1 or j == n_b - 1) if free_end else (i == n_a - 1 and j == n_b - 1)
+        if on_end and ((i, j) not in end_best or total < end_best[(i, j)][0]):
+            end_best[(i, j)] = (total, length, key)
+        for di, dj, nrh, nrv in _moves(rh, rv, slope):
+            ni, nj = i + di, j + dj
             if ni >= n_a or nj >= n_b or cost[ni, nj] > prune_above:
                 continue
             if not free_end and not _reachable(n_a - 1 - ni, n_b - 1 - nj, nrh, nrv, slope):
                 continue
             nt = total + float(cost[ni, nj])
-            if memo:
-                key = (ni, nj, nrh, nrv)
-                if seen.get(key, np.inf) <= nt:
-                    continue
-                seen[key] = nt
-            children.append((ni, nj, nrh, nrv, nt, path + ((ni, nj),)))
-        stack.extend(reversed(children))  # pop order: diagonal, then the straight steps
+            nkey = (ni, nj, nrh, nrv)
+            old = best.get(nkey)
+            if old is not None and old[0] <= nt:
+                continue
+            if old is None:
+                heapq.heappush(heap, (ni + nj, ni, nj, nrh, nrv))
+            best[nkey] = (nt, length + 1, key)
     if not end_best:
         raise MjmotionError("no path reaches the end under the area threshold; raise the threshold or use --method dp")
-    best = min(end_best.values(), key=lambda v: v[0] / len(v[1]) if free_end else v[0])
-    return Path(cells=np.array(best[1], dtype=int), cost=best[0])
+    total, length, key = min(end_best.values(), key=lambda v: v[0] / v[1] if free_end else v[0])
+    cells = []
+    while key is not None:
+        cells.append(key[:2])
+        key = best[key][2]
+    return Path(cells=np.array(cells[::-1], dtype=int), cost=total)
 
 
 def brute_path(cost: np.ndarray, slope: SlopeLimit, free_end: bool = True, start: tuple[int, int] = (0, 0)) -> Path:
@@ -517,15 +555,15 @@ def threshold_path(
     free_end: bool = True,
     start: tuple[int, int] = (0, 0),
     area_threshold: float = 0.35,
-    max_nodes: int = 2_000_000,
+    max_nodes: int = 5_000_000,
 ) -> Path:
-    """Sako's recursion with thresholds (seed 004 §5.2 method 3).
+    """Sako's recursion with thresholds (seed 004 §5.2 method 3), see :func:`_pruned_search`.
 
-    Cells above ``area_threshold × max cost`` are never entered (Sako found 0.30–0.35 best); a
-    partial path no cheaper than an earlier one at the same (cell, run) state is dropped.
+    Cells above ``area_threshold × max cost`` are never entered (Sako found 0.30–0.35 best).
+    With ``area_threshold ≥ 1`` nothing is pruned and the result is the DP optimum.
     """
     c = np.asarray(cost, dtype=float)
-    p = _search(c, slope, free_end, start, prune_above=area_threshold * float(c.max()), memo=True, max_nodes=max_nodes)
+    p = _pruned_search(c, slope, free_end, start, area_threshold * float(c.max()), max_nodes)
     return Path(p.cells, p.cost, "threshold")
 
 
