@@ -168,11 +168,17 @@ class CameraPose:
         return np.column_stack([col, row]), z
 
 
+def travels(motion: Motion) -> bool:
+    """Whether the clip goes somewhere (root moves ≥ 0.3 statures), rather than staying in place (a swing, a kick)."""
+    d = motion.root_positions[-1, :2] - motion.root_positions[0, :2]
+    return bool(np.linalg.norm(d) >= 0.3 * max(motion.skeleton.stature(), 0.3))
+
+
 def travel_axes(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
     """Horizontal unit vectors ``(forward, lateral)`` of a clip: where it travels, else where it faces."""
     d = motion.root_positions[-1, :2] - motion.root_positions[0, :2]
-    if np.linalg.norm(d) < 0.3 * max(motion.skeleton.stature(), 0.3):
-        # In place (a swing, a kick): the mean facing, +x of the root frame in the rest pose.
+    if not travels(motion):
+        # In place: the mean facing, +x of the root frame in the rest pose.
         d = rot.rotate(motion.rotations[:, 0], np.array([1.0, 0.0, 0.0]))[:, :2].mean(axis=0)
     n = float(np.linalg.norm(d))
     fwd = d / n if n > 1e-9 else np.array([1.0, 0.0])
@@ -276,10 +282,12 @@ def build_scene(
     centre[:, 2] = 0.5 * stature  # a steady height: no bobbing with the pelvis
     lookat = smooth_track(centre, fps, view.smoothing)
     heading = np.degrees(np.arctan2(forward[1], forward[0]))
-    # One character: a side view; several in a row: three-quarter front so the row spreads across the image.
-    azimuth = view.azimuth if view.azimuth is not None else heading + (90.0 if n == 1 else 145.0)
-    # A swung club rarely points straight up: a third of its length above the head is enough room.
-    reach = stature + 0.3 * max((p.length for a in actors for p in a.props), default=0.0)
+    # In place: face-on (the row spreads fully across the image). Travelling: one character from
+    # the side; a row three-quarter front, so neither the row nor the walk hides anyone.
+    turn = 180.0 if not travels(motions[0]) else 90.0 if n == 1 else 145.0
+    azimuth = view.azimuth if view.azimuth is not None else heading + turn
+    # A swung club rarely points straight up: 60% of its length above the head is enough room.
+    reach = stature + 0.6 * max((p.length for a in actors for p in a.props), default=0.0)
     distance = view.distance if view.distance is not None else _auto_distance(roots, lookat, reach, view.fovy)
     trails = tuple(
         _trail_points(model, q, _prefix(i), a.trail, c) if a.trail else None for i, (a, c) in enumerate(zip(actors, compiled))
@@ -328,10 +336,14 @@ def _qpos_map(child: mujoco.MjModel, combined: mujoco.MjModel, prefix: str) -> n
 
 
 def _auto_distance(roots: np.ndarray, lookat: np.ndarray, stature: float, fovy: float) -> float:
-    """A distance that keeps the whole row and the character's height in a 16:9 frame."""
+    """A distance that keeps the whole row and the character's height in a 16:9 frame.
+
+    ``roots``: ``(N, T, 3)``; ``lookat``: ``(T, 3)``. A character up to ``spread`` nearer the
+    camera than the look-at point looks bigger, so the height fit starts that much further back.
+    """
     spread = float(np.max(np.linalg.norm(roots[:, :, :2] - lookat[None, :, :2], axis=2)))
     tan_v = np.tan(np.radians(fovy) / 2)
-    need_h = 1.8 * stature / (2 * tan_v)  # the full height with margins
+    need_h = 1.5 * stature / (2 * tan_v) + spread  # the full height with margins
     need_w = (2 * spread + 0.8 * stature) / (2 * tan_v * 16 / 9)
     return float(max(need_h, need_w, 2.0))
 
@@ -540,10 +552,10 @@ class Renderer:
                 mujoco.mjv_initGeom(
                     g,
                     mujoco.mjtGeom.mjGEOM_SPHERE,
-                    np.array([0.02 * (1.0 - 0.5 * age), 0, 0]),
+                    np.array([0.025 * (1.0 - 0.5 * age), 0, 0]),
                     pts[k],
                     eye,
-                    np.array([*(0.5 + 0.5 * rgb), 0.85 * (1.0 - age)], dtype=np.float32),
+                    np.array([*(0.4 + 0.6 * rgb), 0.9 * (1.0 - 0.8 * age)], dtype=np.float32),
                 )
                 g.category = mujoco.mjtCatBit.mjCAT_DECOR
                 scn.ngeom += 1

@@ -65,9 +65,9 @@ def run(args: argparse.Namespace) -> int:
     actors = []
     for path, label in zip(args.files, labels):
         m = load(path, args)
+        props = tuple(_prop(m, text) for text in args.prop)  # fitted on the whole clip (a swing's address frames)
         if args.frames:
             m = m[parse_frames(args.frames, m.n_frames)]
-        props = tuple(_prop(m, text) for text in args.prop)
         actors.append(render.Actor(m, label=label, props=props, trail=_trail(m, props, args.trail)))
     ball = mjcf.Ball(position=tuple(args.ball)) if args.ball else None
     view = render.View(azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
