@@ -416,6 +416,7 @@ def _solve_frames(problem: HitProblem, solver: str) -> tuple[np.ndarray, np.ndar
 
 
 def _solve_shot(problem: HitProblem, smoothness: float) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """Whole-shot NLP over the frames the blend touches; the others stay the source (``δ = 0``)."""
     from .ik.nlp import ShotSolver, SymbolicFK
 
     c = problem.compiled
@@ -423,35 +424,32 @@ def _solve_shot(problem: HitProblem, smoothness: float) -> tuple[np.ndarray, np.
     t_n = problem.source.n_frames
     d1 = np.zeros((t_n, lead.n_dof))
     d2 = np.zeros((t_n, second.n_dof if second else 0))
-    active = np.flatnonzero(problem.blend > 0)
-    if len(active) == 0:
+    frames = np.flatnonzero(problem.blend > 0)
+    n = len(frames)
+    if n == 0:
         return d1, d2, 0.0, 0
-    a, b = int(active[0]), int(active[-1]) + 1
-    n = b - a
-    chains = [lead] + ([second] if second else [])
-    fk = SymbolicFK(c, chains)
+    start = time.perf_counter()
+    fk = SymbolicFK(c, [lead] + ([second] if second else []))
     # Base frames come from the source FK (the lead chain's base is never moved).
     data = mujoco.MjData(c.model)
     params = np.empty((n, fk.n_params))
-    for i, t in enumerate(range(a, b)):
+    for i, t in enumerate(frames):
         data.qpos[:] = problem.qpos[t]
         mujoco.mj_kinematics(c.model, data)
         params[i] = fk.params(problem.qpos[t], data.xpos, data.xmat)
-    goals = problem.goals[a:b]
-    lo1, hi1 = lead.bounds(problem.source)
-    lo, hi = lo1[a:b], hi1[a:b]
+    goals = problem.goals[frames]
+    lo, hi = (x[frames] for x in lead.bounds(problem.source))
     if second is not None:
         lo2, hi2 = second.bounds(problem.source)
-        lo, hi = np.hstack([lo, lo2[a:b]]), np.hstack([hi, hi2[a:b]])
-        rel = problem.second_relative[a:b]
+        lo, hi = np.hstack([lo, lo2[frames]]), np.hstack([hi, hi2[frames]])
+        rel = problem.second_relative[frames]
         goals = np.hstack([goals, rel[:, :3, 3], rel[:, :3, :3].transpose(0, 2, 1).reshape(n, 9)])
-    start = time.perf_counter()
-    solver = ShotSolver(c, lead, second, n, smoothness=smoothness)
+    solver = ShotSolver(c, lead, second, frames, smoothness=smoothness)
     res = solver.solve(params, goals, lo, hi)
     elapsed = time.perf_counter() - start
-    d1[a:b] = res.lead
+    d1[frames] = res.lead
     if second is not None:
-        d2[a:b] = res.second
+        d2[frames] = res.second
     return d1, d2, elapsed, n
 
 
