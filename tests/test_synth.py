@@ -210,6 +210,29 @@ def test_gait_follows_requested_speed_turn_and_step_length(kind, speed, turn, st
     assert np.linalg.norm(clip.motion.root_positions[0, :2]) < 0.05
 
 
+@pytest.mark.parametrize("name", ["walk", "run"])
+def test_arms_counter_swing_and_the_pelvis_bobs_with_the_gait(lib, name):
+    clip = lib[name]
+    m = clip.motion
+    skel = m.skeleton
+    rel = _root_frame_pose(m, list(range(m.n_frames)))  # root-relative, heading frame
+    for side in ("Left", "Right"):
+        hand = rel[:, skel.index(f"{side}Hand"), 0]
+        ankle = rel[:, skel.index(f"{side}Foot"), 0]
+        assert np.corrcoef(hand, ankle)[0, 1] < -0.7  # the arm swings against its leg
+        assert np.ptp(hand) > 0.15
+    # Pelvis height: a walk vaults over the stance leg (highest at single support); a run is
+    # lowest in stance and highest in flight.
+    z = m.root_positions[:, 2]
+    single = clip.contacts.sum(axis=1) == 1
+    if name == "walk":
+        double = clip.contacts.all(axis=1)
+        assert z[single].mean() > z[double].mean() + 0.005
+    else:
+        flight = ~clip.contacts.any(axis=1)
+        assert z[flight].mean() > z[single].mean() + 0.01
+
+
 def test_limp_is_asymmetric_and_variations_are_deterministic():
     limp = synth.limp()
     left, right = limp.contacts.mean(axis=0)
