@@ -36,6 +36,15 @@ SEGMENT_TAPER = 0.25
 PLANT_HEIGHT = 0.08
 #: Seconds over which a foot or hand correction fades in and out at the ends of a plant.
 FADE_S = 0.1
+#: A foot whose footprint moves more than this (m) during an abort's return steps instead of sliding …
+STEP_M = 0.05
+#: … lifting its contact point this high (m) at mid-step.
+STEP_LIFT = 0.12
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,8 +152,9 @@ def default_abort_frames(path: ScorePath, frame: int, rest_frame: int, fps: floa
 def rest_in_place(space: PoseSpace, path: ScorePath, frame: int, rest_frame: int) -> tuple[np.ndarray, np.ndarray]:
     """Scores ``(C,)`` of the rest pose moved over the floor to where the character stands at ``frame``, and that move ``(3,)``.
 
-    "Where it stands" is its feet: the rest pose is shifted so its ankles' mean floor position
-    matches the one at ``frame`` (a golfer's feet stay put; a kick's run-up is not undone). The
+    "Where it stands" is its feet: the rest pose is shifted so that the foot that moves least
+    between the two frames (the anchor: a golfer's either foot, a batsman's back foot) stays
+    where it is at ``frame``; the other foot steps (a kick's run-up is not undone). The
     rest frame's parameters come back exactly from all its scores; the root moves by the shift
     and the result is projected again on every component, so nothing is lost.
     """
@@ -153,7 +163,8 @@ def rest_in_place(space: PoseSpace, path: ScorePath, frame: int, rest_frame: int
     feet = [a for a, _ in space.skeleton.feet().values()]
     if feet:
         p = kinematics.forward(mjcf.compile(space.skeleton), two).joint_positions[:, feet]
-        delta = p[0].mean(axis=0) - p[1].mean(axis=0)
+        moves = (p[0] - p[1])[:, :2]
+        delta = moves[int(np.argmin(np.linalg.norm(moves, axis=-1)))]
     else:
         delta = x[0, :3] - x[1, :3]
     move = np.array([delta[0], delta[1], 0.0])
@@ -433,7 +444,21 @@ def hold_source_feet(
             low_pt = lowest[:, track.sides.index(side)]
             c = rot.rotate(rot.conjugate(src.joint_rotations[fb, ankle]), low_pt[fb] - src.joint_positions[fb, ankle])
             p_a = src.joint_positions[fa, ankle] + rot.rotate(src.joint_rotations[fa, ankle], c)
-            pivot = (1.0 - w) * p_a + w * (low_pt[fb] + path.shift_b)
+            p_b = low_pt[fb] + path.shift_b
+            pivot = (1.0 - w) * p_a + w * p_b
+            # a foot whose footprint moves must step: lift, carry, put down (not slide)
+            stepping = np.linalg.norm((p_b - p_a)[:, :2], axis=-1) > STEP_M
+            if stepping.any():
+                # lift first, then carry and turn the foot in the air, then put it down
+                u = w[:, 0]
+                carry = _smoothstep((u - 0.3) / 0.4)
+                lift = STEP_LIFT * np.sin(np.pi * np.clip((u - 0.1) / 0.8, 0.0, 1.0))
+                step = p_a + carry[:, None] * (p_b - p_a)
+                step[:, 2] += lift
+                pivot = np.where(stepping[:, None], step, pivot)
+                q_a, q_b = src.joint_rotations[fa, ankle], src.joint_rotations[fb, ankle]
+                turned = rot.slerp(q_a, q_b, carry)
+                target_rot[between] = np.where(stepping[:, None], turned, target_rot[between])
             target[between] = pivot - rot.rotate(target_rot[between], c)
         # one horizontal shift per plant, where the variant's foot touched down; frames between
         # plants (fading in and out) take the nearest plant's shift so the target does not jump
