@@ -18,8 +18,16 @@ Reusable building blocks (other modules import these):
 - :func:`skate_sensitivity` ``(motion | track, h_cs=(0.03, 0.05, 0.08))``: the ``h_c`` table.
 - :func:`lowest_body_point` ``(compiled, pose) -> (T,)`` z of the lowest point of the body geoms;
   :func:`ground_metrics` ``-> GroundMetrics`` (penetrate_mm, float_mm, phys_err_mm, floor offset).
+- :func:`planted_skate_mm_per_s` ``(motion | track, h_c, v_c)``: the same over full contact
+  frames (height and speed): the plant sliding that :mod:`mjmotion.cleanup` removes.
 - :func:`max_joint_speed_ratio` ``(result, sources)``, :func:`root_jump_m` ``(result, sources)``,
-  :func:`limit_violation_ratio` ``(compiled, motion)``.
+  :func:`limit_violation_ratio` ``(compiled, motion)``, :func:`grip_error_m` ``(result, source,
+  first_hand, second_hand)``, :func:`leading_transient` ``(motion)`` (T-pose frames to skip).
+
+Note on ``skate_mm_per_s``: METRICS counts every frame a foot is within ``h_c`` of the floor
+(height alone). With the foot's sole box as one of its points, a walking swing foot passes
+within 5 cm of the floor for most of its swing, so real walks give ~1 m/s there;
+``planted_skate_mm_per_s`` (contact frames) gives the "tens of mm/s" METRICS expects of plants.
 - :func:`evaluate` ``(motion, props=(), ball=None, hit_frame=None) -> Report`` runs everything
   (physics residuals from :mod:`mjmotion.physics`).
 """
@@ -345,6 +353,23 @@ def root_jump_m(result: Motion, sources: Motion | Sequence[Motion]) -> float:
         return float(np.linalg.norm(np.diff(m.root_positions, axis=0), axis=1).max()) if m.n_frames > 1 else 0.0
 
     return jump(result) - max(jump(s) for s in _as_list(sources))
+
+
+def grip_error_m(result: Motion, source: Motion, first_hand: str | int, second_hand: str | int) -> float:
+    """Two-handed props: max over frames of the distance between the second hand and where the
+    source holds it relative to the first hand (position in the first hand's frame), metres.
+
+    ``result`` and ``source`` are paired frame by frame (the shorter length is used).
+    """
+    skel = source.skeleton
+    a = first_hand if isinstance(first_hand, int) else skel.index(first_hand)
+    b = second_hand if isinstance(second_hand, int) else skel.index(second_hand)
+    n = min(result.n_frames, source.n_frames)
+    ps = kinematics.forward(mjcf.compile(skel), source[:n])
+    pr = kinematics.forward(mjcf.compile(result.skeleton), result[:n])
+    rel = rot.rotate(rot.conjugate(ps.joint_rotations[:, a]), ps.joint_positions[:, b] - ps.joint_positions[:, a])
+    want = pr.joint_positions[:, a] + rot.rotate(pr.joint_rotations[:, a], rel)
+    return float(np.linalg.norm(pr.joint_positions[:, b] - want, axis=1).max())
 
 
 def limit_violation_ratio(compiled: CompiledModel, motion: Motion) -> tuple[float, int]:

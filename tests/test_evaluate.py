@@ -288,3 +288,18 @@ def test_cli_evaluate_hit_and_grid(tmp_path, capsys):
     assert doc["report"]["hit"]["launch_contacted"] and set(doc["hit_grid"]) == {"locked", "world"}
     assert main(["evaluate", f, "--ball", "0", "0", "0"]) == 2
     assert "--frame" in capsys.readouterr().err
+
+
+def test_grip_error_zero_for_the_source_and_sees_a_moved_hand():
+    m = _clip("cmu_asfamc_converted/64_01.bvh")[200:260]
+    assert ev.grip_error_m(m, m, "rwrist", "lwrist") == pytest.approx(0.0, abs=1e-12)
+    # Rigidly turning and moving the whole clip keeps the grip.
+    q = rot.exp(np.array([0.0, 0.0, 0.7]))
+    turned = m.replace(rotations=np.concatenate([rot.multiply(q, m.rotations[:, :1]), m.rotations[:, 1:]], axis=1),
+                       root_positions=rot.rotate(q, m.root_positions) + [1.0, 2.0, 0.0])
+    assert ev.grip_error_m(turned, m, "rwrist", "lwrist") == pytest.approx(0.0, abs=1e-9)
+    # Bending the left elbow moves the left hand away from the grip.
+    j = m.skeleton.index("lradius")
+    bent = m.rotations.copy()
+    bent[:, j] = rot.multiply(bent[:, j], rot.exp(np.array([0.3, 0.0, 0.0])))
+    assert ev.grip_error_m(m.replace(rotations=bent), m, "rwrist", "lwrist") > 0.03
