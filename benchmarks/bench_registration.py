@@ -124,19 +124,24 @@ def main() -> None:
     dense = np.linspace(0, N - 1, 20 * N)
     s = reg.curve.samples
     rms = float(np.sqrt(np.mean((s[:, 1] - np.interp(s[:, 0], w_true(dense), dense)) ** 2)))
-    print(f"BLAS threads: {os.environ.get('OPENBLAS_NUM_THREADS')}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
-    print(f"two {N}-frame clips ({a.skeleton.n_joints} joints, {int((weights > 0).sum())} weighted), window {2 * window + 1} frames; median of {args.repeats}")
+    load = os.getloadavg()[0]
+    print(f"BLAS threads: {os.environ.get('OPENBLAS_NUM_THREADS')}; load average {load:.1f} on {os.cpu_count()} cores")
+    n_w = int((weights > 0).sum())
+    print(f"two {N}-frame clips ({a.skeleton.n_joints} joints, {n_w} weighted), window {2 * window + 1} frames; median of {args.repeats}")
     print(f"  forward kinematics (MuJoCo, both clips) {t_fk * 1e3:8.1f} ms")
     print(f"  grid  (vectorised, {N}×{N})           {t_grid * 1e3:8.1f} ms")
     print(f"  path  (DP, free end, slope limit 2)    {t_path_np * 1e3:8.1f} ms  NumPy rows ({len(path.cells)} cells){numba_row}")
     print(f"  curve (monotone B-spline) + alignment  {(t_curve + t_align) * 1e3:8.1f} ms  ({t_curve * 1e3:.1f} + {t_align * 1e3:.1f})")
     print(f"  whole registration                     {t_all * 1e3:8.1f} ms  (goal < 50 ms); CPU time {t_all_cpu * 1e3:.1f} ms; "
           f"with FK {t_all_fk * 1e3:.1f} ms")
-    print(f"  recovered timewarp RMS {rms:.2f} frames; alignment theta {np.degrees(np.median(reg.alignment[:, 0])):.2f}° (true {-np.degrees(0.9):.2f}°)")
+    theta = np.degrees(np.median(reg.alignment[:, 0]))
+    print(f"  recovered timewarp RMS {rms:.2f} frames; alignment theta {theta:.2f}° (true {-np.degrees(0.9):.2f}°)")
 
     for method in ("greedy", "threshold"):  # Sako's alternatives (seed 004 §5.2, Table 2's "accuracy")
-        t_m, p_m = timed(lambda: R.find_path(grid.cost, method, start=start), 1 if method == "threshold" else args.repeats)
-        print(f"  path  ({method:9s})                    {t_m * 1e3:8.1f} ms  mean cost {100 * p_m.mean_cost / path.mean_cost:.1f}% of DP's")
+        reps = 1 if method == "threshold" else args.repeats
+        t_m, p_m = timed(lambda m=method: R.find_path(grid.cost, m, start=start), reps)
+        ratio = 100 * p_m.mean_cost / path.mean_cost
+        print(f"  path  ({method:9s})                    {t_m * 1e3:8.1f} ms  mean cost {ratio:.1f}% of DP's")
 
     rows = min(args.baseline_rows, N)
     t = time.perf_counter()
@@ -156,7 +161,7 @@ def main() -> None:
     t_ts, (ts_path, _) = timed(lambda: dtw_path_from_metric(grid.cost, metric="precomputed"), args.repeats)
     for backend in ("numpy", "numba"):
         try:
-            t_ours, _ = timed(lambda: R.dp_path(grid.cost, slope, False, backend=backend), args.repeats)
+            t_ours, _ = timed(lambda b=backend: R.dp_path(grid.cost, slope, False, backend=b), args.repeats)
         except R.MjmotionError:
             continue
         print(f"  tslearn DTW (corners, no slope limit)  {t_ts * 1e3:8.1f} ms; ours (corners, slope limit 2, {backend}) "

@@ -158,7 +158,7 @@ def compose(
         raise MjmotionError(f"no track has weight at output frame {int(np.argmax(total[:, 0] <= 0))}")
     w = w / total
     j = skel.n_joints
-    quats, root, prev_root, trans = [], [], [], []
+    quats, root, trans = [], [], []
     yaw, dyaw, disp, tilt = [], [], [], []
     for tr in tracks:
         p, q, t = tr.motion.sample(tr.times)

@@ -460,7 +460,6 @@ def _search(
     """
     n_a, n_b = cost.shape
     end_best: dict[tuple[int, int], tuple[float, list]] = {}
-    seen: dict[tuple[int, int, int, int], float] = {}
     si, sj = start
     stack = [(si, sj, 0, 0, float(cost[si, sj]), ((si, sj),))]
     while stack:

@@ -219,7 +219,6 @@ class MotionStream:
         fps = s.fps
         n_out = int(round(s.duration * fps))
         times = np.arange(n_out) / fps
-        n_loc = len(s.locomotion)
         keys = tuple((c.time, c.ramp, c.weights) for c in s.commands if c.kind == "weights")
         loc_w = WeightCurve(keys)(times)  # (N, n_loc)
         action_w, action_tracks = self._actions(n_out)

@@ -35,7 +35,8 @@ def _cell_by_optimiser(pa: np.ndarray, pb: np.ndarray, w: np.ndarray) -> tuple[f
         q[:, 0], q[:, 1] = c * pb[:, 0] - s * pb[:, 1] + x[1], s * pb[:, 0] + c * pb[:, 1] + x[2]
         return float(np.sum(w * np.sum((pa - q) ** 2, axis=1)))
 
-    best = min((optimize.minimize(f, [t0, 0, 0], method="BFGS", options={"gtol": 1e-10}) for t0 in np.linspace(-3, 3, 7)), key=lambda r: r.fun)
+    starts = np.linspace(-3, 3, 7)
+    best = min((optimize.minimize(f, [t0, 0, 0], method="BFGS", options={"gtol": 1e-10}) for t0 in starts), key=lambda r: r.fun)
     return best.fun, best.x
 
 
@@ -242,7 +243,8 @@ def test_cli_register_writes_the_documented_json(mocap, tmp_path):
     a = mocap / DAZ / "07_01.bvh"
     b = mocap / DAZ / "09_01.bvh"
     out = tmp_path / "reg.json"
-    cmd = [sys.executable, "-m", "mjmotion.cli", "register", str(a), str(b), "--frames", "4:", "--json", str(out), "--plot", str(tmp_path / "g.png")]
+    cmd = [sys.executable, "-m", "mjmotion.cli", "register", str(a), str(b), "--frames", "4:", "--json", str(out)]
+    cmd += ["--plot", str(tmp_path / "g.png")]
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     d = json.loads(out.read_text())

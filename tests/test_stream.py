@@ -145,5 +145,6 @@ def test_cli_stream(mocap, tmp_path):
     assert r.returncode == 0, r.stderr
     assert bvh.read(str(out)).n_frames == 240
     (tmp_path / "bad.json").write_text("{not json")
-    r = subprocess.run([sys.executable, "-m", "mjmotion.cli", "stream", str(tmp_path / "bad.json"), "-o", str(tmp_path / "b.bvh")], capture_output=True, text=True)
+    cmd = [sys.executable, "-m", "mjmotion.cli", "stream", str(tmp_path / "bad.json"), "-o", str(tmp_path / "b.bvh")]
+    r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 2 and "not valid JSON" in r.stderr

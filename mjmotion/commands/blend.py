@@ -47,6 +47,6 @@ def run(args: argparse.Namespace) -> int:
     clips = load_clips(args.files, args)
     result = blend.blend(clips, weights, method=args.method, name=out.stem)
     bvh.write(result, out)
-    speed = result.root_positions[-1, :2] - result.root_positions[0, :2]
-    print(f"wrote {out}: {result.n_frames} frames at {result.fps:g} fps ({args.method}), net floor travel {float((speed**2).sum()) ** 0.5:.2f} m")
+    travel = float(((result.root_positions[-1, :2] - result.root_positions[0, :2]) ** 2).sum()) ** 0.5
+    print(f"wrote {out}: {result.n_frames} frames at {result.fps:g} fps ({args.method}), net floor travel {travel:.2f} m")
     return 0
