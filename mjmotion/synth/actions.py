@@ -14,13 +14,13 @@ from dataclasses import replace
 
 import numpy as np
 from scipy.interpolate import PchipInterpolator
-from scipy.spatial.transform import Rotation, RotationSpline
+from scipy.spatial.transform import RotationSpline
 
 from .. import mjcf
 from .. import rotations as rot
 from ..errors import MjmotionError
 from ..skeleton import Motion
-from .body import PoseBuilder, axis_angle, compose, foot_geometry, forward_kinematics, joint, lower_pelvis, skeleton, yaw
+from .body import PoseBuilder, axis_angle, compose, foot_geometry, forward_kinematics, lower_pelvis, yaw
 from .clip import SynthClip
 from .gait import FPS, STYLES, Footprint, _foot_track, check_seed
 
@@ -36,7 +36,7 @@ BAT = mjcf.Prop(
 TOP_HAND_GAP = 0.11  # the left (top) hand grips this far above the right one, metres
 
 
-def _pchip(times: list[float], values: list, t: np.ndarray) -> np.ndarray:
+def _pchip(times: list[float], values: list | np.ndarray, t: np.ndarray) -> np.ndarray:
     return PchipInterpolator(np.asarray(times, dtype=float), np.asarray(values, dtype=float), axis=0)(t)
 
 
@@ -102,7 +102,7 @@ def _torso(pb: PoseBuilder, t: np.ndarray, keys: list[float], pelvis: list, spin
     pb.update()
 
 
-def _steps(t: np.ndarray, start: tuple[float, float, float], steps: list[tuple[float, float, float, float, float]], fps: float, side: str):
+def _steps(t: np.ndarray, start: tuple[float, ...], steps: list[tuple[float, float, float, float, float]], fps: float, side: str):
     """A foot that stands at ``start = (x, y, heading)`` and takes ``steps`` ``(t_lift, t_land, x,
     y, heading)``. Returns the foot track, the contact mask and the footprints."""
     fg = foot_geometry()
@@ -146,16 +146,16 @@ def _jitter(seed: int, scale: float, shape: tuple[int, ...]) -> np.ndarray:
 
 # --- cricket shots -------------------------------------------------------------------------------
 #: The shared batting stance: side-on, chest toward +X, the bowler toward +Y (the left shoulder).
-STANCE = dict(
-    root=(0.0, -0.01, 0.92),
-    pelvis=(5.0, 0.0, 14.0),
-    spine=(15.0, 0.0, 10.0),
-    head=(80.0, 18.0),
-    grip=(0.28, -0.06, 0.90),
-    bat=(-8.0, -0.12),  # plane angle, x tilt
-    left=(0.10, 0.20, 0.0),
-    right=(0.10, -0.20, 0.0),
-)
+STANCE: dict[str, tuple[float, ...]] = {
+    "root": (0.0, -0.01, 0.92),
+    "pelvis": (5.0, 0.0, 14.0),
+    "spine": (15.0, 0.0, 10.0),
+    "head": (80.0, 18.0),
+    "grip": (0.28, -0.06, 0.90),
+    "bat": (-8.0, -0.12),  # plane angle, x tilt
+    "left": (0.10, 0.20, 0.0),
+    "right": (0.10, -0.20, 0.0),
+}
 
 
 def shot(kind: str, seed: int = 0) -> SynthClip:
@@ -198,7 +198,7 @@ def shot(kind: str, seed: int = 0) -> SynthClip:
         right_steps = [(0.45, 0.75, 0.22, -0.34, np.radians(-25.0)), (2.05, 2.40, *st["right"])]
     grip_j = np.asarray(grip) + np.vstack([np.zeros((1, 3)), _jitter(seed, 0.02, (len(keys) - 2, 3)), np.zeros((1, 3))])
     grip_j[-2] = grip_j[0]
-    n = int(round(keys[-1] * FPS)) + 1
+    n = round(keys[-1] * FPS) + 1
     t = np.arange(n) / FPS
     pb = PoseBuilder(n, _pchip(keys, root, t))
     _torso(pb, t, keys, pelvis, spine, head)
@@ -223,7 +223,7 @@ def shot(kind: str, seed: int = 0) -> SynthClip:
     down = np.array([0.0, 0.0, -1.0])
     pb.arm("Right", right_wrist, down + np.array([-0.3, -0.6, 0.0]), right_hand)
     pb.arm("Left", left_wrist, down + np.array([0.0, 0.6, 0.0]), left_hand)
-    hit = int(round(keys[hit_key] * FPS))
+    hit = round(keys[hit_key] * FPS)
     clip = _finish(pb, kind, kind, contacts, prints, prop=BAT, hit_frame=hit, params=(("seed", float(seed)),))
     sweet, normal = prop_frame(clip.motion, BAT, hit)
     return replace(clip, sweet_spot=sweet, hit_normal=normal)
@@ -231,7 +231,7 @@ def shot(kind: str, seed: int = 0) -> SynthClip:
 
 # --- transitions ---------------------------------------------------------------------------------
 #: The standing pose that kick and punch start and end in (feet under the hips, arms hanging).
-STAND = dict(root=(0.0, 0.0, 1.0), pelvis=(0.0, 0.0, 3.0), spine=(0.0, 0.0, 2.0), head=(0.0, 4.0))
+STAND: dict[str, tuple[float, ...]] = {"root": (0.0, 0.0, 1.0), "pelvis": (0.0, 0.0, 3.0), "spine": (0.0, 0.0, 2.0), "head": (0.0, 4.0)}
 STAND_FEET = {"Left": (0.10, 0.10, np.radians(6.0)), "Right": (0.10, -0.10, np.radians(-6.0))}
 
 
@@ -253,12 +253,14 @@ def kick(seed: int = 0) -> SynthClip:
     spine = [st["spine"], st["spine"], (0.0, -2.0, 2.0), (5.0, 0.0, 12.0), (10.0, 0.0, 14.0), (5.0, 0.0, 12.0), (0.0, -2.0, 2.0), st["spine"], st["spine"]]
     head = [st["head"]] * 2 + [(0.0, 4.0), (0.0, 6.0), (0.0, 6.0), (0.0, 6.0), (0.0, 4.0)] + [st["head"]] * 2
     # Right ankle offsets from where it stands (x, y, z metres) and foot pitch (degrees, + points the toes).
-    offs = [(0, 0, 0), (0, 0, 0), (0, 0, 0), (0.30, 0.0, 0.42), (0.68, 0.02, 0.72), (0.30, 0.0, 0.42), (0, 0, 0), (0, 0, 0), (0, 0, 0)]
-    offs = np.asarray(offs, dtype=float)
+    offs = np.array(
+        [(0, 0, 0), (0, 0, 0), (0, 0, 0), (0.30, 0.0, 0.42), (0.68, 0.02, 0.72), (0.30, 0.0, 0.42), (0, 0, 0), (0, 0, 0), (0, 0, 0)],
+        dtype=float,
+    )
     offs[3:6] += _jitter(seed, 0.03, (3, 3))
     pitch = [0, 0, 0, 30.0, 45.0, 20.0, 0, 0, 0]
     raise_deg = [0, 0, 10.0, 30.0, 35.0, 30.0, 10.0, 0, 0]
-    n = int(round(keys[-1] * FPS)) + 1
+    n = round(keys[-1] * FPS) + 1
     t = np.arange(n) / FPS
     pb = PoseBuilder(n, _pchip(keys, root, t))
     _torso(pb, t, keys, pelvis, spine, head)
@@ -291,7 +293,7 @@ def punch(seed: int = 0) -> SynthClip:
     pelvis = [st["pelvis"], st["pelvis"], (-10.0, 0.0, 4.0), (-10.0, 0.0, 4.0), (15.0, 0.0, 6.0), (-10.0, 0.0, 4.0), (-8.0, 0.0, 4.0), st["pelvis"], st["pelvis"]]
     spine = [st["spine"], st["spine"], (-10.0, 0.0, 6.0), (-10.0, 0.0, 6.0), (25.0, 0.0, 10.0), (-10.0, 0.0, 6.0), (-8.0, 0.0, 6.0), st["spine"], st["spine"]]
     head = [st["head"]] * 2 + [(0.0, 2.0)] * 5 + [st["head"]] * 2
-    n = int(round(keys[-1] * FPS)) + 1
+    n = round(keys[-1] * FPS) + 1
     t = np.arange(n) / FPS
     pb = PoseBuilder(n, _pchip(keys, root, t))
     _torso(pb, t, keys, pelvis, spine, head)

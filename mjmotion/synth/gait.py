@@ -21,7 +21,6 @@ from ..skeleton import Motion
 from .body import (
     SHIN,
     THIGH,
-    TOE_FORWARD,
     PoseBuilder,
     axis_angle,
     compose,
@@ -194,14 +193,14 @@ def generate(
 
 def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: float) -> Gait:
     fg = foot_geometry()
-    n = int(round(seconds * fps)) + 1
+    n = round(seconds * fps) + 1
     t = np.arange(n) / fps
     period = 2.0 * step / style.speed
     # Touch-down times per foot (a few cycles before and after the clip so every frame is covered).
     cycles = np.arange(-3, int(np.ceil(seconds / period)) + 3)
     offsets = (0.0, style.right_offset)
     xy, heading = _path(t, style.speed, omega)
-    normal, forward = _normal(heading), _dir(heading)
+    normal = _normal(heading)
 
     # Gait phases, radians, with 0 at each foot's touch-down.
     phase = {s: 2 * np.pi * (t / period - offsets[i]) for i, s in enumerate(SIDES)}

@@ -151,7 +151,7 @@ def library() -> dict[str, SynthClip]:
     ]
     out = {c.name: c for c in clips}
     base = out["walk"]
-    n = int(round(base.motion.n_frames * 0.85))
+    n = round(base.motion.n_frames * 0.85)
     out["walk_warped"] = warp(base, smooth_warp(base.motion.n_frames, n, strength=0.35, seed=7), 0.6, (1.5, -0.8))
     return out
 
