@@ -457,7 +457,7 @@ class Report:
             skate_mm_s=self.skate_mm_per_s,
             planted_mm_s=self.planted_skate_mm_per_s,
             skating_ratio=self.skating_ratio,
-            contact=self.contact_fraction,
+            contact_frac=self.contact_fraction,
             flight=self.flight_fraction,
             penetrate_mm=self.penetrate_mm,
             float_mm=self.float_mm,

@@ -202,3 +202,22 @@ def test_hit_grid_on_a_golf_swing_is_monotone_for_a_translated_club():
     p = ph.hit_grid(m, prop, 325, offsets, wrist="world")
     assert all(ln.contacted for ln in p.launches)
     assert abs(p.rho_azimuth) == pytest.approx(1.0)
+
+
+def test_centre_of_pressure_of_an_accelerating_body_is_the_zmp():
+    # A rigid pose accelerating horizontally at a: the ZMP is x_com - z_com * a / g (point-mass formula).
+    m = _standing(30)
+    a = np.array([2.0, -1.0, 0.0])
+    t = np.arange(30) / m.fps
+    moved = m.replace(root_positions=m.root_positions + 0.5 * np.outer(t**2, a))
+    c = mjcf.compile(m.skeleton)
+    f, tq = ph.inverse_wrench(c, moved)
+    assert np.allclose(f, ph.total_mass(c) * (a + [0, 0, ph.GRAVITY]), rtol=1e-6)
+    d = mujoco.MjData(c.model)
+    q = kinematics.qpos(c, moved)
+    cop = ph.centre_of_pressure(f, tq, moved.root_positions)
+    for i in (5, 15, 25):
+        d.qpos[:] = q[i]
+        mujoco.mj_forward(c.model, d)
+        com = d.subtree_com[c.body_ids[0]]
+        assert np.allclose(cop[i], com[:2] - com[2] * a[:2] / ph.GRAVITY, atol=1e-6)
