@@ -196,6 +196,7 @@ def test_cleanup_keeps_feet_planted_and_hands_on_the_grip(golf):
             assert V.grip_error_m(src, out, p) < 0.005, (name, label, feet)
             if feet == "source":
                 assert rep.held_frames["left"] > 0.5 * p.n_frames
+            if feet == "source" and label.startswith("scale"):  # (an abort's return may step: no height reference)
                 # feet back at the source's height where it is down: floating repaired, not just sliding
                 before, after = _foot_height_error(src, raw, p), _foot_height_error(src, out, p)
                 assert after < 0.6 * before or after < 0.003, (name, label, before, after)
