@@ -277,8 +277,8 @@ def flight_frames(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C)
 class GroundMetrics:
     """PhysDiff ground metrics (per frame, averaged over frames) and the detected floor offset.
 
-    ``floor_offset_m`` is the median lowest body-geom height over stance frames (some foot low
-    and slow): where this clip's floor really is. Reported, never applied.
+    ``floor_offset_m`` is the median lowest body-geom height over stance frames (the lower foot
+    slower than ``v_c``): where this clip's floor really is. Reported, never applied.
     """
 
     penetrate_mm: float
@@ -308,7 +308,10 @@ def ground_metrics(
     disp = track.speeds / track.fps * 1000.0
     n = low.sum(axis=1)
     per_frame = np.where(n > 0, (disp * low).sum(axis=1) / np.maximum(n, 1), 0.0)
-    stance = contacts(track, h_c, v_c).any(axis=1)
+    # Stance frames judged by speed alone (the lower foot is still), so a clip whose floor is off
+    # by more than h_c still finds it.
+    lower = np.argmin(track.heights, axis=1)
+    stance = np.take_along_axis(track.speeds, lower[:, None], axis=1)[:, 0] < v_c
     offset = float(np.median(lowest_z[stance])) if stance.any() else float(np.percentile(lowest_z, 5))
     p, f, s = float(pen.mean() * 1000), float(flo.mean() * 1000), float(per_frame.mean())
     return GroundMetrics(p, f, s, p + f + s, float(track.fps), offset, float(pen.max() * 1000))
