@@ -27,6 +27,7 @@ import re
 import sys
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy import interpolate, optimize
@@ -267,7 +268,7 @@ def _dp_tables_numpy(c: np.ndarray, wv: int, wh: int, bp_dtype) -> tuple[np.ndar
     bp_h = np.zeros((n_a, n_b), dtype=bp_dtype)
     last_col = np.full((n_a, s_n), np.inf)
     last_col_len = np.zeros((n_a, s_n))
-    prev = prev_len = None
+    prev, prev_len = np.full((s_n, n_b), np.inf), np.zeros((s_n, n_b))
     for i in range(n_a):
         ci = c[i]
         cur = np.full((s_n, n_b), np.inf)
@@ -459,9 +460,9 @@ def _search(
     :func:`dp_path`.
     """
     n_a, n_b = cost.shape
-    end_best: dict[tuple[int, int], tuple[float, list]] = {}
+    end_best: dict[tuple[int, int], tuple[float, tuple]] = {}
     si, sj = start
-    stack = [(si, sj, 0, 0, float(cost[si, sj]), ((si, sj),))]
+    stack: list[tuple[int, int, int, int, float, tuple]] = [(si, sj, 0, 0, float(cost[si, sj]), ((si, sj),))]
     while stack:
         i, j, rh, rv, total, path = stack.pop()
         on_end = (i == n_a - 1 or j == n_b - 1) if free_end else (i == n_a - 1 and j == n_b - 1)
@@ -469,7 +470,7 @@ def _search(
             old = end_best.get((i, j))
             if old is None or total < old[0]:
                 end_best[(i, j)] = (total, path)
-        children = []
+        children: list[tuple[int, int, int, int, float, tuple]] = []
         for di, dj, nrh, nrv in _moves(rh, rv, slope):
             ni, nj = i + di, j + dj
             if ni >= n_a or nj >= n_b:
@@ -532,11 +533,12 @@ def _pruned_search(
             best[nkey] = (nt, length + 1, key)
     if not end_best:
         raise MjmotionError("no path reaches the end under the area threshold; raise the threshold or use --method dp")
-    total, length, key = min(end_best.values(), key=lambda v: v[0] / v[1] if free_end else v[0])
+    total, length, last = min(end_best.values(), key=lambda v: v[0] / v[1] if free_end else v[0])
     cells = []
-    while key is not None:
-        cells.append(key[:2])
-        key = best[key][2]
+    node: tuple | None = last
+    while node is not None:
+        cells.append(node[:2])
+        node = best[node][2]
     return Path(cells=np.array(cells[::-1], dtype=int), cost=total)
 
 
@@ -605,7 +607,7 @@ def find_path(
     slope_limit: int | None = None,
     loop: bool = False,
     start: tuple[int, int] | str = (0, 0),
-    **options: float,
+    **options: Any,
 ) -> Path:
     """Dispatch to a path search. ``loop``: fixed corners (seed 000); else free end (seed 004 §4.3).
 
@@ -617,17 +619,18 @@ def find_path(
         if start != "auto":
             raise MjmotionError(f"start must be a cell (i, j) or 'auto', got {start!r}")
         start = (0, 0) if loop else auto_start(c)
-    if loop and tuple(start) != (0, 0):
+    cell = (int(start[0]), int(start[1]))
+    if loop and cell != (0, 0):
         raise MjmotionError("a looping (fixed-corner) registration starts at the corner (0, 0)")
     free = not loop
     if method == "dp":
-        return dp_path(c, slope, free, tuple(start))
+        return dp_path(c, slope, free, cell)
     if method == "greedy":
-        return greedy_path(c, slope, free, tuple(start))
+        return greedy_path(c, slope, free, cell)
     if method == "threshold":
-        return threshold_path(c, slope, free, tuple(start), **options)
+        return threshold_path(c, slope, free, cell, **options)
     if method == "brute":
-        return brute_path(c, slope, free, tuple(start))
+        return brute_path(c, slope, free, cell)
     raise MjmotionError(f"unknown path method {method!r}; expected one of {', '.join(METHODS)}")
 
 
@@ -712,7 +715,8 @@ def discrete_timewarp(path: Path | np.ndarray) -> TimewarpCurve:
     cells = np.asarray(path.cells if isinstance(path, Path) else path)
     rows, inv = np.unique(cells[:, 0], return_inverse=True)
     tb = np.bincount(inv, weights=cells[:, 1]) / np.bincount(inv)
-    out_a, out_b = [], []
+    out_a: list[float] = []
+    out_b: list[float] = []
     k = 0
     while k < len(rows):
         m = k
@@ -941,13 +945,13 @@ def register_many(
     tau = np.arange(lo, hi + 1e-9, 1.0)
     times = np.empty((len(tau), n))
     align = np.zeros((len(tau), n, 3))
-    for k in range(n):
-        if curves[k] is None:
+    for k, (curve_k, align_k) in enumerate(zip(curves, aligns, strict=True)):
+        if curve_k is None or align_k is None:
             times[:, k] = tau
             continue
-        s = curves[k].samples
+        s = curve_k.samples
         times[:, k] = np.interp(tau, s[:, 0], s[:, 1])
         for c in range(3):
-            align[:, k, c] = np.interp(tau, s[:, 0], aligns[k][:, c])
+            align[:, k, c] = np.interp(tau, s[:, 0], align_k[:, c])
     keep = np.r_[True, np.all(np.diff(times, axis=0) > 0, axis=1)]
     return Registration(times=times[keep], alignment=align[keep], reference=ref, mean_costs=costs)

@@ -190,7 +190,7 @@ class MotionStream:
         """``τ`` one output frame later at clip weights ``w`` (exact per segment, as
         :func:`mjmotion.blend.segment_frames`); stops at the end of the registration."""
         ref = self._ref
-        m = int(min(np.searchsorted(ref, tau, side="right") - 1, len(ref) - 2))
+        m = min(int(np.searchsorted(ref, tau, side="right")) - 1, len(ref) - 2)
         remaining = 1.0
         while remaining > 1e-12 and m < len(ref) - 1:
             frames = 1.0 / float(np.sum(w / self._seg[m]))  # output frames across segment m
@@ -219,7 +219,7 @@ class MotionStream:
         fps = s.fps
         n_out = int(round(s.duration * fps))
         times = np.arange(n_out) / fps
-        keys = tuple((c.time, c.ramp, c.weights) for c in s.commands if c.kind == "weights")
+        keys = tuple((c.time, c.ramp, c.weights) for c in s.commands if c.kind == "weights" and c.weights is not None)
         loc_w = WeightCurve(keys)(times)  # (N, n_loc)
         action_w, action_tracks = self._actions(n_out)
         fade_n = max(1, int(round(s.loop_blend * fps)))
@@ -242,7 +242,7 @@ class MotionStream:
                     fading = (head, new, n)
             if fading is not None:
                 old, new, n0 = fading
-                s_f = float(bezier_ease((n - n0) / fade_n))
+                s_f = float(bezier_ease(np.array((n - n0) / fade_n)))
                 old.fade[n], new.fade[n] = 1.0 - s_f, s_f
                 if n - n0 >= fade_n:
                     cursors.remove(old)
@@ -269,7 +269,7 @@ class MotionStream:
         tracks = []
         cmds = list(s.commands)
         for k, c in enumerate(cmds):
-            if c.kind != "play":
+            if c.kind != "play" or c.clip is None:
                 continue
             clip = s.clips[c.clip]
             n0 = int(round(c.time * fps))
