@@ -332,6 +332,66 @@ def setup(
     return HitProblem(motion, compiled, eff, lead, second, kinematics.qpos(compiled, motion), e_fk, hit, tgt, blend, goals, rel, falloff, prop)
 
 
+# --- target grids (experiments) ---------------------------------------------------------------
+def swing_plane_axes(problem: HitProblem) -> np.ndarray:
+    """``(2, 3)`` unit axes of the plane across the swing at the hit: horizontal, then up-ish.
+
+    Both are perpendicular to the effector's velocity at the hit frame; the second is the world's
+    up made perpendicular to it.
+    """
+    e = problem.effector_fk
+    h = int(np.clip(problem.hit, 1, len(e) - 2))
+    v = e[h + 1] - e[h - 1]
+    v /= np.linalg.norm(v)
+    up = np.array([0.0, 0.0, 1.0]) - v[2] * v
+    up /= np.linalg.norm(up)
+    return np.stack([np.cross(v, up), up])
+
+
+def target_grid(problem: HitProblem, spacing: float) -> np.ndarray:
+    """``(9, 3)`` offsets of a 3×3 grid ``{−s, 0, s}²`` in the plane across the swing (metres)."""
+    axes = swing_plane_axes(problem)
+    steps = (-spacing, 0.0, spacing)
+    return np.array([a * axes[0] + b * axes[1] for a in steps for b in steps])
+
+
+def grid_reports(
+    motion: Motion,
+    spacings: tuple[float, ...] = (0.1, 0.2),
+    prop: mjcf.Prop | None = None,
+    **options: object,
+) -> list[dict]:
+    """Adapt ``motion`` to every target of the 3×3 grids at ``spacings`` and return the reports.
+
+    Each report gets ``offset`` (the grid offset, metres), ``spacing``, ``first_last_equal`` (the
+    first and last frames are the source's) and ``untouched_equal`` (root and every joint outside
+    the two chains are the source's). ``options`` go to :func:`adapt` (``solver``, ``wrist``,
+    ``falloff``, …). The club is fitted once for all targets.
+    """
+    if prop is None and options.get("effector", "club") == "club":
+        prop = fit_club(motion)
+    base = setup(motion, offset=np.zeros(3), prop=prop, **{k: v for k, v in options.items() if k in _SETUP_KEYS})  # type: ignore[arg-type]
+    out = []
+    for spacing in spacings:
+        for off in target_grid(base, spacing):
+            a = adapt(motion, offset=off, prop=prop, **options)  # type: ignore[arg-type]
+            moved = set(a.problem.lead.joint_indices) | (set(a.problem.second.joint_indices) if a.problem.second else set())
+            still = [j for j in range(motion.skeleton.n_joints) if j not in moved]
+            r = dict(a.report)
+            r["offset"] = off.tolist()
+            r["spacing"] = spacing
+            r["first_last_equal"] = bool(np.array_equal(a.motion.rotations[[0, -1]], motion.rotations[[0, -1]]))
+            r["untouched_equal"] = bool(
+                np.array_equal(a.motion.rotations[:, still], motion.rotations[:, still])
+                and np.array_equal(a.motion.root_positions, motion.root_positions)
+            )
+            out.append(r)
+    return out
+
+
+_SETUP_KEYS = ("frame", "effector", "falloff", "wrist", "lock", "margin", "weights", "edge", "chain_start")
+
+
 # --- solving -----------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class Adaptation:

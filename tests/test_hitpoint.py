@@ -34,13 +34,7 @@ def short(swing):
 
 
 def across(problem: hitpoint.HitProblem) -> np.ndarray:
-    """``(2, 3)`` unit axes of the plane across the swing at the hit: horizontal and up, both ⟂ the velocity."""
-    e = problem.effector_fk
-    v = e[problem.hit + 1] - e[problem.hit - 1]
-    v /= np.linalg.norm(v)
-    up = np.array([0.0, 0.0, 1.0]) - v[2] * v
-    up /= np.linalg.norm(up)
-    return np.stack([np.cross(v, up), up])
+    return hitpoint.swing_plane_axes(problem)
 
 
 def test_club_runs_through_both_hands_to_the_floor(swing):
