@@ -90,9 +90,11 @@ def _no_contact_model(model: mujoco.MjModel) -> mujoco.MjModel:
     return m
 
 
-def fd_frames(fps: float, fd_step: float) -> int:
-    """Frames in a finite-difference stencil of ``fd_step`` seconds (at least 1)."""
-    return max(1, int(round(fd_step * fps)))
+def fd_frames(fps: float, fd_step: float, n_frames: int | None = None) -> int:
+    """Frames in a finite-difference stencil of ``fd_step`` seconds (at least 1; short clips get
+    the widest stencil that fits in ``n_frames``)."""
+    k = max(1, int(round(fd_step * fps)))
+    return k if n_frames is None else max(1, min(k, (n_frames - 1) // 2))
 
 
 def inverse_wrench(compiled: CompiledModel, motion: Motion, fd_step: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -105,7 +107,7 @@ def inverse_wrench(compiled: CompiledModel, motion: Motion, fd_step: float = 0.0
     """
     m = _no_contact_model(compiled.model)
     q = kinematics.qpos(compiled, motion)
-    qvel, qacc = finite_differences(m, q, motion.fps, fd_frames(motion.fps, fd_step))
+    qvel, qacc = finite_differences(m, q, motion.fps, fd_frames(motion.fps, fd_step, motion.n_frames))
     d = mujoco.MjData(m)
     frc = np.empty((q.shape[0], 6))
     for t in range(q.shape[0]):
@@ -215,7 +217,7 @@ def residuals(compiled: CompiledModel, motion: Motion, track: Any = None, params
     # flight_residual uses flight frames whose whole difference stencil is airborne: a stencil
     # straddling take-off or landing measures the ground push, not the flight (one more frame each
     # side: a contact label looks one frame back).
-    k = fd_frames(motion.fps, params.fd_step)
+    k = fd_frames(motion.fps, params.fd_step, motion.n_frames)
     from scipy.ndimage import minimum_filter1d
 
     clean = minimum_filter1d(flight.astype(np.uint8), size=2 * k + 3, mode="nearest").astype(bool)

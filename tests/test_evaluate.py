@@ -303,3 +303,16 @@ def test_grip_error_zero_for_the_source_and_sees_a_moved_hand():
     bent = m.rotations.copy()
     bent[:, j] = rot.multiply(bent[:, j], rot.exp(np.array([0.3, 0.0, 0.0])))
     assert ev.grip_error_m(m.replace(rotations=bent), m, "rwrist", "lwrist") > 0.03
+
+
+def test_short_and_footless_clips_give_clear_errors_or_results():
+    m = _clip("cmu_asfamc_converted/16_15.bvh")
+    assert ev.evaluate(m[10:15]).n_frames == 5  # the difference stencil shrinks to fit
+    with pytest.raises(ev.MjmotionError, match="at least 3 frames"):
+        ev.evaluate(m[10:12])
+    from conftest import random_motion, random_skeleton
+
+    rng = np.random.default_rng(1)
+    skel = random_skeleton(rng, 5)
+    with pytest.raises(ev.MjmotionError, match="no feet"):
+        ev.evaluate(random_motion(rng, skel, 10))
