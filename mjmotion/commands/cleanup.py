@@ -73,7 +73,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"parameters: h_c={params.h_c} m, v_c={params.v_c} m/s, blend={params.blend} s, min plant={params.min_plant} s, gap closed ≤ {params.max_gap} s")
     if rep_path is not None:
         doc = dict(input=args.file, output=str(out), before=before, after=after, max_joint_speed_ratio=speed_ratio, **res.to_dict())
-        write_text_atomic(rep_path, json.dumps(doc, indent=1, default=float))
+        from .evaluate import _nan_to_none
+
+        write_text_atomic(rep_path, json.dumps(_nan_to_none(doc), indent=1, default=float, allow_nan=False))
         print(f"wrote {rep_path}")
     return 0
 

@@ -195,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
         if "error" in r:
             sys.stderr.write(f"error: {r['file']}: {r['error']}\n")
     if out is not None:
-        write_text_atomic(out, json.dumps([{"file": r["file"], "skipped_frames": r.get("skipped_frames"), **({"report": r["report"]} if "report" in r else {"error": r["error"]}), **({"hit_grid": r["hit_grid"]} if "hit_grid" in r else {})} for r in results], indent=1, default=_json_default))
+        write_text_atomic(out, json.dumps(_nan_to_none([{"file": r["file"], "skipped_frames": r.get("skipped_frames"), **({"report": r["report"]} if "report" in r else {"error": r["error"]}), **({"hit_grid": r["hit_grid"]} if "hit_grid" in r else {})} for r in results]), indent=1, default=_json_default, allow_nan=False))
         print(f"wrote {out}")
     return 0 if len(ok) == len(results) else 2
 
@@ -214,6 +214,17 @@ def _hit_grid(args: argparse.Namespace, opts: dict[str, Any]) -> dict[str, Any]:
         p = physics.hit_grid(m, prop, args.frame, offsets, wrist=mode, ball_radius=args.ball_radius, ball_velocity=tuple(args.ball_velocity))
         out[mode] = dict(rho_azimuth=p.rho_azimuth, rho_elevation=p.rho_elevation, slope_deg_per_m=p.slope_deg_per_m, rows=p.rows())
     return out
+
+
+def _nan_to_none(x: Any) -> Any:
+    """NaN (a metric with nothing to measure, e.g. no flight frames) becomes JSON ``null``."""
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _nan_to_none(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_nan_to_none(v) for v in x]
+    return x
 
 
 def _json_default(o: Any) -> Any:
