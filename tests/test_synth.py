@@ -259,9 +259,9 @@ def test_bad_gait_requests_are_refused():
 
 
 # --- shots ---------------------------------------------------------------------------------------
-@pytest.mark.parametrize("name", ["drive", "pull"])
-def test_shot_hits_its_declared_sweet_spot_through_mujoco(lib, ground, name):
-    clip = lib[name]
+@pytest.mark.parametrize("name,seed", [("drive", 0), ("pull", 0), ("drive", 10), ("pull", 6)])
+def test_shot_hits_its_declared_sweet_spot_through_mujoco(lib, ground, name, seed):
+    clip = lib[name] if seed == 0 else getattr(synth, name)(seed=seed)
     assert clip.prop is not None and clip.prop.joint == "RightHand" and clip.hit_frame is not None
     compiled = clip.compile()
     pose = kinematics.forward(compiled, clip.motion)
@@ -291,8 +291,8 @@ def test_shot_hits_its_declared_sweet_spot_through_mujoco(lib, ground, name):
     # The top hand stays on the handle: the left hand is a fixed distance from the grip.
     lh = pose.joint_positions[:, clip.motion.skeleton.index("LeftHand")]
     d = np.linalg.norm(lh - pose.site(f"{clip.prop.name}/grip"), axis=1)
-    assert np.ptp(d) < 1e-3
-    g = ground[name]
+    assert np.ptp(d) < 1e-6  # exact IK: a clamped (unreachable) arm would show here
+    g = ground[name] if seed == 0 else Ground(clip)
     assert labelled_skate_mm_per_s(clip, g) < 5.0
     assert -g.lowest_body.min() < 0.002
     # A batter always has a foot on the ground, and the body rests on the floor throughout.

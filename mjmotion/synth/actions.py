@@ -171,7 +171,7 @@ def shot(kind: str, seed: int = 0) -> SynthClip:
         pelvis = [st["pelvis"], st["pelvis"], (-5.0, 0.0, 14.0), (25.0, -4.0, 22.0), (40.0, -2.0, 16.0), (25.0, 0.0, 14.0), st["pelvis"], st["pelvis"]]
         spine = [st["spine"], st["spine"], (-10.0, 0.0, 10.0), (25.0, 8.0, 28.0), (40.0, 5.0, 12.0), (25.0, 0.0, 10.0), st["spine"], st["spine"]]
         head = [st["head"], st["head"], (80.0, 18.0), (75.0, 40.0), (70.0, 20.0), (75.0, 18.0), st["head"], st["head"]]
-        grip = [st["grip"], st["grip"], (0.16, -0.24, 1.20), (0.30, 0.42, 0.86), (0.22, 0.50, 1.38), (0.28, 0.20, 1.10), st["grip"], st["grip"]]
+        grip = [st["grip"], st["grip"], (0.26, -0.26, 1.08), (0.30, 0.42, 0.86), (0.22, 0.50, 1.38), (0.28, 0.20, 1.10), st["grip"], st["grip"]]
         bats = [stance_bat, stance_bat, _plane_bat(-150.0, 0.1), _plane_bat(-6.0, -0.05), _plane_bat(135.0, -0.1), _plane_bat(30.0, -0.1), stance_bat, stance_bat]
         left_steps = [(0.50, 0.92, 0.16, 0.66, np.radians(25.0)), (1.80, 2.25, *st["left"])]
         right_steps: list = []
@@ -182,7 +182,7 @@ def shot(kind: str, seed: int = 0) -> SynthClip:
         pelvis = [st["pelvis"], st["pelvis"], (-5.0, 0.0, 12.0), (35.0, 0.0, 10.0), (50.0, 0.0, 10.0), (75.0, 0.0, 8.0), (30.0, 0.0, 12.0), st["pelvis"], st["pelvis"]]
         spine = [st["spine"], st["spine"], (-10.0, 0.0, 8.0), (20.0, -5.0, 6.0), (30.0, -5.0, 6.0), (30.0, 0.0, 6.0), (15.0, 0.0, 10.0), st["spine"], st["spine"]]
         head = [st["head"], st["head"], (80.0, 10.0), (80.0, 5.0), (80.0, 5.0), (70.0, 5.0), (75.0, 15.0), st["head"], st["head"]]
-        grip = [st["grip"], st["grip"], (0.14, -0.28, 1.28), (0.36, -0.06, 1.20), (0.38, 0.04, 1.14), (0.20, 0.20, 1.22), (0.25, 0.0, 1.02), st["grip"], st["grip"]]
+        grip = [st["grip"], st["grip"], (0.14, -0.28, 1.28), (0.31, -0.02, 1.20), (0.32, 0.08, 1.14), (0.20, 0.20, 1.22), (0.25, 0.0, 1.02), st["grip"], st["grip"]]
         bats = [
             stance_bat,
             stance_bat,
@@ -196,8 +196,9 @@ def shot(kind: str, seed: int = 0) -> SynthClip:
         ]
         left_steps = [(0.85, 1.10, 0.12, 0.10, np.radians(35.0)), (1.70, 2.00, *st["left"])]
         right_steps = [(0.45, 0.75, 0.22, -0.34, np.radians(-25.0)), (2.05, 2.40, *st["right"])]
-    grip_j = np.asarray(grip) + np.vstack([np.zeros((1, 3)), _jitter(seed, 0.02, (len(keys) - 2, 3)), np.zeros((1, 3))])
-    grip_j[-2] = grip_j[0]
+    # Seeded variation: the swing's grip keys move on the floor plane (the held stance keys do not).
+    grip_j = np.asarray(grip, dtype=float)
+    grip_j[2:-2, :2] += _jitter(seed, 0.015, (len(keys) - 4, 2))
     n = round(keys[-1] * FPS) + 1
     t = np.arange(n) / FPS
     pb = PoseBuilder(n, _pchip(keys, root, t))

@@ -177,7 +177,9 @@ def frame_rotation(bone: np.ndarray, pole: np.ndarray, rest_bone: np.ndarray, re
     return rot.from_matrix(f_world @ f_rest.T)
 
 
-def two_bone_ik(root: np.ndarray, target: np.ndarray, l1: float, l2: float, pole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def two_bone_ik(
+    root: np.ndarray, target: np.ndarray, l1: float, l2: float, pole: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Analytic two-bone IK: the middle joint (knee, elbow) for each frame.
 
     Args:
@@ -186,8 +188,9 @@ def two_bone_ik(root: np.ndarray, target: np.ndarray, l1: float, l2: float, pole
         l1, l2: bone lengths.
         pole: ``(T, 3)`` direction the middle joint bulges toward.
 
-    Returns ``(middle (T, 3), end (T, 3))``: the end is ``target`` when reachable, else the
-    nearest reachable point on the line from ``root`` to it.
+    Returns ``(middle (T, 3), end (T, 3), normal (T, 3))``: the end is ``target`` when
+    reachable, else the nearest reachable point on the line from ``root`` to it; ``normal`` is
+    the unit normal of the limb's bending plane (the hinge axis of the middle joint).
     """
     v = target - root
     d_raw = np.linalg.norm(v, axis=-1)
@@ -197,7 +200,7 @@ def two_bone_ik(root: np.ndarray, target: np.ndarray, l1: float, l2: float, pole
     w = pole - np.sum(pole * u, axis=-1, keepdims=True) * u
     w /= np.linalg.norm(w, axis=-1, keepdims=True)
     mid = root + l1 * (cos_a[:, None] * u + np.sqrt(1 - cos_a**2)[:, None] * w)
-    return mid, root + d[:, None] * u
+    return mid, root + d[:, None] * u, np.cross(u, w)
 
 
 def forward_kinematics(root_positions: np.ndarray, local: np.ndarray, skel: Skeleton | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -255,10 +258,11 @@ class PoseBuilder:
         """Place a leg: ankle position ``(T, 3)``, foot and toe world rotations ``(T, 4)``, knee
         bulging toward ``pole (T, 3)``. Returns the reached ankle positions ``(T, 3)``."""
         hip = self.pos(f"{side}UpLeg")
-        knee, reached = two_bone_ik(hip, ankle, THIGH, SHIN, pole)
+        knee, reached, n = two_bone_ik(hip, ankle, THIGH, SHIN, pole)
         down, fwd = np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0])
-        self._set_world(f"{side}UpLeg", frame_rotation(knee - hip, pole, down, fwd))
-        self._set_world(f"{side}Leg", frame_rotation(reached - knee, pole, down, fwd))
+        # Each bone's pole is n × bone: in the bending plane, toward the bulge, never along the bone.
+        self._set_world(f"{side}UpLeg", frame_rotation(knee - hip, np.cross(n, knee - hip), down, fwd))
+        self._set_world(f"{side}Leg", frame_rotation(reached - knee, np.cross(n, reached - knee), down, fwd))
         self._set_world(f"{side}Foot", foot_world)
         self._set_world(f"{side}Toe", toe_world)
         return reached
@@ -268,10 +272,10 @@ class PoseBuilder:
         rotation ``(T, 4)`` (default: continuing the forearm). Returns the reached wrists."""
         s = 1.0 if side == "Left" else -1.0
         shoulder = self.pos(f"{side}Arm")
-        elbow, reached = two_bone_ik(shoulder, wrist, UPPER_ARM, FOREARM, pole)
+        elbow, reached, n = two_bone_ik(shoulder, wrist, UPPER_ARM, FOREARM, pole)
         out, back = np.array([0.0, s, 0.0]), np.array([-1.0, 0.0, 0.0])
-        self._set_world(f"{side}Arm", frame_rotation(elbow - shoulder, pole, out, back))
-        fore = frame_rotation(reached - elbow, pole, out, back)
+        self._set_world(f"{side}Arm", frame_rotation(elbow - shoulder, np.cross(n, elbow - shoulder), out, back))
+        fore = frame_rotation(reached - elbow, np.cross(n, reached - elbow), out, back)
         self._set_world(f"{side}ForeArm", fore)
         self._set_world(f"{side}Hand", fore if hand_world is None else hand_world)
         return reached
