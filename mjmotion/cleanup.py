@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import kinematics, mjcf
 from . import evaluate as ev
+from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
 from .skeleton import Motion
@@ -64,13 +64,13 @@ class CleanupResult:
     params: CleanupParams = field(default_factory=CleanupParams)
 
     def to_dict(self) -> dict[str, object]:
-        return dict(
-            plants=[dict(side=p.side, start=p.start, stop=p.stop, x=p.position[0], y=p.position[1]) for p in self.plants],
-            changed_frames=int(self.changed_frames.sum()),
-            max_root_shift_m=self.max_root_shift_m,
-            unreached_frames=self.unreached_frames,
-            params=self.params.__dict__,
-        )
+        return {
+            "plants": [{"side": p.side, "start": p.start, "stop": p.stop, "x": p.position[0], "y": p.position[1]} for p in self.plants],
+            "changed_frames": int(self.changed_frames.sum()),
+            "max_root_shift_m": self.max_root_shift_m,
+            "unreached_frames": self.unreached_frames,
+            "params": self.params.__dict__,
+        }
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -83,8 +83,8 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def find_plants(track: ev.FootTrack, ankles: np.ndarray, fps: float, params: CleanupParams = CleanupParams()) -> list[Plant]:
     """Plants from contact labels; ``ankles: (T, F, 3)`` world ankle positions."""
     con = ev.contacts(track, params.h_c, params.v_c)
-    gap = int(round(params.max_gap * fps))
-    shortest = max(2, int(round(params.min_plant * fps)))
+    gap = round(params.max_gap * fps)
+    shortest = max(2, round(params.min_plant * fps))
     plants = []
     for f, side in enumerate(track.sides):
         c = con[:, f].copy()
@@ -115,7 +115,7 @@ def pin_offsets(plants: list[Plant], ankles_xy: np.ndarray, fps: float, blend: f
     off = np.zeros((t_count, 2))
     w = np.zeros(t_count)
     owner = np.full(t_count, -1)
-    n = max(1, int(round(blend * fps)))
+    n = max(1, round(blend * fps))
     plants = sorted(plants, key=lambda p: p.start)
     frames = np.arange(t_count)
     for i, p in enumerate(plants):
@@ -248,7 +248,7 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupR
         need = vec / np.maximum(dist, 1e-12)[:, None] * excess[:, None]
         bigger = np.linalg.norm(need, axis=1) > np.linalg.norm(shift, axis=1)
         shift[bigger] = need[bigger]
-    n_root = int(round(params.root_window * motion.fps / 2))
+    n_root = round(params.root_window * motion.fps / 2)
     if np.any(shift):
         # Smoothing spreads the shift; scale so the peak shortfall is still covered.
         raw_peak = np.linalg.norm(shift, axis=1)

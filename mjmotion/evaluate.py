@@ -34,8 +34,9 @@ within 5 cm of the floor for most of its swing, so real walks give ~1 m/s there;
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -255,12 +256,12 @@ def skate_sensitivity(track: FootTrack | Motion, h_cs: Sequence[float] = H_C_SEN
     """Rows ``{h_c, skate_mm_per_s, skating_ratio, contact_fraction}`` for each ``h_c`` (UnderPressure)."""
     tr = _track(track)
     return [
-        dict(
-            h_c=float(h),
-            skate_mm_per_s=skate_mm_per_s(tr, h),
-            skating_ratio=skating_ratio(tr, h, v_c),
-            contact_fraction=float(contacts(tr, h, v_c).mean()),
-        )
+        {
+            "h_c": float(h),
+            "skate_mm_per_s": skate_mm_per_s(tr, h),
+            "skating_ratio": skating_ratio(tr, h, v_c),
+            "contact_fraction": float(contacts(tr, h, v_c).mean()),
+        }
         for h in h_cs
     ]
 
@@ -453,23 +454,23 @@ class Report:
 
     def row(self) -> dict[str, Any]:
         """The flat, table-friendly summary (one value per column)."""
-        r: dict[str, Any] = dict(
-            clip=self.name,
-            frames=self.n_frames,
-            fps=round(self.fps, 2),
-            skate_mm_s=self.skate_mm_per_s,
-            planted_mm_s=self.planted_skate_mm_per_s,
-            skating_ratio=self.skating_ratio,
-            contact_frac=self.contact_fraction,
-            flight=self.flight_fraction,
-            penetrate_mm=self.penetrate_mm,
-            float_mm=self.float_mm,
-            phys_err_mm=self.phys_err_mm,
-            floor_m=self.floor_offset_m,
-            flight_resid=self.flight_residual,
-            phys_viol=self.physics_violation_ratio,
-            limit_viol=self.limit_violation_ratio,
-        )
+        r: dict[str, Any] = {
+            "clip": self.name,
+            "frames": self.n_frames,
+            "fps": round(self.fps, 2),
+            "skate_mm_s": self.skate_mm_per_s,
+            "planted_mm_s": self.planted_skate_mm_per_s,
+            "skating_ratio": self.skating_ratio,
+            "contact_frac": self.contact_fraction,
+            "flight": self.flight_fraction,
+            "penetrate_mm": self.penetrate_mm,
+            "float_mm": self.float_mm,
+            "phys_err_mm": self.phys_err_mm,
+            "floor_m": self.floor_offset_m,
+            "flight_resid": self.flight_residual,
+            "phys_viol": self.physics_violation_ratio,
+            "limit_viol": self.limit_violation_ratio,
+        }
         for s in self.sensitivity:
             r[f"skate@{s['h_c']:.2f}"] = s["skate_mm_per_s"]
         if self.hit:

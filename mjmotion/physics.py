@@ -21,8 +21,9 @@ and torque about the root origin (root frame).
 from __future__ import annotations
 
 import copy
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -93,7 +94,7 @@ def _no_contact_model(model: mujoco.MjModel) -> mujoco.MjModel:
 def fd_frames(fps: float, fd_step: float, n_frames: int | None = None) -> int:
     """Frames in a finite-difference stencil of ``fd_step`` seconds (at least 1; short clips get
     the widest stencil that fits in ``n_frames``)."""
-    k = max(1, int(round(fd_step * fps)))
+    k = max(1, round(fd_step * fps))
     return k if n_frames is None else max(1, min(k, (n_frames - 1) // 2))
 
 
@@ -303,7 +304,7 @@ def simulate_launch(
     spec = mujoco.MjSpec()
     spec.option.timestep = dt
     spec.option.gravity = [0.0, 0.0, 0.0]
-    target = spec.worldbody.add_body(name="target", mocap=True, pos=poses_pos[0].tolist(), quat=poses_quat[0].tolist())
+    spec.worldbody.add_body(name="target", mocap=True, pos=poses_pos[0].tolist(), quat=poses_quat[0].tolist())
     eff = spec.worldbody.add_body(name="effector", pos=poses_pos[0].tolist(), quat=poses_quat[0].tolist())
     eff.add_freejoint()
     size = list(geom_size) + [0.0] * (3 - len(geom_size))
@@ -403,13 +404,13 @@ def hit_metrics(
     hit_error = float(np.linalg.norm(spot[h] - bpos) - ball.radius)
     a, b = max(h - 1, 0), min(h + 1, len(frames) - 1)
     impact_speed = float(np.linalg.norm(spot[b] - spot[a]) * motion.fps / max(b - a, 1))
-    out: dict[str, Any] = dict(
-        hit_frame=int(hit_frame),
-        effector_geom=mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, geom) or f"geom{geom}",
-        hit_error_m=hit_error,
-        contact=bool(contact),
-        impact_speed=impact_speed,
-    )
+    out: dict[str, Any] = {
+        "hit_frame": int(hit_frame),
+        "effector_geom": mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, geom) or f"geom{geom}",
+        "hit_error_m": hit_error,
+        "contact": bool(contact),
+        "impact_speed": impact_speed,
+    }
     if launch:
         gquat = rot.make_continuous(gquat)
         ln = simulate_launch(
@@ -453,7 +454,7 @@ class Predictability:
 
     def rows(self) -> list[dict[str, float]]:
         return [
-            dict(lateral_m=float(a), vertical_m=float(v), azimuth_deg=ln.azimuth_deg, elevation_deg=ln.elevation_deg, speed=ln.speed)
+            {"lateral_m": float(a), "vertical_m": float(v), "azimuth_deg": ln.azimuth_deg, "elevation_deg": ln.elevation_deg, "speed": ln.speed}
             for a, v, ln in zip(self.lateral, self.vertical, self.launches)
         ]
 
@@ -548,7 +549,7 @@ def reach_hit_point(
     skel = motion.skeleton
     compiled = mjcf.compile(skel, (prop,))
     sh, el, wr = arm_chain(skel, skel.index(prop.joint))
-    n = max(1, int(round(falloff * motion.fps)))
+    n = max(1, round(falloff * motion.fps))
     t = np.arange(motion.n_frames)
     x = np.clip(1.0 - np.abs(t - hit_frame) / (n + 1), 0.0, 1.0)
     weight = x * x * (3 - 2 * x)

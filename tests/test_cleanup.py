@@ -107,14 +107,14 @@ def test_cleanup_changes_only_frames_around_plants(blends):
         plant = np.zeros(b.n_frames, dtype=bool)
         for pl in res.plants:
             plant[pl.start : pl.stop] = True
-        reach = int(round((p.blend + p.root_window / 2) * b.fps)) + 1
+        reach = round((p.blend + p.root_window / 2) * b.fps) + 1
         near = binary_dilation(plant, iterations=reach)
         assert not (res.changed_frames & ~near).any()
         same = ~res.changed_frames
         assert np.array_equal(res.motion.rotations[same], b.rotations[same])
         # Only leg joints (hip, knee, ankle of each side) change their angles.
         legs = set()
-        for side, (ankle, _) in b.skeleton.feet().items():
+        for (ankle, _) in b.skeleton.feet().values():
             knee = int(b.skeleton.parents[ankle])
             legs |= {ankle, knee, int(b.skeleton.parents[knee])}
         others = [j for j in range(b.skeleton.n_joints) if j not in legs]

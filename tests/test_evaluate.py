@@ -8,14 +8,13 @@ import math
 import mujoco
 import numpy as np
 import pytest
+from conftest import clip_params, require_data
 
 from mjmotion import bvh, kinematics, mjcf
 from mjmotion import evaluate as ev
 from mjmotion import rotations as rot
 from mjmotion.cli import main
 from mjmotion.skeleton import Motion
-
-from conftest import clip_params, require_data
 
 
 def linear_blend(a: Motion, b: Motion, w: float = 0.5) -> Motion:

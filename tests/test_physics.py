@@ -8,7 +8,6 @@ import pytest
 from conftest import random_motion, random_skeleton, require_data
 
 from mjmotion import bvh, kinematics, mjcf
-from mjmotion import evaluate as ev
 from mjmotion import physics as ph
 from mjmotion import rotations as rot
 from mjmotion.skeleton import Motion

@@ -43,13 +43,13 @@ def _metrics(motion, params) -> dict[str, float]:
     pose = kinematics.forward(c, motion)
     tr = ev.foot_heights_speeds(c, motion, pose)
     g = ev.ground_metrics(ev.lowest_body_point(c, pose), tr, params.h_c, params.v_c)
-    return dict(
-        skate_mm_per_s=ev.skate_mm_per_s(tr, params.h_c),
-        planted_skate_mm_per_s=ev.planted_skate_mm_per_s(tr, params.h_c, params.v_c),
-        skating_ratio=ev.skating_ratio(tr, params.h_c, params.v_c),
-        penetrate_mm=g.penetrate_mm,
-        max_penetrate_mm=g.max_penetrate_mm,
-    )
+    return {
+        "skate_mm_per_s": ev.skate_mm_per_s(tr, params.h_c),
+        "planted_skate_mm_per_s": ev.planted_skate_mm_per_s(tr, params.h_c, params.v_c),
+        "skating_ratio": ev.skating_ratio(tr, params.h_c, params.v_c),
+        "penetrate_mm": g.penetrate_mm,
+        "max_penetrate_mm": g.max_penetrate_mm,
+    }
 
 
 def run(args: argparse.Namespace) -> int:

@@ -212,7 +212,7 @@ def _hit_grid(args: argparse.Namespace, opts: dict[str, Any]) -> dict[str, Any]:
     out = {}
     for mode in ("locked", "world"):
         p = physics.hit_grid(m, prop, args.frame, offsets, wrist=mode, ball_radius=args.ball_radius, ball_velocity=tuple(args.ball_velocity))
-        out[mode] = dict(rho_azimuth=p.rho_azimuth, rho_elevation=p.rho_elevation, slope_deg_per_m=p.slope_deg_per_m, rows=p.rows())
+        out[mode] = {"rho_azimuth": p.rho_azimuth, "rho_elevation": p.rho_elevation, "slope_deg_per_m": p.slope_deg_per_m, "rows": p.rows()}
     return out
 
 
