@@ -33,7 +33,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--labels", nargs="+", metavar="LABEL", help="one label per clip (default: file names)")
     p.add_argument(
         "--prop", action="append", default=[], metavar="KIND[:JOINT]",
-        help="give every character a prop: club or bat, held by JOINT (default: the right hand)",
+        help="give every character a prop: club or bat, held by JOINT (default: a club is fitted to both hands, a bat to the right hand)",
     )
     p.add_argument("--ball", nargs=3, type=float, metavar=("X", "Y", "Z"), help="a ball at X Y Z metres (Z up) beside each character")
     p.add_argument(
