@@ -42,7 +42,9 @@ class Footprint:
     ``start`` to ``end`` inclusive, the foot heading ``heading`` radians (0 = +X).
 
     ``position``: ``(x, y, z)`` world metres of the toe joint (``z`` its height over a flat sole).
-    ``flat_end``: last frame of the flat-foot part (after it the heel rolls up about the toe).
+    ``flat_end``: last frame of the flat-foot part (after it the heel rolls up about the toe);
+    ``start - 1`` when the heel is already up at ``start``.
+    Frames are clipped to the clip: a stance that began before frame 0 starts at 0.
     """
 
     side: str
@@ -244,7 +246,7 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
                     side=side.lower(),
                     start=a_c,
                     end=b_c,
-                    flat_end=int(min(np.floor(heel * fps + 1e-9), n - 1)),
+                    flat_end=int(np.clip(np.floor(heel * fps + 1e-9), a_c - 1, b_c)),  # start-1: rolling already
                     position=(float(toe_xy[k, 0]), float(toe_xy[k, 1]), float(fg.toe_height)),
                     heading=float(heads[k]),
                 )
