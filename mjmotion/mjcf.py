@@ -262,7 +262,7 @@ def compile(
     spec = mujoco.MjSpec()
     spec.modelname = "mjmotion"
     spec.option.timestep = 0.002
-    _add_world(spec)
+    add_world(spec)
     bodies: list[mujoco.MjsBody] = []
     site_names: list[str] = []
     foot_geoms: dict[str, list[str]] = {}
@@ -296,6 +296,9 @@ def compile(
         for tip, _ in tips:
             length = float(np.linalg.norm(tip))
             if length < 0.01 * height / 1.75:
+                continue
+            if j == 0 and length > 0.35 * height:
+                # An armature root on the floor (iClone's RL_BoneRoot) is not a body segment.
                 continue
             body.add_geom(
                 type=mujoco.mjtGeom.mjGEOM_CAPSULE,
@@ -366,7 +369,8 @@ def compile(
     return _index(skeleton, spec, model, tuple(site_names), tuple(props), ball, foot_geoms)
 
 
-def _add_world(spec: mujoco.MjSpec) -> None:
+def add_world(spec: mujoco.MjSpec) -> None:
+    """The shared stage: checker floor at z = 0, key and fill lights, headlight, offscreen size."""
     spec.add_texture(
         name="grid",
         type=mujoco.mjtTexture.mjTEXTURE_2D,

@@ -47,6 +47,10 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     parent = out.parent if str(out.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=out.suffix or ".tmp", dir=parent)
     os.close(fd)
+    # mkstemp makes the file private (0600); results get the usual umask-based mode.
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
     try:
         yield Path(tmp)
         os.replace(tmp, out)

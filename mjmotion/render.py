@@ -231,7 +231,7 @@ def build_scene(
 
     spec = mujoco.MjSpec()
     spec.modelname = "mjmotion_render"
-    mjcf._add_world(spec)
+    mjcf.add_world(spec)
     spec.add_texture(
         name="sky",
         type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
