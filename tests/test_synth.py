@@ -177,6 +177,12 @@ def test_walk_always_has_a_foot_down_and_run_has_flight(lib, ground):
     edges = np.flatnonzero(np.diff(np.concatenate([[0], flight.astype(int), [0]])))
     for a, b in zip(edges[::2], edges[1::2]):
         assert g.lowest_body[a:b].max() > 0.02 and g.lowest_body[a:b].min() >= 0.0
+    # …and ballistic: the pelvis falls freely (z'' = -g) inside each flight.
+    z = run.motion.root_positions[:, 2]
+    acc = np.gradient(np.gradient(z, 1.0 / run.motion.fps), 1.0 / run.motion.fps)
+    inner = flight & np.roll(flight, 2) & np.roll(flight, -2)
+    inner[:2] = inner[-2:] = False
+    assert inner.sum() >= 10 and np.allclose(acc[inner], -9.81, atol=0.05)
 
 
 @pytest.mark.parametrize(

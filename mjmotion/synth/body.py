@@ -292,12 +292,13 @@ def min_jerk(s: np.ndarray) -> np.ndarray:
     return s**3 * (10 - 15 * s + 6 * s**2)
 
 
-def lower_pelvis(pb: PoseBuilder, ankles: dict[str, np.ndarray], fps: float, reach: float = 0.99) -> None:
+def lower_pelvis(pb: PoseBuilder, ankles: dict[str, np.ndarray], fps: float, reach: float = 0.99, constant: bool = False) -> None:
     """Lower the root smoothly wherever a leg would need more than ``reach`` of its length to get
     from its hip to ``ankles[side] (T, 3)``; updates ``pb``'s world frames.
 
     The needed drop is dilated by a ±3σ maximum filter before Gaussian smoothing, so the smooth
-    drop is never smaller than the needed one.
+    drop is never smaller than the needed one. ``constant``: lower every frame by the largest
+    need instead (keeps the shape of the height curve, e.g. a ballistic flight).
     """
     from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 
@@ -310,6 +311,9 @@ def lower_pelvis(pb: PoseBuilder, ankles: dict[str, np.ndarray], fps: float, rea
         need = np.maximum(need, -d[:, 2] - np.sqrt(np.maximum(limit**2 - dh2, 0.0)))
     sigma = 0.06 * fps
     size = 2 * int(np.ceil(3 * sigma)) + 1
-    drop = gaussian_filter1d(maximum_filter1d(need, size=size, mode="nearest"), sigma, mode="nearest", truncate=3.0)
+    if constant:
+        drop = np.full(pb.t, need.max())
+    else:
+        drop = gaussian_filter1d(maximum_filter1d(need, size=size, mode="nearest"), sigma, mode="nearest", truncate=3.0)
     pb.root[:, 2] -= np.maximum(drop, 0.0)
     pb.update()

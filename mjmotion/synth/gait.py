@@ -68,6 +68,7 @@ class GaitStyle:
     heel_off: float = 0.55  # fraction of stance after which the heel rolls up
     roll: float = np.radians(30.0)  # heel-rise angle at toe-off
     clearance: tuple[float, float] = (0.09, 0.09)  # swing height of the toe joint, per foot
+    push_off: float = 0.0  # run: the toe leaves the floor already rising (fraction of a sine lift)
     step_width: float = 0.10  # half the lateral distance between the feet's centres
     toe_out: float = np.radians(6.0)
     extension: float = 0.97  # desired hip–ankle distance at mid-stance / leg length
@@ -87,7 +88,7 @@ class GaitStyle:
 STYLES: dict[str, GaitStyle] = {
     "walk": GaitStyle("walk", 1.3, 0.70, (0.3, 2.2), (0.62, 0.62)),
     "run": GaitStyle(
-        "run", 3.2, 1.15, (1.8, 6.0), (0.36, 0.36), heel_off=0.35, roll=np.radians(25.0),
+        "run", 3.2, 1.15, (1.8, 6.0), (0.33, 0.33), heel_off=0.35, roll=np.radians(25.0), push_off=1.0,
         clearance=(0.22, 0.22), step_width=0.06, extension=0.93, bob=0.03, bob_sign=-1.0,
         sway=0.01, pelvis_yaw=np.radians(7.0), pelvis_list=np.radians(3.0), lean=np.radians(9.0),
         arm_swing=(np.radians(32.0), np.radians(32.0)), elbow=np.radians(85.0), elbow_swing=np.radians(15.0),
@@ -213,7 +214,13 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
     root[:, :2] = xy + (style.sway * np.cos(mid_l))[:, None] * normal[:, :2]
     leg = THIGH + SHIN
     hip_drop = 0.06  # Hips joint above the hip joints (the skeleton's UpLeg offset)
-    root[:, 2] = fg.ankle_height + style.extension * leg + hip_drop + style.bob * style.bob_sign * np.cos(2 * mid_l)
+    base = fg.ankle_height + style.extension * leg + hip_drop
+    flight = period / 2 - style.duty[0] * period
+    ballistic = style.bob_sign < 0 and flight > 0 and style.duty[0] == style.duty[1] and style.right_offset == 0.5
+    if ballistic:
+        root[:, 2] = base + _ballistic_bob(t, period / 2, style.duty[0] * period)
+    else:
+        root[:, 2] = base + style.bob * style.bob_sign * np.cos(2 * mid_l)
     right_stance = _stance_bump(t, period, offsets[1], style.duty[1])
     root[:, 2] -= style.limp_drop * right_stance
     p_yaw = -style.pelvis_yaw * np.cos(phase["Left"])
@@ -258,7 +265,8 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
     pb.set_local("Hips", hips)
     _torso(pb, style, heading, p_yaw, p_list, right_stance)
     pb.update()
-    lower_pelvis(pb, {side: feet[side]["ankle"] for side in SIDES}, fps)
+    # A flight stays ballistic only if the pelvis is lowered by a constant.
+    lower_pelvis(pb, {side: feet[side]["ankle"] for side in SIDES}, fps, constant=ballistic)
     pb.update()
 
     # Legs, then arms.
@@ -276,6 +284,18 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
     _arms(pb, style, phase)
     motion = pb.motion(fps, style.name)
     return Gait(motion=motion, contacts=contacts, footprints=tuple(footprints), style=style)
+
+
+def _ballistic_bob(t: np.ndarray, step_time: float, stance: float, g: float = 9.81) -> np.ndarray:
+    """``(N,)`` pelvis height offsets of a run: a free fall (−g) in each flight and a sine dip in
+    each stance that meets the flight with the same speed (C¹), starting at a touch-down at t = 0."""
+    tau = np.mod(t, step_time)
+    fly = step_time - stance
+    v0 = g * fly / 2  # vertical speed at lift-off and touch-down
+    dip = v0 * stance / np.pi
+    in_flight = tau >= stance
+    tf = tau - stance
+    return np.where(in_flight, v0 * tf - 0.5 * g * tf**2, -dip * np.sin(np.pi * np.clip(tau / stance, 0.0, 1.0)))
 
 
 def _stance_bump(t: np.ndarray, period: float, offset: float, duty: float) -> np.ndarray:
@@ -300,7 +320,10 @@ def _foot_track(
     # Swing from footprint k (lift-off at lo_t[k]) to footprint k+1 (touch-down at td[k+1]).
     s = np.clip((t - lo_t[k]) / (td[k + 1] - lo_t[k]), 0.0, 1.0)
     travel = min_jerk((s - 0.08) / 0.84)
-    lift = np.where(s < 0.5, min_jerk(s / 0.3), min_jerk((1.0 - s) / 0.3))
+    # Lift first, travel, set down: a walking toe leaves and lands at rest; a running toe leaves
+    # rising (push-off), blending a quarter-sine lift into the minimum-jerk one.
+    up = (1.0 - style.push_off) * min_jerk(s / 0.3) + style.push_off * np.sin(0.5 * np.pi * np.clip(s / 0.3, 0.0, 1.0))
+    lift = np.where(s < 0.5, up, min_jerk((1.0 - s) / 0.3))
     dpsi = np.angle(np.exp(1j * (heads[k + 1] - heads[k])))
     xy = np.where(in_stance[:, None], toe_xy[k], toe_xy[k] + (toe_xy[k + 1] - toe_xy[k]) * travel[:, None])
     z = toe_height + np.where(in_stance, 0.0, style.clearance[i] * lift)
