@@ -149,7 +149,6 @@ def as_input(spec: Verb, clip: Path) -> Path:
 KNOWN_BREAKS: dict[str, str] = {
     "vary valid-corpus": "vary: internal TypeError (formatting None) after writing, on a skeleton without hands/feet",
     "vary --rest-frame 99999": "vary accepts a --rest-frame outside the clip (exit 0)",
-    "blend --fps 0": "blend ignores --fps 0 (falsy) instead of refusing it",
     "evaluate --h-c -1": "evaluate accepts a negative contact height",
     "evaluate input-is-output": "evaluate --json does not pass the input to check_output: it would overwrite the clip",
     "cleanup --h-c -1": "cleanup: internal IndexError on clips shorter than its smoothing kernel (30 frames)",
