@@ -101,6 +101,21 @@ def test_stream_follows_its_commands(streamed):
     assert late == pytest.approx(v_walk, rel=0.2)
 
 
+def test_return_ends_a_clip_early(mocap):
+    """Returning before the kick's peak (≈0.8 s into the excerpt) means the kick never lands."""
+    from mjmotion import kinematics
+
+    cmds = [{"time": 0.0, "weights": {"walk": 1}}, {"time": 1.0, "play": "kick", "blend": 0.2}, {"time": 1.4, "return": True, "blend": 0.2}]
+    script = S.parse_script(_script(mocap, duration=3.0, commands=cmds), mocap, _load)
+    out = S.stream(script)
+    kick = script.clips["kick"]
+    toe = kick.skeleton.index("rtoes")
+    peak = (np.linalg.norm(np.diff(kinematics.joint_positions(kick)[:, toe], axis=0), axis=1) * script.fps).max()
+    speed = np.linalg.norm(np.diff(kinematics.joint_positions(out)[:, toe], axis=0), axis=1) * script.fps
+    assert speed.max() < 0.6 * peak
+    assert evaluate.root_jump_m(out, list(script.clips.values())) <= 1e-9
+
+
 def test_stream_loops_locomotion_longer_than_its_clips(mocap):
     data = _script(mocap, duration=9.0, commands=[{"time": 0.0, "weights": {"walk": 1}}])
     script = S.parse_script(data, mocap, _load)
