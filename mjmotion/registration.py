@@ -319,6 +319,12 @@ def _dp_tables_numba():
         prev_len = np.zeros((n_b, s_n))
         cur = np.full((n_b, s_n), inf)
         cur_len = np.zeros((n_b, s_n))
+        # per finished cell: the best state overall (for D), without V (for V_1), without H (for H_1)
+        p_all = np.zeros(n_b, np.int64)
+        p_nv = np.zeros(n_b, np.int64)
+        c_all = np.zeros(n_b, np.int64)
+        c_nv = np.zeros(n_b, np.int64)
+        c_nh = np.zeros(n_b, np.int64)
         last_col = np.full((n_a, s_n), inf)
         last_col_len = np.zeros((n_a, s_n))
         for i in range(n_a):
@@ -331,18 +337,12 @@ def _dp_tables_numba():
                     cur[0, 0] = cij
                     cur_len[0, 0] = 1.0
                 if i > 0 and j > 0:  # diagonal from any state
-                    k = 0
-                    for s in range(1, s_n):
-                        if prev[j - 1, s] < prev[j - 1, k]:
-                            k = s
+                    k = p_all[j - 1]
                     cur[j, 0] = cij + prev[j - 1, k]
                     cur_len[j, 0] = prev_len[j - 1, k] + 1.0
                     bp_d[i, j] = k
                 if i > 0 and wv > 0:  # first A-only step: from D or any H
-                    k = 0
-                    for s in range(1 + wv, s_n):
-                        if prev[j, s] < prev[j, k]:
-                            k = s
+                    k = p_nv[j]
                     cur[j, 1] = cij + prev[j, k]
                     cur_len[j, 1] = prev_len[j, k] + 1.0
                     bp_v[i, j] = k
@@ -350,21 +350,33 @@ def _dp_tables_numba():
                         cur[j, r] = cij + prev[j, r - 1]
                         cur_len[j, r] = prev_len[j, r - 1] + 1.0
                 if j > 0 and wh > 0:  # first B-only step: from D or any V
-                    k = 0
-                    for s in range(1, 1 + wv):
-                        if cur[j - 1, s] < cur[j - 1, k]:
-                            k = s
+                    k = c_nh[j - 1]
                     cur[j, 1 + wv] = cij + cur[j - 1, k]
                     cur_len[j, 1 + wv] = cur_len[j - 1, k] + 1.0
                     bp_h[i, j] = k
                     for r in range(2, wh + 1):
                         cur[j, wv + r] = cij + cur[j - 1, wv + r - 1]
                         cur_len[j, wv + r] = cur_len[j - 1, wv + r - 1] + 1.0
+                # the cell's summaries, first minimum in state order (as NumPy's argmin)
+                k_all, k_nh = 0, 0
+                for s in range(1, 1 + wv):
+                    if cur[j, s] < cur[j, k_nh]:
+                        k_nh = s
+                k_all = k_nh
+                k_nv = 0
+                for s in range(1 + wv, s_n):
+                    if cur[j, s] < cur[j, k_all]:
+                        k_all = s
+                    if cur[j, s] < cur[j, k_nv]:
+                        k_nv = s
+                c_all[j], c_nv[j], c_nh[j] = k_all, k_nv, k_nh
             for s in range(s_n):
                 last_col[i, s] = cur[n_b - 1, s]
                 last_col_len[i, s] = cur_len[n_b - 1, s]
             prev, cur = cur, prev
             prev_len, cur_len = cur_len, prev_len
+            p_all, c_all = c_all, p_all
+            p_nv, c_nv = c_nv, p_nv
         return prev.T.copy(), prev_len.T.copy(), last_col, last_col_len
 
     return tables
