@@ -9,9 +9,10 @@ at ``max_step`` and clipped to the limits. Position goals only, as in the seed.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from .. import rotations as rot
 from .chains import ChainKinematics, factor_rates
 from .dls import IKResult
 
@@ -25,41 +26,60 @@ def solve(
     tol: float = 1e-5,
     max_sweeps: int = 300,
     max_step: float = np.deg2rad(10.0),
+    stiffness: bool = False,
 ) -> IKResult:
-    """CCD from the FK pose ``qpos: (nq,)`` (``δ = 0``) toward ``goal: (3,)`` metres."""
+    """CCD from the FK pose ``qpos: (nq,)`` (``δ = 0``) toward ``goal: (3,)`` metres.
+
+    ``stiffness``: scale each turn by the coordinate's weight relative to the largest (§1.10);
+    off by default, as in the seed's solver (§2.2.1 relies on CCD's own lower-joint bias) — with
+    the clip's weights the spine turns so little per visit that CCD needs thousands of sweeps.
+    """
     chain = kin.chain
-    delta = np.zeros(chain.n_dof)
+    delta = [0.0] * chain.n_dof
     w = chain.weights
-    scale = w / w.max() if w.size and w.max() > 0 else w
+    scale = (w / w.max() if stiffness and w.size and w.max() > 0 else np.ones(chain.n_dof)).tolist()
     kin.set_frame(qpos)
     starts = np.cumsum([0] + [j.dof for j in chain.joints])
     bodies = kin.compiled.body_ids[chain.joint_indices]
     sweep = 0
+    lower, upper = np.asarray(lower, dtype=float).tolist(), np.asarray(upper, dtype=float).tolist()
     for sweep in range(max_sweeps + 1):
-        kin.set_delta(delta)
+        kin.set_delta(np.asarray(delta))
         e = kin.effector().copy()
         if np.linalg.norm(goal - e) < tol or sweep == max_sweeps or chain.n_dof == 0:
             break
         # World axes of every coordinate, valid for the whole backward sweep (see module doc).
-        omega = factor_rates(kin.axes, chain.padded(delta))
+        omega = factor_rates(kin.axes, chain.padded(np.asarray(delta)))
         frames = kin.data.xmat[bodies].reshape(-1, 3, 3)
         pivots = kin.data.xpos[bodies].copy()
         world = np.einsum("jab,jib->jia", frames, omega)
+        ex, ey, ez = (float(x) for x in e)
+        gx, gy, gz = (float(x) for x in goal)
         for ci in range(len(chain.joints) - 1, -1, -1):
-            p = pivots[ci]
+            px, py, pz = (float(x) for x in pivots[ci])
             for k in range(chain.joints[ci].dof - 1, -1, -1):
                 i = starts[ci] + k
-                a = world[ci, k]
-                u = e - p
-                v = goal - p
-                u_p = u - np.dot(u, a) * a
-                v_p = v - np.dot(v, a) * a
-                if np.linalg.norm(u_p) < 1e-9 or np.linalg.norm(v_p) < 1e-9:
+                ax, ay, az = (float(x) for x in world[ci, k])
+                # Plain-float arithmetic: this loop is the cost of CCD in Python.
+                ux, uy, uz = ex - px, ey - py, ez - pz
+                vx, vy, vz = gx - px, gy - py, gz - pz
+                ua = ux * ax + uy * ay + uz * az
+                va = vx * ax + vy * ay + vz * az
+                upx, upy, upz = ux - ua * ax, uy - ua * ay, uz - ua * az
+                vpx, vpy, vpz = vx - va * ax, vy - va * ay, vz - va * az
+                if upx * upx + upy * upy + upz * upz < 1e-18 or vpx * vpx + vpy * vpy + vpz * vpz < 1e-18:
                     continue
-                theta = np.arctan2(np.dot(a, np.cross(u_p, v_p)), np.dot(u_p, v_p)) * scale[i]
-                theta = float(np.clip(theta, -max_step, max_step))
-                new = float(np.clip(delta[i] + theta, lower[i], upper[i]))
+                cx, cy, cz = upy * vpz - upz * vpy, upz * vpx - upx * vpz, upx * vpy - upy * vpx
+                theta = math.atan2(ax * cx + ay * cy + az * cz, upx * vpx + upy * vpy + upz * vpz) * scale[i]
+                theta = min(max(theta, -max_step), max_step)
+                new = min(max(delta[i] + theta, lower[i]), upper[i])
                 theta = new - delta[i]
                 delta[i] = new
-                e = p + rot.rotate(rot.exp(a * theta), u)
-    return IKResult(delta, float(np.linalg.norm(goal - kin.effector())), 0.0, sweep)
+                # Rodrigues: turn the effector about the axis through the pivot.
+                c, s_ = math.cos(theta), math.sin(theta)
+                wx, wy, wz = ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux
+                ex = px + ux * c + wx * s_ + ax * ua * (1 - c)
+                ey = py + uy * c + wy * s_ + ay * ua * (1 - c)
+                ez = pz + uz * c + wz * s_ + az * ua * (1 - c)
+    d = np.asarray(delta)
+    return IKResult(d, float(np.linalg.norm(goal - kin.effector())), 0.0, sweep)
