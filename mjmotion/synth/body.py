@@ -292,6 +292,19 @@ def min_jerk(s: np.ndarray) -> np.ndarray:
     return s**3 * (10 - 15 * s + 6 * s**2)
 
 
+def reach_need(pb: PoseBuilder, ankles: dict[str, np.ndarray], reach: float = 0.99) -> np.ndarray:
+    """``(T,)`` how far (m) the root must come down so that every leg reaches its ankle goal
+    with at most ``reach`` of its length (negative: room to spare). Updates ``pb``'s frames."""
+    pb.update()
+    need = np.full(pb.t, -np.inf)
+    limit = reach * (THIGH + SHIN)
+    for side, ankle in ankles.items():
+        d = ankle - pb.pos(f"{side}UpLeg")
+        dh2 = np.sum(d[:, :2] ** 2, axis=1)
+        need = np.maximum(need, -d[:, 2] - np.sqrt(np.maximum(limit**2 - dh2, 0.0)))
+    return need
+
+
 def lower_pelvis(pb: PoseBuilder, ankles: dict[str, np.ndarray], fps: float, reach: float = 0.99, constant: bool = False) -> None:
     """Lower the root smoothly wherever a leg would need more than ``reach`` of its length to get
     from its hip to ``ankles[side] (T, 3)``; updates ``pb``'s world frames.
@@ -302,13 +315,7 @@ def lower_pelvis(pb: PoseBuilder, ankles: dict[str, np.ndarray], fps: float, rea
     """
     from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 
-    pb.update()
-    need = np.zeros(pb.t)
-    limit = reach * (THIGH + SHIN)
-    for side, ankle in ankles.items():
-        d = ankle - pb.pos(f"{side}UpLeg")
-        dh2 = np.sum(d[:, :2] ** 2, axis=1)
-        need = np.maximum(need, -d[:, 2] - np.sqrt(np.maximum(limit**2 - dh2, 0.0)))
+    need = np.maximum(reach_need(pb, ankles, reach), 0.0)
     sigma = 0.06 * fps
     size = 2 * int(np.ceil(3 * sigma)) + 1
     if constant:
@@ -317,3 +324,4 @@ def lower_pelvis(pb: PoseBuilder, ankles: dict[str, np.ndarray], fps: float, rea
         drop = gaussian_filter1d(maximum_filter1d(need, size=size, mode="nearest"), sigma, mode="nearest", truncate=3.0)
     pb.root[:, 2] -= np.maximum(drop, 0.0)
     pb.update()
+

@@ -28,6 +28,7 @@ from .body import (
     joint,
     lower_pelvis,
     min_jerk,
+    reach_need,
     skeleton,
     yaw,
 )
@@ -214,15 +215,10 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
     root[:, :2] = xy + (style.sway * np.cos(mid_l))[:, None] * normal[:, :2]
     leg = THIGH + SHIN
     hip_drop = 0.06  # Hips joint above the hip joints (the skeleton's UpLeg offset)
-    base = fg.ankle_height + style.extension * leg + hip_drop
+    base = fg.ankle_height + style.extension * leg + hip_drop  # the desired pelvis height; bob and reach below
     flight = period / 2 - style.duty[0] * period
     ballistic = style.bob_sign < 0 and flight > 0 and style.duty[0] == style.duty[1] and style.right_offset == 0.5
-    if ballistic:
-        root[:, 2] = base + _ballistic_bob(t, period / 2, style.duty[0] * period)
-    else:
-        root[:, 2] = base + style.bob * style.bob_sign * np.cos(2 * mid_l)
     right_stance = _stance_bump(t, period, offsets[1], style.duty[1])
-    root[:, 2] -= style.limp_drop * right_stance
     p_yaw = -style.pelvis_yaw * np.cos(phase["Left"])
     p_list = style.pelvis_list * np.cos(mid_l)
     hips = compose(yaw(heading + p_yaw), axis_angle("x", p_list), axis_angle("y", style.lean * 0.5))
@@ -260,30 +256,51 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
             )
     footprints.sort(key=lambda f: (f.start, f.side))
 
-    # Pelvis height: lower it smoothly wherever a leg would have to be longer than 99 % of its length.
     pb = PoseBuilder(n, root)
     pb.set_local("Hips", hips)
     _torso(pb, style, heading, p_yaw, p_list, right_stance)
-    pb.update()
-    # A flight stays ballistic only if the pelvis is lowered by a constant.
-    lower_pelvis(pb, {side: feet[side]["ankle"] for side in SIDES}, fps, constant=ballistic)
-    pb.update()
-
-    # Legs, then arms.
+    _arms(pb, style, phase)
+    ankles = {side: feet[side]["ankle"] for side in SIDES}
     pelvis_fwd = _dir(heading + p_yaw)
+    _fit_pelvis_height(pb, style, ankles, base, mid_l, right_stance, ballistic, fps)
     for i, side in enumerate(SIDES):
         f = feet[side]
-        pole = _dir(f["heading"]) + pelvis_fwd
-        reached = pb.leg(side, f["ankle"], f["foot"], f["toe"], pole)
+        reached = pb.leg(side, f["ankle"], f["foot"], f["toe"], _dir(f["heading"]) + pelvis_fwd)
         miss = np.linalg.norm(reached - f["ankle"], axis=1)[contacts[:, i]]
         if miss.size and miss.max() > 1e-6:
             raise MjmotionError(
                 f"a {style.name} with {step:.2f} m steps at {style.speed:g} m/s cannot keep its feet planted "
                 "(the legs are too short for it); choose a shorter step length"
             )
-    _arms(pb, style, phase)
     motion = pb.motion(fps, style.name)
     return Gait(motion=motion, contacts=contacts, footprints=tuple(footprints), style=style)
+
+
+def _fit_pelvis_height(
+    pb: PoseBuilder, style: GaitStyle, ankles: dict[str, np.ndarray], base: float, mid_l: np.ndarray,
+    right_stance: np.ndarray, ballistic: bool, fps: float,
+) -> None:
+    """Set the root height so every leg reaches its ankle goal.
+
+    Walks keep a pure bob (smooth, vaulting over the stance leg): the amplitude is chosen so
+    the reachable pelvis is high without a large vertical acceleration. A run's flight stays
+    ballistic: its whole curve is lowered by one constant.
+    """
+    if ballistic:
+        t = np.arange(pb.t) / fps
+        period = 2 * style.step_length / style.speed
+        pb.root[:, 2] = base + _ballistic_bob(t, period / 2, style.duty[0] * period)
+        lower_pelvis(pb, ankles, fps, constant=True)
+        return
+    pb.root[:, 2] = 0.0
+    ceiling = -reach_need(pb, ankles)
+    shape = style.bob_sign * np.cos(2 * mid_l)
+    other = -style.limp_drop * right_stance
+    amps = np.linspace(style.bob, 1.5 * style.bob, 11)
+    bases = np.minimum(np.min(ceiling[None] - amps[:, None] * shape[None] - other[None], axis=1), base)
+    k = int(np.argmax(bases - 0.25 * amps))
+    pb.root[:, 2] = bases[k] + amps[k] * shape + other
+    pb.update()
 
 
 def _ballistic_bob(t: np.ndarray, step_time: float, stance: float, g: float = 9.81) -> np.ndarray:
