@@ -162,7 +162,7 @@ def run(args: argparse.Namespace) -> int:
             raise MjmotionError(f"{args.path}: no .bvh files found (searched recursively)")
         if args.ball is not None:
             raise MjmotionError("--ball applies to one clip; give a file, not a folder")
-        results = _run_many(files, opts, max(1, args.jobs))
+        results = evaluate_files(files, opts, max(1, args.jobs))
     else:
         if not os.path.isfile(args.path):
             raise MjmotionError(f"{args.path}: no such file or folder")
@@ -244,7 +244,8 @@ def _safe(path: str, opts: dict[str, Any]) -> dict[str, Any]:
         return {"file": path, "error": str(e)}
 
 
-def _run_many(files: list[str], opts: dict[str, Any], jobs: int) -> list[dict[str, Any]]:
+def evaluate_files(files: list[str], opts: dict[str, Any], jobs: int) -> list[dict[str, Any]]:
+    """Evaluate many files in ``jobs`` processes with a progress bar; a bad file gives ``{"file", "error"}``."""
     from concurrent.futures import ProcessPoolExecutor
 
     from tqdm import tqdm
