@@ -289,7 +289,10 @@ class MotionStream:
             ramp_out = 1.0 - bezier_ease((n - out_start) / n_blend_out)
             wk = np.where(n < n0, 0.0, np.minimum(ramp_in, ramp_out))
             if out_start <= n0:
-                raise MjmotionError(f"clip {c.clip!r} ({clip.n_frames / fps:.2f} s) is too short for a {c.blend:g} s blend in and out")
+                raise MjmotionError(
+                    f"script: play {c.clip!r} at {c.time:g} s would fade out before it starts (clip {clip.n_frames / fps:.2f} s, "
+                    f"blend {c.blend:g} s); use a longer clip, a shorter blend or a later return"
+                )
             layer = np.maximum(layer, wk)
             t = np.clip(n - n0, 0, clip.n_frames - 1).astype(float)
             steps = np.where((n > n0) & (n - n0 <= clip.n_frames - 1), 1.0, 0.0)
