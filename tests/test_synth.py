@@ -175,7 +175,7 @@ def test_walk_always_has_a_foot_down_and_run_has_flight(lib, ground):
     # Every flight phase lifts the whole body clear of the floor (feet lift off and land at rest,
     # so the phase's ends touch it).
     edges = np.flatnonzero(np.diff(np.concatenate([[0], flight.astype(int), [0]])))
-    for a, b in zip(edges[::2], edges[1::2]):
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
         assert g.lowest_body[a:b].max() > 0.02 and g.lowest_body[a:b].min() >= 0.0
     # …and ballistic: the pelvis falls freely (z'' = -g) inside each flight.
     z = run.motion.root_positions[:, 2]

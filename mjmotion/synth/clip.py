@@ -177,7 +177,7 @@ def _runs(mask: np.ndarray) -> list[list[int]]:
     """Inclusive ``[start, end]`` frame ranges where ``mask`` is true."""
     m = np.concatenate([[False], np.asarray(mask, dtype=bool), [False]])
     edges = np.flatnonzero(np.diff(m.astype(int)))
-    return [[int(a), int(b) - 1] for a, b in zip(edges[::2], edges[1::2])]
+    return [[int(a), int(b) - 1] for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
 def _prop_dict(p: mjcf.Prop) -> dict[str, Any]:
