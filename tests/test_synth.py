@@ -106,6 +106,11 @@ def test_skeleton_names_parts_and_writes_standard_y_up_cm_bvh():
     assert root_offset == pytest.approx([0.0, 100.0, 0.0])  # centimetres, Y up
     back = bvh.parse(text)
     assert back.skeleton.scale == CM and np.allclose(back.skeleton.offsets, s.offsets, atol=1e-9)
+    # The walk heads along the file's +Z (the world's +X): Zposition grows by speed × time, in cm.
+    lines = text.splitlines()
+    rows = lines[lines.index("MOTION") + 3 :]
+    z0, z1 = float(rows[0].split()[2]), float(rows[-1].split()[2])
+    assert z1 - z0 == pytest.approx(100.0 * 1.3 * 0.5, rel=0.1)
 
 
 def test_planted_flat_foot_rests_on_the_floor_with_nothing_below_it():
