@@ -233,3 +233,17 @@ def style_rmse(source: Motion, adapted: Motion, variance: float = 0.7) -> tuple[
     s = space.source_scores[:, :k]
     a = space.scores(adapted, k)
     return float(np.sqrt(np.mean(np.sum((s - a) ** 2, axis=1)))), k
+
+
+def rotation_flips(motion: Motion, max_step: float = 2.5) -> list[tuple[int, str]]:
+    """``(frame, joint)`` where a joint's local rotation turns more than ``max_step`` radians in one frame.
+
+    Such jumps (a limb's twist solved on the other branch, e.g. upper arm and forearm both turned
+    by 180°) leave world positions continuous but put two far-apart clusters into the quaternion
+    parameters: the PCA then mixes branches and new paths through the space give distorted poses.
+    """
+    q = motion.rotations
+    d = rot.multiply(rot.conjugate(q[:-1]), q[1:])
+    ang = 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
+    frames, joints = np.nonzero(ang > max_step)
+    return [(int(f) + 1, motion.skeleton.names[j]) for f, j in zip(frames, joints)]

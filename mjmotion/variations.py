@@ -28,8 +28,12 @@ from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
 from .skeleton import Motion, Skeleton
-from .style import PoseSpace
+from .style import PoseSpace, rotation_flips, style_rmse
 
+#: Variance the controlled components explain by default. The style error's 70 % (seed §2.5.4)
+#: measures; for making variants more components keep the limbs coordinated (on the bundled
+#: drive, scaling only the top two turns the bat against the arms).
+DEFAULT_VARIANCE = 0.9
 #: Fraction of a named segment (at each end) over which exaggeration fades in and out.
 SEGMENT_TAPER = 0.25
 #: Foot height (m) under which the source's foot placement is held (METRICS.md h_c = 0.05 plus margin).
@@ -195,23 +199,52 @@ def aborted_path(
     rest = rest_frame + t if rest_frame < 0 else rest_frame
     if not (0 <= rest < t):
         raise MjmotionError(f"rest frame {rest_frame} is outside the clip's {t} frames")
-    n = default_abort_frames(path, frame, rest, fps) if n_frames is None else int(n_frames)
-    if n < 1:
-        raise MjmotionError(f"abort needs at least 1 frame to reach the rest pose, got {n_frames}")
     p0 = path.scores[frame]
     p1, move = path.scores[rest], np.zeros(3)
     if space is not None:
         p1, move = rest_in_place(space, path, frame, rest)
     v0 = np.zeros_like(p0)
     v0[: path.k] = path.scores[frame, : path.k] - path.scores[frame - 1, : path.k]  # score velocity per frame
-    u = (np.arange(1, n + 1) / n)[:, None]
-    h00, h10, h01 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2
-    leg = h00 * p0 + h10 * (n * v0) + h01 * p1
+
+    def leg_of(n: int) -> tuple[np.ndarray, np.ndarray]:
+        u = (np.arange(1, n + 1) / n)[:, None]
+        h00, h10, h01 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2
+        return h00 * p0 + h10 * (n * v0) + h01 * p1, h01
+
+    if n_frames is None:
+        n = default_abort_frames(path, frame, rest, fps)
+        if space is not None:
+            # slow the return until no joint turns faster than anywhere in the source path
+            n = _abort_frames_within_speed(space, path, frame, n, leg_of)
+    else:
+        n = int(n_frames)
+    if n < 1:
+        raise MjmotionError(f"abort needs at least 1 frame to reach the rest pose, got {n_frames}")
+    leg, h01 = leg_of(n)
     scores = np.vstack([path.scores[: frame + 1], leg])
     w = np.concatenate([np.zeros(frame + 1), h01[:, 0]])
     fa = np.concatenate([path.frame_a[: frame + 1], np.full(n, path.frame_a[frame])])
     fb = np.concatenate([path.frame_b[: frame + 1], np.full(n, path.frame_b[rest])])
     return ScorePath(scores, path.k, fa, fb, w, f"abort at {frame}", path.shift_b + move)
+
+
+def _local_speeds(q: np.ndarray) -> np.ndarray:
+    """``(T-1, J)`` radians per frame turned by every joint's local rotation ``q: (T, J, 4)``."""
+    d = rot.multiply(rot.conjugate(q[:-1]), q[1:])
+    return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
+
+
+def _abort_frames_within_speed(space: PoseSpace, path: ScorePath, frame: int, n: int, leg_of) -> int:
+    """Frames for the return leg so its peak joint speed stays within the source path's (a few refinements)."""
+    limit = _local_speeds(space.motion(path.scores).rotations).max()
+    for _ in range(6):
+        leg, _ = leg_of(n)
+        q = space.motion(np.vstack([path.scores[frame : frame + 1], leg])).rotations
+        ratio = _local_speeds(q).max() / max(limit, 1e-12)
+        if ratio <= 1.0:
+            break
+        n = int(np.ceil(n * min(ratio, 3.0) * 1.05))
+    return n
 
 
 def explicit_path(space: PoseSpace, scores: np.ndarray, detail: bool = True) -> ScorePath:
@@ -425,6 +458,9 @@ def hold_source_feet(
     lowest = track.lowest  # (T, F, 3) each foot's lowest point (METRICS.md foot points)
     held: dict[str, int] = {}
     n_fade = max(1, int(round(FADE_S * motion.fps)))
+    # (the feet keep their plant's shift at an abort's end, so only the frames before it count)
+    copies = copied_frames(source, motion, path)
+    copied = copies & (path.weight <= 0)
     plans = []
     for side, (ankle, toe) in feet.items():
         low_src = track.heights[:, track.sides.index(side)] < plant_height
@@ -470,13 +506,15 @@ def hold_source_feet(
         dist = np.array([np.where(t < a, a - t, np.where(t >= b, t - b + 1, 0)) for a, b in runs])
         nearest = np.argmin(dist + 1e-6 * np.abs(t[None] - centres[:, None]), axis=0)
         target[:, :2] += shifts[nearest]
+        # frames that are the source's own poses (before an abort, outside a scaled segment) stay so
+        target[copied] = var.joint_positions[copied, ankle]
+        target_rot[copied] = var.joint_rotations[copied, ankle]
         plans.append((side, ankle, toe, low, target, target_rot, _fade(low, n_fade)))
     if not plans:
         return motion, {}, 0.0
     # an exaggerated pose can lift the hips beyond the legs' reach: lower/move the root first
     shift = _root_shift_for_reach(skel, var, [(a, tg, w) for _, a, _, _, tg, _, w in plans], motion.fps)
-    # frames that are the source's own poses (before an abort, outside a scaled segment) stay so
-    shift *= 1.0 - _fade(copied_frames(source, motion, path), max(1, int(round(0.5 * ROOT_WINDOW_S * motion.fps))))[:, None]
+    shift *= 1.0 - _fade(copies, max(1, int(round(0.5 * ROOT_WINDOW_S * motion.fps))))[:, None]
     if np.any(shift):
         motion = motion.replace(root_positions=motion.root_positions + shift)
         var = kinematics.forward(compiled, motion)
@@ -786,6 +824,15 @@ def report(
         "variance_explained": float(space.cumulative[path.k - 1]),
         "explained_per_component": [float(x) for x in space.explained[: max(path.k, 5)]],
     }
+    flips = rotation_flips(source)
+    if flips:
+        out["warnings"] = [
+            f"local rotations jump by more than {np.degrees(2.5):.0f} degrees in one frame at {len(flips)} places "
+            f"(first: frame {flips[0][0]}, {flips[0][1]}); the PCA mixes the two branches and variants may be distorted"
+        ]
+    if result.n_frames == source.n_frames:
+        rmse, k_style = style_rmse(source, result)
+        out["style_rmse"] = {"rmse": rmse, "k": k_style}
     try:
         out["footskate_mm_per_s"] = {
             "source": _finite(evaluate.skate_mm_per_s(source)),

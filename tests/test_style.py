@@ -133,3 +133,15 @@ def test_bad_inputs_are_clear_errors(swing):
     )
     with pytest.raises(MjmotionError, match="constant"):
         PoseSpace.fit(const)
+
+
+def test_rotation_flips_finds_a_branch_jump(swing):
+    from mjmotion.style import rotation_flips
+
+    before = set(rotation_flips(swing))
+    assert all(name == "lthumb" for _, name in before)  # 64_01's raw thumb glitch near frame 160 only
+    q = swing.rotations.copy()
+    j = swing.skeleton.index("rradius")
+    q[50:, j] = rot.multiply(q[50:, j], rot.exp(np.array([np.pi * 0.95, 0.0, 0.0])))  # a 171° turn from frame 50 on
+    after = set(rotation_flips(swing.replace(rotations=q)))
+    assert after - before == {(50, "rradius")}

