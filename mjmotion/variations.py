@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -94,7 +95,9 @@ def source_path(space: PoseSpace, k: int, detail: bool = True) -> ScorePath:
     return ScorePath(s, k, t, t, np.zeros(len(t)), "source")
 
 
-def segment_weights(n_frames: int, segment: tuple[int, int] | None, taper: float = SEGMENT_TAPER) -> np.ndarray:
+def segment_weights(
+    n_frames: int, segment: tuple[int, int] | None, taper: float = SEGMENT_TAPER
+) -> np.ndarray:
     """``(T,)`` 1 inside ``segment = (a, b)`` (half-open), cosine tapers of ``taper·(b−a)`` frames at its ends, 0 outside.
 
     ``None`` → 1 everywhere (the whole path is scaled, §3.2.3).
@@ -104,7 +107,7 @@ def segment_weights(n_frames: int, segment: tuple[int, int] | None, taper: float
     a, b = _check_segment(segment, n_frames)
     w = np.zeros(n_frames)
     n = b - a
-    ramp = max(1, int(round(taper * n)))
+    ramp = max(1, round(taper * n))
     u = np.arange(n, dtype=float)
     up = np.clip((u + 1) / (ramp + 1), 0.0, 1.0)
     down = np.clip((n - u) / (ramp + 1), 0.0, 1.0)
@@ -119,11 +122,15 @@ def _check_segment(segment: tuple[int, int], n_frames: int) -> tuple[int, int]:
     if b < 0:
         b += n_frames
     if not (0 <= a < b <= n_frames) or b - a < 3:
-        raise MjmotionError(f"segment {segment[0]}:{segment[1]} must select at least 3 of the clip's {n_frames} frames")
+        raise MjmotionError(
+            f"segment {segment[0]}:{segment[1]} must select at least 3 of the clip's {n_frames} frames"
+        )
     return a, b
 
 
-def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None = None) -> ScorePath:
+def scaled_path(
+    path: ScorePath, factor: float, segment: tuple[int, int] | None = None
+) -> ScorePath:
     """Exaggerate (``factor`` > 1) or mute (< 1) ``path`` (§3.2.3, Figure 3.7).
 
     The controlled scores move away from (or toward) the centre ``c`` (mean over the segment,
@@ -134,12 +141,16 @@ def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None 
     w = segment_weights(path.n_frames, segment)
     s = path.scores.copy()
     ctrl = s[:, : path.k]
-    centre = ctrl[w > 0].mean(axis=0)  # the segment's centre (every frame of the segment has w > 0)
+    centre = ctrl[w > 0].mean(
+        axis=0
+    )  # the segment's centre (every frame of the segment has w > 0)
     s[:, : path.k] = ctrl + (w * (factor - 1.0))[:, None] * (ctrl - centre)
     return replace(path, scores=s, label=f"scale {factor:g}")
 
 
-def default_abort_frames(path: ScorePath, frame: int, rest_frame: int, fps: float) -> int:
+def default_abort_frames(
+    path: ScorePath, frame: int, rest_frame: int, fps: float
+) -> int:
     """Frames to reach the rest pose: the source's mean speed through the space, at least 0.25 s.
 
     The return leg covers the distance ``|S_rest − S_f|`` at the average speed of the source's
@@ -150,10 +161,12 @@ def default_abort_frames(path: ScorePath, frame: int, rest_frame: int, fps: floa
     mean_speed = float(np.mean(speed)) if speed.size else 0.0
     dist = float(np.linalg.norm(ctrl[rest_frame] - ctrl[frame]))
     need = int(np.ceil(1.5 * dist / mean_speed)) if mean_speed > 0 else 0
-    return max(need, int(round(0.25 * fps)), 2)
+    return max(need, round(0.25 * fps), 2)
 
 
-def rest_in_place(space: PoseSpace, path: ScorePath, frame: int, rest_frame: int) -> tuple[np.ndarray, np.ndarray]:
+def rest_in_place(
+    space: PoseSpace, path: ScorePath, frame: int, rest_frame: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Scores ``(C,)`` of the rest pose moved over the floor to where the character stands at ``frame``, and that move ``(3,)``.
 
     "Where it stands" is its feet: the rest pose is shifted so that the foot that moves least
@@ -166,7 +179,9 @@ def rest_in_place(space: PoseSpace, path: ScorePath, frame: int, rest_frame: int
     two = space.motion_of_parameters(x)
     feet = [a for a, _ in space.skeleton.feet().values()]
     if feet:
-        p = kinematics.forward(mjcf.compile(space.skeleton), two).joint_positions[:, feet]
+        p = kinematics.forward(mjcf.compile(space.skeleton), two).joint_positions[
+            :, feet
+        ]
         moves = (p[0] - p[1])[:, :2]
         delta = moves[int(np.argmin(np.linalg.norm(moves, axis=-1)))]
     else:
@@ -195,7 +210,9 @@ def aborted_path(
     """
     t = path.n_frames
     if not (0 < frame < t - 1):
-        raise MjmotionError(f"abort frame must be between 1 and {t - 2} for a {t}-frame clip, got {frame}")
+        raise MjmotionError(
+            f"abort frame must be between 1 and {t - 2} for a {t}-frame clip, got {frame}"
+        )
     rest = rest_frame + t if rest_frame < 0 else rest_frame
     if not (0 <= rest < t):
         raise MjmotionError(f"rest frame {rest_frame} is outside the clip's {t} frames")
@@ -204,11 +221,17 @@ def aborted_path(
     if space is not None:
         p1, move = rest_in_place(space, path, frame, rest)
     v0 = np.zeros_like(p0)
-    v0[: path.k] = path.scores[frame, : path.k] - path.scores[frame - 1, : path.k]  # score velocity per frame
+    v0[: path.k] = (
+        path.scores[frame, : path.k] - path.scores[frame - 1, : path.k]
+    )  # score velocity per frame
 
     def leg_of(n: int) -> tuple[np.ndarray, np.ndarray]:
         u = (np.arange(1, n + 1) / n)[:, None]
-        h00, h10, h01 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2
+        h00, h10, h01 = (
+            2 * u**3 - 3 * u**2 + 1,
+            u**3 - 2 * u**2 + u,
+            -2 * u**3 + 3 * u**2,
+        )
         return h00 * p0 + h10 * (n * v0) + h01 * p1, h01
 
     if n_frames is None:
@@ -219,13 +242,17 @@ def aborted_path(
     else:
         n = int(n_frames)
     if n < 1:
-        raise MjmotionError(f"abort needs at least 1 frame to reach the rest pose, got {n_frames}")
+        raise MjmotionError(
+            f"abort needs at least 1 frame to reach the rest pose, got {n_frames}"
+        )
     leg, h01 = leg_of(n)
     scores = np.vstack([path.scores[: frame + 1], leg])
     w = np.concatenate([np.zeros(frame + 1), h01[:, 0]])
     fa = np.concatenate([path.frame_a[: frame + 1], np.full(n, path.frame_a[frame])])
     fb = np.concatenate([path.frame_b[: frame + 1], np.full(n, path.frame_b[rest])])
-    return ScorePath(scores, path.k, fa, fb, w, f"abort at {frame}", path.shift_b + move)
+    return ScorePath(
+        scores, path.k, fa, fb, w, f"abort at {frame}", path.shift_b + move
+    )
 
 
 def _local_speeds(q: np.ndarray) -> np.ndarray:
@@ -234,7 +261,9 @@ def _local_speeds(q: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
 
 
-def _abort_frames_within_speed(space: PoseSpace, path: ScorePath, frame: int, n: int, leg_of) -> int:
+def _abort_frames_within_speed(
+    space: PoseSpace, path: ScorePath, frame: int, n: int, leg_of
+) -> int:
     """Frames for the return leg so its peak joint speed stays within the source path's (a few refinements)."""
     limit = _local_speeds(space.motion(path.scores).rotations).max()
     for _ in range(6):
@@ -247,7 +276,9 @@ def _abort_frames_within_speed(space: PoseSpace, path: ScorePath, frame: int, n:
     return n
 
 
-def explicit_path(space: PoseSpace, scores: np.ndarray, detail: bool = True) -> ScorePath:
+def explicit_path(
+    space: PoseSpace, scores: np.ndarray, detail: bool = True
+) -> ScorePath:
     """A user's path ``scores: (T', k)``; ``k`` = its number of columns.
 
     The source frames it stands for are spread proportionally over the source; when it has the
@@ -257,7 +288,9 @@ def explicit_path(space: PoseSpace, scores: np.ndarray, detail: bool = True) -> 
     if s.ndim == 1:
         s = s[:, None]
     if s.ndim != 2 or s.shape[0] < 2:
-        raise MjmotionError(f"a score path must be a (frames, components) array with at least 2 frames, got shape {s.shape}")
+        raise MjmotionError(
+            f"a score path must be a (frames, components) array with at least 2 frames, got shape {s.shape}"
+        )
     if not np.all(np.isfinite(s)):
         raise MjmotionError("the score path contains NaN or infinity")
     k = space._check_k(s.shape[1])
@@ -292,18 +325,24 @@ def read_scores(path: str | Path) -> np.ndarray:
         else:
             raise MjmotionError(f"{p}: expected a .npy or .csv score path")
     except ValueError as exc:
-        raise MjmotionError(f"{p}: cannot read scores ({exc}); expected rows of numbers, one column per component") from None
+        raise MjmotionError(
+            f"{p}: cannot read scores ({exc}); expected rows of numbers, one column per component"
+        ) from None
     arr = np.asarray(arr, dtype=float)
     if arr.ndim == 1:
         arr = arr[:, None]
     if arr.ndim != 2 or arr.shape[0] < 2:
-        raise MjmotionError(f"{p}: expected a (frames, components) table with at least 2 rows, got shape {arr.shape}")
+        raise MjmotionError(
+            f"{p}: expected a (frames, components) table with at least 2 rows, got shape {arr.shape}"
+        )
     return arr
 
 
 def synthesise(space: PoseSpace, path: ScorePath, name: str = "") -> Motion:
     """The motion of ``path``: frame ``t`` is the pose ``P = (L S_t)ᵀ ⊙ D + M`` (§3.2.1)."""
-    return space.motion(path.scores, name=name or f"{space.template.name} {path.label}".strip())
+    return space.motion(
+        path.scores, name=name or f"{space.template.name} {path.label}".strip()
+    )
 
 
 # --- cleanup (§3.3) ----------------------------------------------------------------------------
@@ -316,11 +355,16 @@ def _source_at(source_values: np.ndarray, path: ScorePath) -> np.ndarray:
 def _source_positions_at(source_positions: np.ndarray, path: ScorePath) -> np.ndarray:
     """Like :func:`_source_at` for world positions ``(T, ..., 3)``: frame_b's are moved by ``path.shift_b``."""
     w = path.weight.reshape(-1, *([1] * (source_positions.ndim - 1)))
-    return (1.0 - w) * source_positions[path.frame_a] + w * (source_positions[path.frame_b] + path.shift_b)
+    return (1.0 - w) * source_positions[path.frame_a] + w * (
+        source_positions[path.frame_b] + path.shift_b
+    )
 
 
 def _quat_source_at(source_q: np.ndarray, path: ScorePath) -> np.ndarray:
-    w = np.broadcast_to(path.weight.reshape(-1, *([1] * (source_q.ndim - 2))), source_q[path.frame_a].shape[:-1])
+    w = np.broadcast_to(
+        path.weight.reshape(-1, *([1] * (source_q.ndim - 2))),
+        source_q[path.frame_a].shape[:-1],
+    )
     return rot.slerp(source_q[path.frame_a], source_q[path.frame_b], w)
 
 
@@ -347,7 +391,9 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Shortest rotations ``(T, 4)`` taking directions ``a`` onto ``b`` (``(T, 3)``)."""
     a = a / np.linalg.norm(a, axis=-1, keepdims=True)
     b = b / np.linalg.norm(b, axis=-1, keepdims=True)
-    q = np.concatenate([1.0 + np.sum(a * b, axis=-1, keepdims=True), np.cross(a, b)], axis=-1)
+    q = np.concatenate(
+        [1.0 + np.sum(a * b, axis=-1, keepdims=True), np.cross(a, b)], axis=-1
+    )
     return rot.normalize(q)
 
 
@@ -391,7 +437,9 @@ def two_bone_ik(
     else:
         ref = np.array([1.0, 0.0, 0.0])
     ref = ref / max(np.linalg.norm(ref), 1e-12)
-    n_unit = np.where(good[:, None], n / np.maximum(nn, 1e-12)[:, None], rot.rotate(q_top, ref))
+    n_unit = np.where(
+        good[:, None], n / np.maximum(nn, 1e-12)[:, None], rot.rotate(q_top, ref)
+    )
     bend = np.arctan2(np.sum(np.cross(u, v) * n_unit, axis=-1), np.sum(u * v, axis=-1))
     d_raw = np.linalg.norm(target_pos - h, axis=-1)
     d = np.clip(d_raw, np.abs(l1 - l2) + 1e-6, l1 + l2 - 1e-6)
@@ -403,7 +451,11 @@ def two_bone_ik(
     q_top_new = rot.multiply(r_hip, q_top)
     q_mid_new = rot.multiply(r_hip, rot.multiply(r_knee, world_rot[:, mid]))
     out = local_rot.copy()
-    q_above = world_rot[:, above] if above >= 0 else np.broadcast_to(rot.IDENTITY, q_top.shape)
+    q_above = (
+        world_rot[:, above]
+        if above >= 0
+        else np.broadcast_to(rot.IDENTITY, q_top.shape)
+    )
     out[:, top] = rot.multiply(rot.conjugate(q_above), q_top_new)
     out[:, mid] = rot.multiply(rot.conjugate(q_top_new), q_mid_new)
     out[:, end] = rot.multiply(rot.conjugate(q_mid_new), target_rot)
@@ -457,7 +509,7 @@ def hold_source_feet(
     track = foot_heights_speeds(compiled, source, src)
     lowest = track.lowest  # (T, F, 3) each foot's lowest point (METRICS.md foot points)
     held: dict[str, int] = {}
-    n_fade = max(1, int(round(FADE_S * motion.fps)))
+    n_fade = max(1, round(FADE_S * motion.fps))
     # (the feet keep their plant's shift at an abort's end, so only the frames before it count)
     copies = copied_frames(source, motion, path)
     copied = copies & (path.weight <= 0)
@@ -467,7 +519,9 @@ def hold_source_feet(
         # between two source frames a foot down at either end stays held (released, it would
         # swing to wherever the blended pose puts it)
         low_a, low_b = low_src[path.frame_a], low_src[path.frame_b]
-        low = np.where(path.weight <= 0, low_a, np.where(path.weight >= 1, low_b, low_a | low_b))
+        low = np.where(
+            path.weight <= 0, low_a, np.where(path.weight >= 1, low_b, low_a | low_b)
+        )
         if not low.any() or skel.parents[skel.parents[ankle]] < 0:
             continue
         target = _source_positions_at(src.joint_positions[:, ankle], path)
@@ -476,10 +530,19 @@ def hold_source_feet(
         if between.any():
             # between two source frames (an abort's return) the foot pivots about the point it
             # stands on at the end, instead of sliding the ankle from one footprint to the other
-            fb, fa, w = path.frame_b[between], path.frame_a[between], path.weight[between, None]
+            fb, fa, w = (
+                path.frame_b[between],
+                path.frame_a[between],
+                path.weight[between, None],
+            )
             low_pt = lowest[:, track.sides.index(side)]
-            c = rot.rotate(rot.conjugate(src.joint_rotations[fb, ankle]), low_pt[fb] - src.joint_positions[fb, ankle])
-            p_a = src.joint_positions[fa, ankle] + rot.rotate(src.joint_rotations[fa, ankle], c)
+            c = rot.rotate(
+                rot.conjugate(src.joint_rotations[fb, ankle]),
+                low_pt[fb] - src.joint_positions[fb, ankle],
+            )
+            p_a = src.joint_positions[fa, ankle] + rot.rotate(
+                src.joint_rotations[fa, ankle], c
+            )
             p_b = low_pt[fb] + path.shift_b
             pivot = (1.0 - w) * p_a + w * p_b
             # a foot whose footprint moves must step: lift, carry, put down (not slide)
@@ -492,9 +555,14 @@ def hold_source_feet(
                 step = p_a + carry[:, None] * (p_b - p_a)
                 step[:, 2] += lift
                 pivot = np.where(stepping[:, None], step, pivot)
-                q_a, q_b = src.joint_rotations[fa, ankle], src.joint_rotations[fb, ankle]
+                q_a, q_b = (
+                    src.joint_rotations[fa, ankle],
+                    src.joint_rotations[fb, ankle],
+                )
                 turned = rot.slerp(q_a, q_b, carry)
-                target_rot[between] = np.where(stepping[:, None], turned, target_rot[between])
+                target_rot[between] = np.where(
+                    stepping[:, None], turned, target_rot[between]
+                )
             target[between] = pivot - rot.rotate(target_rot[between], c)
         # one horizontal shift per plant, where the variant's foot touched down; frames between
         # plants (fading in and out) take the nearest plant's shift so the target does not jump
@@ -503,7 +571,9 @@ def hold_source_feet(
         shifts = var.joint_positions[starts, ankle, :2] - target[starts, :2]
         centres = np.array([0.5 * (a + b - 1) for a, b in runs])
         t = np.arange(len(low))
-        dist = np.array([np.where(t < a, a - t, np.where(t >= b, t - b + 1, 0)) for a, b in runs])
+        dist = np.array(
+            [np.where(t < a, a - t, np.where(t >= b, t - b + 1, 0)) for a, b in runs]
+        )
         nearest = np.argmin(dist + 1e-6 * np.abs(t[None] - centres[:, None]), axis=0)
         target[:, :2] += shifts[nearest]
         # frames that are the source's own poses (before an abort, outside a scaled segment) stay so
@@ -513,33 +583,67 @@ def hold_source_feet(
     if not plans:
         return motion, {}, 0.0
     # an exaggerated pose can lift the hips beyond the legs' reach: lower/move the root first
-    shift = _root_shift_for_reach(skel, var, [(a, tg, w) for _, a, _, _, tg, _, w in plans], motion.fps)
-    shift *= 1.0 - _fade(copies, max(1, int(round(0.5 * ROOT_WINDOW_S * motion.fps))))[:, None]
+    shift = _root_shift_for_reach(
+        skel, var, [(a, tg, w) for _, a, _, _, tg, _, w in plans], motion.fps
+    )
+    shift *= (
+        1.0 - _fade(copies, max(1, round(0.5 * ROOT_WINDOW_S * motion.fps)))[:, None]
+    )
     if np.any(shift):
         motion = motion.replace(root_positions=motion.root_positions + shift)
         var = kinematics.forward(compiled, motion)
     local = motion.rotations.copy()
     worst = 0.0
     for side, ankle, toe, low, target, target_rot, w in plans:
-        solved, err = two_bone_ik(skel, var.joint_positions, var.joint_rotations, local, ankle, target, target_rot)
+        solved, err = two_bone_ik(
+            skel,
+            var.joint_positions,
+            var.joint_rotations,
+            local,
+            ankle,
+            target,
+            target_rot,
+        )
         if toe is not None:
             for j in [toe, *_descendants(skel, toe)]:
                 solved[:, j] = _quat_source_at(source.rotations[:, j], path)
-        chain = [int(skel.parents[skel.parents[ankle]]), int(skel.parents[ankle]), ankle]
-        chain += [j for j in ([toe, *_descendants(skel, toe)] if toe is not None else [])]
+        chain = [
+            int(skel.parents[skel.parents[ankle]]),
+            int(skel.parents[ankle]),
+            ankle,
+        ]
+        chain += [
+            j for j in ([toe, *_descendants(skel, toe)] if toe is not None else [])
+        ]
         local[:, chain] = _blend_local(local[:, chain], solved[:, chain], w)
         held[side] = int(low.sum())
         worst = max(worst, float(np.max(err[low])))
     return motion.replace(rotations=local), held, worst
 
 
-def copied_frames(source: Motion, motion: Motion, path: ScorePath, tol: float = 1e-9) -> np.ndarray:
+def copied_frames(
+    source: Motion, motion: Motion, path: ScorePath, tol: float = 1e-9
+) -> np.ndarray:
     """``(T',) bool``: frames of ``motion`` that are exactly a source frame (moved by ``path.shift_b`` at frame_b)."""
     out = np.zeros(path.n_frames, dtype=bool)
-    for sel, frames, move in ((path.weight <= 0, path.frame_a, 0.0), (path.weight >= 1, path.frame_b, path.shift_b)):
+    for sel, frames, move in (
+        (path.weight <= 0, path.frame_a, 0.0),
+        (path.weight >= 1, path.frame_b, path.shift_b),
+    ):
         f = frames[sel]
-        same_q = np.all(np.abs(np.abs(np.sum(motion.rotations[sel] * source.rotations[f], axis=-1)) - 1.0) < tol, axis=1)
-        same_r = np.all(np.abs(motion.root_positions[sel] - (source.root_positions[f] + move)) < 1e-7, axis=1)
+        same_q = np.all(
+            np.abs(
+                np.abs(np.sum(motion.rotations[sel] * source.rotations[f], axis=-1))
+                - 1.0
+            )
+            < tol,
+            axis=1,
+        )
+        same_r = np.all(
+            np.abs(motion.root_positions[sel] - (source.root_positions[f] + move))
+            < 1e-7,
+            axis=1,
+        )
         out[sel] = same_q & same_r
     return out
 
@@ -551,7 +655,10 @@ ROOT_WINDOW_S = 0.3
 
 
 def _root_shift_for_reach(
-    skel: Skeleton, pose: kinematics.Pose, legs: list[tuple[int, np.ndarray, np.ndarray]], fps: float
+    skel: Skeleton,
+    pose: kinematics.Pose,
+    legs: list[tuple[int, np.ndarray, np.ndarray]],
+    fps: float,
 ) -> np.ndarray:
     """``(T, 3)`` root translation bringing every held ankle target within ``REACH`` of its leg.
 
@@ -564,7 +671,9 @@ def _root_shift_for_reach(
         knee = int(skel.parents[ankle])
         hip = int(skel.parents[knee])
         p = pose.joint_positions
-        length = np.linalg.norm(p[:, knee] - p[:, hip], axis=-1) + np.linalg.norm(p[:, ankle] - p[:, knee], axis=-1)
+        length = np.linalg.norm(p[:, knee] - p[:, hip], axis=-1) + np.linalg.norm(
+            p[:, ankle] - p[:, knee], axis=-1
+        )
         vec = target - p[:, hip]
         dist = np.linalg.norm(vec, axis=-1)
         # only targets truly out of reach move the root (a captured straight leg stays as it is)
@@ -575,10 +684,12 @@ def _root_shift_for_reach(
     peak = np.linalg.norm(need, axis=-1)
     if not peak.any():
         return need
-    half = max(1, int(round(0.5 * ROOT_WINDOW_S * fps)))
+    half = max(1, round(0.5 * ROOT_WINDOW_S * fps))
     kernel = np.hanning(2 * half + 3)[1:-1]
     kernel /= kernel.sum()
-    smooth = np.stack([np.convolve(need[:, i], kernel, mode="same") for i in range(3)], axis=1)
+    smooth = np.stack(
+        [np.convolve(need[:, i], kernel, mode="same") for i in range(3)], axis=1
+    )
     norm = np.linalg.norm(smooth, axis=-1)
     hit = peak > 0
     gain = float(np.max(peak[hit] / np.maximum(norm[hit], 1e-12)))
@@ -604,7 +715,9 @@ def restore_grip_minimal(
     skel = source.skeleton
     hands = skel.hands()
     if set(hands) != {"left", "right"}:
-        raise MjmotionError("restoring the grip needs a left and a right hand in the skeleton")
+        raise MjmotionError(
+            "restoring the grip needs a left and a right hand in the skeleton"
+        )
     if first_hand not in hands:
         raise MjmotionError(f"first hand must be 'left' or 'right', got {first_hand!r}")
     h1, h2 = hands[first_hand], hands["right" if first_hand == "left" else "left"]
@@ -612,7 +725,9 @@ def restore_grip_minimal(
     src = kinematics.forward(compiled, source)
     var = kinematics.forward(compiled, motion)
     q1s, q2s = src.joint_rotations[:, h1], src.joint_rotations[:, h2]
-    rel_pos = rot.rotate(rot.conjugate(q1s), src.joint_positions[:, h2] - src.joint_positions[:, h1])
+    rel_pos = rot.rotate(
+        rot.conjugate(q1s), src.joint_positions[:, h2] - src.joint_positions[:, h1]
+    )
     rel_rot = rot.multiply(rot.conjugate(q1s), q2s)
     rel_pos_t = _source_at(rel_pos, path)
     rel_rot_t = _quat_source_at(rel_rot, path)
@@ -620,19 +735,27 @@ def restore_grip_minimal(
     target = var.joint_positions[:, h1] + rot.rotate(q1, rel_pos_t)
     target_rot = rot.multiply(q1, rel_rot_t)
     local = motion.rotations
-    for _ in range(4):  # the shoulder moves on a sphere about the collarbone: a few passes close the gap
-        turned = _reach_with_shoulder(skel, motion.replace(rotations=local), var, h2, target)
+    for _ in range(
+        4
+    ):  # the shoulder moves on a sphere about the collarbone: a few passes close the gap
+        turned = _reach_with_shoulder(
+            skel, motion.replace(rotations=local), var, h2, target
+        )
         if turned is local:
             break
         local = turned
         var = kinematics.forward(compiled, motion.replace(rotations=local))
-    local, err = two_bone_ik(skel, var.joint_positions, var.joint_rotations, local, h2, target, target_rot)
+    local, err = two_bone_ik(
+        skel, var.joint_positions, var.joint_rotations, local, h2, target, target_rot
+    )
     for j in _descendants(skel, h2):
         local[:, j] = _quat_source_at(source.rotations[:, j], path)
     return motion.replace(rotations=local), float(np.max(err))
 
 
-def _reach_with_shoulder(skel: Skeleton, motion: Motion, pose: kinematics.Pose, end: int, target: np.ndarray) -> np.ndarray:
+def _reach_with_shoulder(
+    skel: Skeleton, motion: Motion, pose: kinematics.Pose, end: int, target: np.ndarray
+) -> np.ndarray:
     """Local rotations with the collarbone turned so a too-distant ``target`` comes within the arm's reach.
 
     Where the wrist target lies beyond upper arm + forearm, the joint above the shoulder
@@ -646,18 +769,27 @@ def _reach_with_shoulder(skel: Skeleton, motion: Motion, pose: kinematics.Pose, 
     if clav <= 0:
         return motion.rotations
     p = pose.joint_positions
-    reach = np.linalg.norm(p[:, mid] - p[:, top], axis=-1) + np.linalg.norm(p[:, end] - p[:, mid], axis=-1)
+    reach = np.linalg.norm(p[:, mid] - p[:, top], axis=-1) + np.linalg.norm(
+        p[:, end] - p[:, mid], axis=-1
+    )
     to_target = target - p[:, top]
     dist = np.linalg.norm(to_target, axis=-1)
     short = dist > reach * (1.0 - 1e-9)
     if not short.any():
         return motion.rotations
     # move the shoulder by the missing length plus 1 % so the elbow keeps a little bend
-    wanted = p[:, top] + to_target * ((dist - 0.99 * reach) / np.maximum(dist, 1e-12))[:, None]
+    wanted = (
+        p[:, top]
+        + to_target * ((dist - 0.99 * reach) / np.maximum(dist, 1e-12))[:, None]
+    )
     r = _rotation_between(p[:, top] - p[:, clav], wanted - p[:, clav])
     r[~short] = rot.IDENTITY
     q_clav = rot.multiply(r, pose.joint_rotations[:, clav])
-    q_above = pose.joint_rotations[:, above] if above >= 0 else np.broadcast_to(rot.IDENTITY, q_clav.shape)
+    q_above = (
+        pose.joint_rotations[:, above]
+        if above >= 0
+        else np.broadcast_to(rot.IDENTITY, q_clav.shape)
+    )
     out = motion.rotations.copy()
     out[:, clav] = rot.multiply(rot.conjugate(q_above), q_clav)
     return out
@@ -668,7 +800,11 @@ FEET_METHODS = ("source", "plants", "both", "none")
 
 
 def clean_up(
-    source: Motion, motion: Motion, path: ScorePath, first_hand: str | None = "left", feet: str = "source"
+    source: Motion,
+    motion: Motion,
+    path: ScorePath,
+    first_hand: str | None = "left",
+    feet: str = "source",
 ) -> tuple[Motion, CleanupReport]:
     """Repair §3.3's artefacts: the feet, then the second hand on the grip.
 
@@ -680,8 +816,11 @@ def clean_up(
     ``first_hand=None`` leaves the hands alone (a one-handed shot, a kick).
     """
     if feet not in FEET_METHODS:
-        raise MjmotionError(f"feet cleanup must be one of {', '.join(FEET_METHODS)}, got {feet!r}")
-    out, held, foot_err = motion, {}, 0.0
+        raise MjmotionError(
+            f"feet cleanup must be one of {', '.join(FEET_METHODS)}, got {feet!r}"
+        )
+    out, foot_err = motion, 0.0
+    held: dict[str, int] = {}
     if feet in ("source", "both"):
         out, held, foot_err = hold_source_feet(source, out, path)
     if feet in ("plants", "both"):
@@ -690,7 +829,9 @@ def clean_up(
         res = cleanup(out)
         out = res.motion
         for plant in res.plants:
-            held[f"{plant.side} (plants)"] = held.get(f"{plant.side} (plants)", 0) + plant.stop - plant.start
+            held[f"{plant.side} (plants)"] = (
+                held.get(f"{plant.side} (plants)", 0) + plant.stop - plant.start
+            )
     grip_err = 0.0
     pair = None
     if first_hand is not None:
@@ -700,19 +841,25 @@ def clean_up(
 
 
 # --- plots (Figures 3.1, 3.4, 3.7) -------------------------------------------------------------
-def plot_score_paths(paths: dict[str, np.ndarray], out_png: str | Path, dims: int = 2) -> None:
+def plot_score_paths(
+    paths: dict[str, np.ndarray], out_png: str | Path, dims: int = 2
+) -> None:
     """Score paths ``{label: (T, ≥dims)}`` drawn in the first ``dims`` (2 or 3) components, saved as PNG.
 
     The first path is drawn as the reference (thicker); each path's start is marked with a
     circle and its end with a square.
     """
     if dims not in (2, 3):
-        raise MjmotionError(f"score paths can be drawn in 2 or 3 dimensions, not {dims}")
+        raise MjmotionError(
+            f"score paths can be drawn in 2 or 3 dimensions, not {dims}"
+        )
     if not paths:
         raise MjmotionError("no score paths to plot")
     for label, s in paths.items():
         if np.asarray(s).ndim != 2 or np.asarray(s).shape[1] < dims:
-            raise MjmotionError(f"path {label!r} needs at least {dims} score columns, has shape {np.shape(s)}")
+            raise MjmotionError(
+                f"path {label!r} needs at least {dims} score columns, has shape {np.shape(s)}"
+            )
     import matplotlib
 
     matplotlib.use("Agg")
@@ -721,7 +868,7 @@ def plot_score_paths(paths: dict[str, np.ndarray], out_png: str | Path, dims: in
     from .outputs import write_with
 
     fig = plt.figure(figsize=(6.4, 5.2), dpi=110)
-    ax = fig.add_subplot(111, projection="3d" if dims == 3 else None)
+    ax: Any = fig.add_subplot(111, projection="3d" if dims == 3 else None)
     for i, (label, s) in enumerate(paths.items()):
         s = np.asarray(s, dtype=float)
         cols = [s[:, d] for d in range(dims)]
@@ -754,7 +901,10 @@ def first_hand_for(source: Motion) -> str | None:
     if set(hands) != {"left", "right"}:
         return None
     p = kinematics.forward(mjcf.compile(source.skeleton), source).joint_positions
-    if np.median(np.linalg.norm(p[:, hands["left"]] - p[:, hands["right"]], axis=-1)) > TWO_HANDED_M:
+    if (
+        np.median(np.linalg.norm(p[:, hands["left"]] - p[:, hands["right"]], axis=-1))
+        > TWO_HANDED_M
+    ):
         return None  # the hands are not holding one thing
     from .skeleton import side_of
 
@@ -762,7 +912,9 @@ def first_hand_for(source: Motion) -> str | None:
     return (side_of(prop.joint) if prop is not None else None) or "left"
 
 
-def grip_error_m(source: Motion, motion: Motion, path: ScorePath, first_hand: str = "left") -> float:
+def grip_error_m(
+    source: Motion, motion: Motion, path: ScorePath, first_hand: str = "left"
+) -> float:
     """METRICS.md ``grip_error_m``: distance of the second hand from where the source holds it
     relative to the first hand (at the source frames each frame stands for), max over frames."""
     skel = source.skeleton
@@ -771,20 +923,30 @@ def grip_error_m(source: Motion, motion: Motion, path: ScorePath, first_hand: st
     compiled = mjcf.compile(skel)
     src = kinematics.forward(compiled, source)
     var = kinematics.forward(compiled, motion)
-    rel = rot.rotate(rot.conjugate(src.joint_rotations[:, h1]), src.joint_positions[:, h2] - src.joint_positions[:, h1])
-    want = var.joint_positions[:, h1] + rot.rotate(var.joint_rotations[:, h1], _source_at(rel, path))
+    rel = rot.rotate(
+        rot.conjugate(src.joint_rotations[:, h1]),
+        src.joint_positions[:, h2] - src.joint_positions[:, h1],
+    )
+    want = var.joint_positions[:, h1] + rot.rotate(
+        var.joint_rotations[:, h1], _source_at(rel, path)
+    )
     return float(np.max(np.linalg.norm(want - var.joint_positions[:, h2], axis=-1)))
 
 
 def effector_path_length(
-    motion: Motion, joint: int | None = None, frames: tuple[int, int] | None = None, prop: mjcf.Prop | None = None
+    motion: Motion,
+    joint: int | None = None,
+    frames: tuple[int, int] | None = None,
+    prop: mjcf.Prop | None = None,
 ) -> float:
     """Length (m) of the path of ``joint`` — or of ``prop``'s sweet spot — over ``frames`` (half-open; all by default)."""
     if prop is not None:
         pose = kinematics.forward(mjcf.compile(motion.skeleton, (prop,)), motion)
         p = pose.site(f"{prop.name}/sweet_spot")
     elif joint is not None:
-        p = kinematics.forward(mjcf.compile(motion.skeleton), motion).joint_positions[:, joint]
+        p = kinematics.forward(mjcf.compile(motion.skeleton), motion).joint_positions[
+            :, joint
+        ]
     else:
         raise MjmotionError("effector_path_length needs a joint or a prop")
     if frames is not None:
@@ -811,24 +973,33 @@ def _finite(x: float) -> float | None:
 
 
 def report(
-    source: Motion, raw: Motion, result: Motion, path: ScorePath, space: PoseSpace, first_hand: str | None = "left"
-) -> dict[str, object]:
+    source: Motion,
+    raw: Motion,
+    result: Motion,
+    path: ScorePath,
+    space: PoseSpace,
+    first_hand: str | None = "left",
+) -> dict[str, Any]:
     """Numbers for a variant: ``k``, variance explained, footskate (mm/s, METRICS.md) of source, raw
     and result, joint-speed ratio, grip error and the first hand's path length."""
     from . import evaluate
 
-    out: dict[str, object] = {
+    out: dict[str, Any] = {
         "variant": path.label,
         "n_frames": result.n_frames,
         "k": path.k,
         "variance_explained": float(space.cumulative[path.k - 1]),
-        "explained_per_component": [float(x) for x in space.explained[: max(path.k, 5)]],
+        "explained_per_component": [
+            float(x) for x in space.explained[: max(path.k, 5)]
+        ],
     }
     flips = rotation_flips(source)
     if flips:
         out["warnings"] = [
-            f"local rotations jump by more than {np.degrees(2.5):.0f} degrees in one frame at {len(flips)} places "
-            f"(first: frame {flips[0][0]}, {flips[0][1]}); the PCA mixes the two branches and variants may be distorted"
+            (
+                f"local rotations jump by more than {np.degrees(2.5):.0f} degrees in one frame at {len(flips)} places "
+                f"(first: frame {flips[0][0]}, {flips[0][1]}); the PCA mixes the two branches and variants may be distorted"
+            )
         ]
     if result.n_frames == source.n_frames:
         rmse, k_style = style_rmse(source, result)
@@ -841,7 +1012,12 @@ def report(
             "h_c": evaluate.H_C,
         }
     except MjmotionError as exc:  # no feet in the skeleton
-        out["footskate_mm_per_s"] = {"source": None, "raw": None, "result": None, "note": str(exc)}
+        out["footskate_mm_per_s"] = {
+            "source": None,
+            "raw": None,
+            "result": None,
+            "note": str(exc),
+        }
     out["max_joint_speed_ratio"] = {
         "raw": float(evaluate.max_joint_speed_ratio(raw, source)),
         "result": float(evaluate.max_joint_speed_ratio(result, source)),

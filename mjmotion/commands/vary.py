@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 
 import numpy as np
@@ -42,33 +43,88 @@ examples:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help="the source shot, a .bvh file")
     how = p.add_mutually_exclusive_group(required=True)
-    how.add_argument("--scale", type=float, metavar="F", help="scale the score path about its centre by F")
-    how.add_argument("--abort-at", type=int, metavar="FRAME", help="abandon the shot at FRAME and return to the rest pose")
-    how.add_argument("--scores", metavar="PATH", help="an explicit score path (.npy or .csv, frames × components)")
-    p.add_argument("--abort-frames", type=int, metavar="N", help="frames from the abort to the rest pose")
-    p.add_argument("--rest-frame", type=int, default=-1, metavar="F", help="the rest pose's frame (default: the last)")
-    p.add_argument("--pcs", type=int, metavar="K", help="number of controlled principal components")
-    p.add_argument(
-        "--variance", type=float, default=0.9, metavar="V", help="variance fraction that picks K when --pcs is not given (default 0.9)"
+    how.add_argument(
+        "--scale",
+        type=float,
+        metavar="F",
+        help="scale the score path about its centre by F",
     )
-    p.add_argument("--segment", metavar="A:B", help="with --scale: scale only this frame range (tapered ends)")
-    p.add_argument("--no-cleanup", action="store_true", help="write the raw reconstruction (no foot or grip repair)")
+    how.add_argument(
+        "--abort-at",
+        type=int,
+        metavar="FRAME",
+        help="abandon the shot at FRAME and return to the rest pose",
+    )
+    how.add_argument(
+        "--scores",
+        metavar="PATH",
+        help="an explicit score path (.npy or .csv, frames × components)",
+    )
+    p.add_argument(
+        "--abort-frames",
+        type=int,
+        metavar="N",
+        help="frames from the abort to the rest pose",
+    )
+    p.add_argument(
+        "--rest-frame",
+        type=int,
+        default=-1,
+        metavar="F",
+        help="the rest pose's frame (default: the last)",
+    )
+    p.add_argument(
+        "--pcs", type=int, metavar="K", help="number of controlled principal components"
+    )
+    p.add_argument(
+        "--variance",
+        type=float,
+        default=0.9,
+        metavar="V",
+        help="variance fraction that picks K when --pcs is not given (default 0.9)",
+    )
+    p.add_argument(
+        "--segment",
+        metavar="A:B",
+        help="with --scale: scale only this frame range (tapered ends)",
+    )
+    p.add_argument(
+        "--no-cleanup",
+        action="store_true",
+        help="write the raw reconstruction (no foot or grip repair)",
+    )
     p.add_argument(
         "--feet",
         choices=("source", "plants", "both"),
         default="source",
         help="foot repair: hold the source's footprints (default), the footskate cleanup's plants, or both",
     )
-    p.add_argument("--no-detail", action="store_true", help="drop the components beyond K (the seed's pure reconstruction)")
+    p.add_argument(
+        "--no-detail",
+        action="store_true",
+        help="drop the components beyond K (the seed's pure reconstruction)",
+    )
     p.add_argument(
         "--first-hand",
         choices=("auto", "left", "right", "none"),
         default="auto",
         help="the hand the second one is held to (auto: the club's hand when a club is fitted, else left; none: no grip repair)",
     )
-    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="the variant to write")
-    p.add_argument("--plot", metavar="OUT.png", help="plot the source and variant score paths (PNG)")
-    p.add_argument("--plot-dims", type=int, choices=(2, 3), default=2, help="components in the plot (default 2)")
+    p.add_argument(
+        "-o", "--output", required=True, metavar="OUT.bvh", help="the variant to write"
+    )
+    p.add_argument(
+        "--plot",
+        metavar="OUT.png",
+        help="plot the source and variant score paths (PNG)",
+    )
+    p.add_argument(
+        "--plot-dims",
+        type=int,
+        choices=(2, 3),
+        default=2,
+        help="components in the plot (default 2)",
+    )
     p.add_argument("--json", metavar="REPORT.json", help="write the report as JSON")
     p.add_argument("--force", action="store_true", help="replace outputs that exist")
     add_input_options(p)
@@ -90,7 +146,9 @@ def run(args: argparse.Namespace) -> int:
     if args.abort_frames is not None and args.abort_at is None:
         raise MjmotionError("--abort-frames goes with --abort-at")
     if args.scores and args.pcs is not None:
-        raise MjmotionError("--pcs is set by the number of columns of --scores; drop --pcs")
+        raise MjmotionError(
+            "--pcs is set by the number of columns of --scores; drop --pcs"
+        )
 
     source = load(args.file, args)
     # inner-joint translations (some rigs animate them) are parameters too, so nothing is lost
@@ -109,48 +167,92 @@ def run(args: argparse.Namespace) -> int:
                 seg = (a, b)
             path = variations.scaled_path(base, args.scale, seg)
         else:
-            path = variations.aborted_path(base, args.abort_at, args.abort_frames, args.rest_frame, source.fps, space=space)
+            path = variations.aborted_path(
+                base,
+                args.abort_at,
+                args.abort_frames,
+                args.rest_frame,
+                source.fps,
+                space=space,
+            )
     k = path.k
 
     raw = variations.synthesise(space, path)
-    first = variations.first_hand_for(source) if args.first_hand == "auto" else args.first_hand
+    first = (
+        variations.first_hand_for(source)
+        if args.first_hand == "auto"
+        else args.first_hand
+    )
     first = None if first == "none" else first
     if args.no_cleanup:
         result, cleanup = raw, None
     else:
-        result, cleanup = variations.clean_up(source, raw, path, first_hand=first, feet=args.feet)
+        result, cleanup = variations.clean_up(
+            source, raw, path, first_hand=first, feet=args.feet
+        )
     bvh.write(result, out)
 
     report = variations.report(source, raw, result, path, space, first_hand=first)
-    report["cleanup"] = None if cleanup is None else {
-        "held_frames": cleanup.held_frames,
-        "foot_reach_error_m": cleanup.foot_reach_error_m,
-        "grip_hands": cleanup.grip_hands,
-        "grip_reach_error_m": cleanup.grip_reach_error_m,
-    }
-    errs = reconstruction_errors(source, sorted({1, 2, 3, 5, 10, k, space.n_components} & set(range(1, space.n_components + 1))))
+    report["cleanup"] = (
+        None
+        if cleanup is None
+        else {
+            "held_frames": cleanup.held_frames,
+            "foot_reach_error_m": cleanup.foot_reach_error_m,
+            "grip_hands": cleanup.grip_hands,
+            "grip_reach_error_m": cleanup.grip_reach_error_m,
+        }
+    )
+    errs = reconstruction_errors(
+        source,
+        sorted(
+            {1, 2, 3, 5, 10, k, space.n_components}
+            & set(range(1, space.n_components + 1))
+        ),
+    )
     report["reconstruction_error_m"] = {str(kk): v for kk, v in errs.items()}
     vals = list(errs.values())
-    report["reconstruction_error_falls_with_k"] = bool(all(b <= a + 1e-9 for a, b in zip(vals, vals[1:])))
+    report["reconstruction_error_falls_with_k"] = bool(
+        all(b <= a + 1e-9 for a, b in itertools.pairwise(vals))
+    )
     report.update(source=args.file, output=str(out))
 
     if args.plot:
         src_path = space.source_scores
-        variations.plot_score_paths({"source": src_path, path.label: path.scores}, args.plot, dims=args.plot_dims)
+        variations.plot_score_paths(
+            {"source": src_path, path.label: path.scores},
+            args.plot,
+            dims=args.plot_dims,
+        )
     if args.json:
-        write_text_atomic(args.json, json.dumps(report, indent=2, default=_jsonable) + "\n")
+        write_text_atomic(
+            args.json, json.dumps(report, indent=2, default=_jsonable) + "\n"
+        )
 
     print(
         f"wrote {out}: {path.label}, {result.n_frames} frames, k={k} ({100 * report['variance_explained']:.1f}% of the variance)"
     )
     fs = report["footskate_mm_per_s"]
-    print(f"footskate mm/s: source {fs['source']:.1f}, raw {fs['raw']:.1f}, cleaned {fs['result']:.1f}")
+    if fs["source"] is not None:
+        print(
+            f"footskate mm/s: source {fs['source']:.1f}, raw {_mm(fs['raw'])}, cleaned {_mm(fs['result'])}"
+        )
     if report.get("grip_error_m") is not None:
         g = report["grip_error_m"]
-        print(f"grip error: raw {1000 * g['raw']:.1f} mm, cleaned {1000 * g['result']:.1f} mm")
-    print("reconstruction error falls with k: " + ("yes" if report["reconstruction_error_falls_with_k"] else "NO") + " " +
-          ", ".join(f"k={kk}: {1000 * v:.1f} mm" for kk, v in errs.items()))
+        print(
+            f"grip error: raw {1000 * g['raw']:.1f} mm, cleaned {1000 * g['result']:.1f} mm"
+        )
+    print(
+        "reconstruction error falls with k: "
+        + ("yes" if report["reconstruction_error_falls_with_k"] else "NO")
+        + " "
+        + ", ".join(f"k={kk}: {1000 * v:.1f} mm" for kk, v in errs.items())
+    )
     return 0
+
+
+def _mm(x: float | None) -> str:
+    return "n/a" if x is None else f"{x:.1f}"
 
 
 def _jsonable(x: object) -> object:
