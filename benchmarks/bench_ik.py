@@ -16,8 +16,9 @@ the default falloff (every frame the blend touches is solved), locked lead wrist
 Goals: DLS < 1 ms/frame, NLP < 20 ms/frame, whole-shot NLP < 2 s, style NLP ≤ DLS ≤ CCD.
 
 With ``--grid``: the done-when experiment — all five swings × 3×3 targets at ±10 and ±20 cm for
-``nlp`` and ``dls``: max hit error, max goal error, max grip error, first/last frames and the
-untouched joints equal to the source, mean style error.
+``nlp`` and ``dls`` (locked wrist) and ``dls`` with a 2-DOF wrist: max hit error, max goal error,
+max grip error, first/last frames and the untouched joints equal to the source, mean style error
+(seed Table 2.1: locked should beat 2-DOF).
 
 Usage: ``python benchmarks/bench_ik.py [--grid] [--no-ccd]``.
 """
@@ -159,14 +160,15 @@ def whole_shot_and_style(m, prop, offset: np.ndarray, with_ccd: bool) -> None:
 def grid(with_solvers: tuple[str, ...] = ("nlp", "dls")) -> None:
     d = data_dir()
     print("\n5 swings × 3×3 targets at ±10 and ±20 cm across the swing (done-when experiment)")
-    print(f"{'clip':6s} {'solver':6s} {'n':>3s} {'max hit mm':>10s} {'max goal mm':>11s} {'max grip mm':>11s} {'ends==src':>9s} {'legs==src':>9s} {'mean style':>10s} {'s/frame':>8s}")
+    print(f"{'clip':6s} {'solver':8s} {'n':>3s} {'max hit mm':>10s} {'max goal mm':>11s} {'max grip mm':>11s} {'ends==src':>9s} {'legs==src':>9s} {'mean style':>10s} {'s/frame':>8s}")
     for clip in SWINGS:
         m = bvh.read(d / "cmu_asfamc_converted" / f"{clip}.bvh")
         prop = hitpoint.fit_club(m)
-        for solver in with_solvers:
-            rs = hitpoint.grid_reports(m, prop=prop, solver=solver)
+        for solver, wrist in [(s, "locked") for s in with_solvers] + [("dls", "swing")]:
+            rs = hitpoint.grid_reports(m, prop=prop, solver=solver, wrist=wrist)
+            label = solver if wrist == "locked" else f"{solver}/2dof"
             print(
-                f"{clip:6s} {solver:6s} {len(rs):3d} {max(r['hit_error_m'] for r in rs) * 1000:10.2e} "
+                f"{clip:6s} {label:8s} {len(rs):3d} {max(r['hit_error_m'] for r in rs) * 1000:10.2e} "
                 f"{max(r['max_goal_error_m'] for r in rs) * 1000:11.2e} {max(r['grip_error_m'] for r in rs) * 1000:11.2e} "
                 f"{str(all(r['first_last_equal'] for r in rs)):>9s} {str(all(r['untouched_equal'] for r in rs)):>9s} "
                 f"{np.mean([r['style_rmse'] for r in rs]):10.4f} {np.mean([r['solve_s_per_frame'] for r in rs]):8.4f}",

@@ -179,6 +179,44 @@ def resolve_effector(motion: Motion, name: str, prop: mjcf.Prop | None = None) -
     return Effector(name, int(joints[0]), tuple(compiled.model.site_pos[sid])), prop
 
 
+# --- stiffness learned from the style space ---------------------------------------------------
+def style_weights(motion: Motion, chain: Chain, variance: float = 0.7, floor: float = 0.05) -> np.ndarray:
+    """Meredith & Maddock weights ``(n_dof,)`` learned from the clip's PCA style space (§1.10, §2.5.4).
+
+    A coordinate's stiffness is how far a small turn of it moves the pose in the source's top-``k``
+    principal components (the space ``style_rmse`` measures), averaged over the clip's frames:
+    ``kᵢ = meanₜ |Lₖᵀ (∂x/∂δᵢ ⊘ D)|²`` with ``x`` the pose parameters, ``D`` their deviations and
+    ``Lₖ`` the loadings. Weights are ``1 / (kᵢ + floor · max k)``, normalised to a maximum of 1.
+    A joint whose rotation never changes in the source is invisible to the PCA; it gets the
+    largest stiffness instead of none (it should not start moving now).
+    """
+    from .style import PoseSpace
+
+    space = PoseSpace.fit(motion)
+    k = space.components_for(variance)
+    lk = space.loadings[:, :k]
+    row = -np.ones(space.kept.size, dtype=int)
+    row[space.kept] = np.arange(int(space.kept.sum()))
+    stiff = []
+    still = []
+    for cj in chain.joints:
+        cols = 3 + 4 * cj.joint + np.arange(4)  # pose_parameters: root translation, then quaternions
+        kept = space.kept[cols]
+        rows = lk[row[cols[kept]]]  # (n_kept, k)
+        q = rot.make_continuous(motion.rotations[:, cj.joint])
+        for i in range(cj.dof):
+            dq = rot.multiply(q, np.concatenate([[0.0], 0.5 * cj.basis[:, i]]))[:, kept]
+            z = (dq / space.deviations[cols[kept]]) @ rows
+            stiff.append(float(np.mean(np.sum(z**2, axis=1))))
+            still.append(not kept.any())
+    s = np.asarray(stiff)
+    if s.size == 0:
+        return s
+    s = np.where(still, s.max(), s)
+    w = 1.0 / (s + floor * s.max() + 1e-12)
+    return w / w.max()
+
+
 # --- hit frame and blend -----------------------------------------------------------------------
 def detect_hit_frame(effector: np.ndarray, fps: float) -> int:
     """Frame of peak effector speed in the downswing, ``effector: (T, 3)`` metres.
@@ -291,7 +329,7 @@ def setup(
     wrist: str = "locked",
     lock: tuple[str, ...] | list[str] = (),
     margin: float = DEFAULT_MARGIN,
-    weights: str = "clip",
+    weights: str = "style",
     edge: float = DEFAULT_EDGE,
     chain_start: str | None = None,
     prop: mjcf.Prop | None = None,
@@ -316,7 +354,10 @@ def setup(
     local = tip_frames[hit, :3, :3].T @ (tgt - e_fk[hit])
     goals = e_fk + blend[:, None] * np.einsum("tab,b->ta", tip_frames[:, :3, :3], local)
     start = skel.index(chain_start) if chain_start else _chain_start(skel, eff.joint)
-    lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=weights)
+    chain_weights = "clip" if weights == "style" else weights
+    lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=chain_weights)
+    if weights == "style" and lead.n_dof:
+        lead = lead.with_weights(style_weights(motion, lead))
     second = None
     rel = None
     if effector == "club":
@@ -327,7 +368,9 @@ def setup(
             anc = _lca(skel, eff.joint, h2)
             s2 = skel.chain(anc, h2)[1]
             # The second arm only follows the first hand; its limits get twice the margin.
-            second = build_chain(motion, s2, h2, None, wrist="swing", margin=2 * margin, weights=weights)
+            second = build_chain(motion, s2, h2, None, wrist="swing", margin=2 * margin, weights=chain_weights)
+            if weights == "style" and second.n_dof:
+                second = second.with_weights(style_weights(motion, second))
             rel = np.linalg.inv(tip_frames) @ _frames(pose, h2)
     return HitProblem(motion, compiled, eff, lead, second, kinematics.qpos(compiled, motion), e_fk, hit, tgt, blend, goals, rel, falloff, prop)
 
@@ -524,7 +567,7 @@ def adapt(
     wrist: str = "locked",
     lock: tuple[str, ...] | list[str] = (),
     margin: float = DEFAULT_MARGIN,
-    weights: str = "clip",
+    weights: str = "style",
     edge: float = DEFAULT_EDGE,
     smoothness: float = 1e3,
     chain_start: str | None = None,
@@ -545,7 +588,8 @@ def adapt(
         wrist: the effector-side wrist's freedom: ``locked`` (§2.3.3), ``swing`` (2 DOF) or ``ball``.
         lock: further joints to lock.
         margin: radians added to the clip's range for the rotation limits.
-        weights: stiffness weights, ``clip`` (the coordinate's variance in the clip) or ``uniform``.
+        weights: stiffness weights: ``style`` (learned from the source's PCA style space,
+            :func:`style_weights`), ``clip`` (the coordinate's variance in the clip) or ``uniform``.
         edge: seconds of taper to the source at both ends.
         smoothness: weight of the acceleration term (``nlp-shot``).
         chain_start: override the chain's first joint (default: the root's child toward the effector).

@@ -16,12 +16,14 @@ is taken as the FK frame's plus ``δ`` (exact for hinges, first order for 2/3-ax
 limits are per-frame box bounds on ``δ`` that always contain 0.
 
 Stiffness (§1.10, Meredith & Maddock 2005): each coordinate has a weight ``w ∈ (0, 1]``; a small
-weight is a stiff joint. The default weights are the clip's own variance of the coordinate
-(a joint that moves a lot in this shot is supple), floored and normalised to a maximum of 1.
+weight is a stiff joint. ``weights="clip"`` gives the clip's own variance of the coordinate (a
+joint that moves a lot in this shot is supple), floored and normalised to a maximum of 1;
+:func:`mjmotion.hitpoint.style_weights` learns them from the clip's PCA style space instead.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass, field
 
@@ -126,6 +128,14 @@ class Chain:
     @property
     def names(self) -> list[str]:
         return [self.skeleton.names[j.joint] for j in self.joints]
+
+    def with_weights(self, weights: np.ndarray) -> Chain:
+        """The same chain with stiffness weights ``(n_dof,)`` (chain order) replaced."""
+        w = np.asarray(weights, dtype=float)
+        if w.shape != (self.n_dof,) or not np.all(w > 0):
+            raise MjmotionError(f"chain weights must be {self.n_dof} positive numbers, got shape {w.shape}")
+        joints = tuple(dataclasses.replace(j, weight=w[s]) for j, s in zip(self.joints, self.slices))
+        return dataclasses.replace(self, joints=joints)
 
     def factor_axes(self) -> np.ndarray:
         """``(Jc, 3, 3)`` per joint, the three factor axes (columns of ``basis``) as rows."""
