@@ -36,10 +36,10 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from mjmotion import bvh, hitpoint  # noqa: E402
-from mjmotion.ik import ccd, dls  # noqa: E402
-from mjmotion.ik.chains import ChainKinematics  # noqa: E402
-from mjmotion.ik.nlp import FrameSolver  # noqa: E402
+from mjmotion import bvh, hitpoint
+from mjmotion.ik import ccd, dls
+from mjmotion.ik.chains import ChainKinematics
+from mjmotion.ik.nlp import FrameSolver
 
 SWINGS = [f"64_0{i}" for i in range(1, 6)]
 
@@ -102,7 +102,7 @@ def per_frame(problem: hitpoint.HitProblem, with_ccd: bool) -> None:
 def mink_solver(problem: hitpoint.HitProblem, posture_scale: float = 1e-3, max_iter: int = 50, tol: float = 1e-5):
     try:
         import mink
-    except Exception as exc:  # an optional peer
+    except ImportError as exc:  # an optional peer
         return None, f"mink does not import ({exc}); pip install mink"
     c, lead = problem.compiled, problem.lead
     model = c.model
@@ -170,7 +170,7 @@ def grid(with_solvers: tuple[str, ...] = ("nlp", "dls")) -> None:
             print(
                 f"{clip:6s} {label:8s} {len(rs):3d} {max(r['hit_error_m'] for r in rs) * 1000:10.2e} "
                 f"{max(r['max_goal_error_m'] for r in rs) * 1000:11.2e} {max(r['grip_error_m'] for r in rs) * 1000:11.2e} "
-                f"{str(all(r['first_last_equal'] for r in rs)):>9s} {str(all(r['untouched_equal'] for r in rs)):>9s} "
+                f"{all(r['first_last_equal'] for r in rs)!s:>9s} {all(r['untouched_equal'] for r in rs)!s:>9s} "
                 f"{np.mean([r['style_rmse'] for r in rs]):10.4f} {np.mean([r['solve_s_per_frame'] for r in rs]):8.4f}",
                 flush=True,
             )

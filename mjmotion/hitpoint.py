@@ -229,7 +229,7 @@ def detect_hit_frame(effector: np.ndarray, fps: float) -> int:
     if len(effector) < 3:
         return 0
     vel = np.gradient(effector, axis=0) * fps
-    width = max(1, int(round(0.025 * fps)))
+    width = max(1, round(0.025 * fps))
     kernel = np.ones(2 * width + 1) / (2 * width + 1)
     vel = np.column_stack([np.convolve(vel[:, i], kernel, mode="same") for i in range(3)])
     speed = np.linalg.norm(vel, axis=1)
@@ -252,7 +252,7 @@ def blend_weights(effector: np.ndarray, hit: int, falloff: float, fps: float, ed
     d = np.linalg.norm(effector - effector[hit], axis=1)
     b = np.clip(1.0 - d / falloff, 0.0, 1.0)
     t = len(effector)
-    n = max(1, int(round(edge * fps)))
+    n = max(1, round(edge * fps))
     i = np.arange(t)
     ramp = np.minimum(np.minimum(i, t - 1 - i) / n, 1.0)
     return b * 0.5 * (1.0 - np.cos(np.pi * ramp))

@@ -105,7 +105,7 @@ def test_nlp_optimum_agrees_with_scipy_on_mujoco_fk_and_beats_dls(swing):
     fs = nlp.FrameSolver(cm, lead)
     r = fs.solve(q[t], kin.data.xpos, kin.data.xmat, goal, lo[t], hi[t])
     w = lead.weights
-    cost = lambda d: float(np.sum(d**2 / w))  # noqa: E731
+    cost = lambda d: float(np.sum(d**2 / w))
 
     def eff(d):
         kin.set_delta(d)
