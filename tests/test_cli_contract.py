@@ -156,14 +156,12 @@ def as_input(spec: Verb, clip: Path) -> Path:
 #: xfail: when the verb is fixed the test passes, pytest reports XPASS as a failure, and the
 #: entry must be removed here.
 KNOWN_BREAKS: dict[str, str] = {
-    "vary --rest-frame 99999": "vary accepts a --rest-frame outside the clip (exit 0)",
     "evaluate --h-c -1": "evaluate accepts a negative contact height",
     "evaluate input-is-output": "evaluate --json does not pass the input to check_output: it would overwrite the clip",
     "cleanup --h-c -1": "cleanup: internal IndexError on clips shorter than its smoothing kernel (30 frames)",
     "cleanup --v-c nan": "cleanup: internal IndexError on clips shorter than its smoothing kernel (30 frames)",
     "cleanup --blend -2": "cleanup: internal IndexError on clips shorter than its smoothing kernel (30 frames)",
     "cleanup atomic": "cleanup: internal IndexError on clips shorter than its smoothing kernel (30 frames)",
-    "vary atomic": "vary (through cleanup): internal IndexError on a 30-frame clip",
 }
 
 

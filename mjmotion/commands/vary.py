@@ -69,7 +69,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--rest-frame",
         type=int,
-        default=-1,
+        default=None,
         metavar="F",
         help="the rest pose's frame (default: the last)",
     )
@@ -145,6 +145,8 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError("--segment goes with --scale")
     if args.abort_frames is not None and args.abort_at is None:
         raise MjmotionError("--abort-frames goes with --abort-at")
+    if args.rest_frame is not None and args.abort_at is None:
+        raise MjmotionError("--rest-frame goes with --abort-at")
     if args.scores and args.pcs is not None:
         raise MjmotionError(
             "--pcs is set by the number of columns of --scores; drop --pcs"
@@ -171,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
                 base,
                 args.abort_at,
                 args.abort_frames,
-                args.rest_frame,
+                -1 if args.rest_frame is None else args.rest_frame,
                 source.fps,
                 space=space,
             )
