@@ -407,7 +407,34 @@ def test_vary_cli_report_and_errors(tmp_path, capsys):
         main(["vary", str(src_file), "--scale", "-1", "-o", str(tmp_path / "c.bvh")])
         == 2
     )
+    d = str(tmp_path / "d.bvh")
+    assert (
+        main(["vary", str(src_file), "--scale", "1.2", "--rest-frame", "5", "-o", d])
+        == 2
+    )
+    assert (
+        main(
+            [
+                "vary",
+                str(src_file),
+                "--abort-at",
+                "100",
+                "--rest-frame",
+                "99999",
+                "-o",
+                d,
+            ]
+        )
+        == 2
+    )
+    # a clip shorter than the root-smoothing window (0.3 s) still works
+    short = tmp_path / "short.bvh"
+    bvh.write(bvh.read(src_file)[200:230], short)
+    assert (
+        main(["vary", str(short), "--scale", "1.5", "-o", str(tmp_path / "e.bvh")]) == 0
+    )
     err = capsys.readouterr().err
+    assert "--rest-frame goes with --abort-at" in err and "outside the clip" in err
     assert (
         "already exists" in err
         and "--segment goes with --scale" in err
