@@ -15,6 +15,7 @@ from __future__ import annotations
 import io
 import itertools
 import os
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -57,11 +58,14 @@ def read(
     """
     p = str(path)
     try:
-        size = os.path.getsize(p)
-        if max_bytes is not None and size > max_bytes:
-            raise BvhError(p, None, f"file is {size} bytes, larger than the limit of {max_bytes}")
-        with open(p, "rb") as fh:
-            raw = fh.read()
+        if not stat.S_ISREG(os.stat(p).st_mode) and not os.path.isdir(p):
+            raw = _read_stream(p, max_bytes if max_bytes is not None else _STREAM_LIMIT)
+        else:
+            size = os.path.getsize(p)
+            if max_bytes is not None and size > max_bytes:
+                raise BvhError(p, None, f"file is {size} bytes, larger than the limit of {max_bytes}")
+            with open(p, "rb") as fh:
+                raw = fh.read()
     except FileNotFoundError:
         raise BvhError(p, None, "no such file") from None
     except IsADirectoryError:
@@ -72,6 +76,27 @@ def read(
         raise BvhError(p, None, f"cannot read: {e.strerror or e}") from None
     motion = parse(raw, p, scale=scale, up=up)
     return motion.replace(name=Path(p).stem)
+
+
+#: Most bytes read from a pipe or device (``/dev/stdin``), whose size is not known in advance.
+_STREAM_LIMIT = 1 << 30
+
+
+def _read_stream(p: str, limit: int) -> bytes:
+    """A pipe or device, in chunks: refuses binary data at once (``/dev/zero`` would never end)."""
+    chunks: list[bytes] = []
+    total = lines = 0
+    with open(p, "rb") as fh:
+        while chunk := fh.read(1 << 20):
+            nul = chunk.find(b"\x00")
+            if nul >= 0:
+                raise BvhError(p, lines + chunk.count(b"\n", 0, nul) + 1, "binary data (a NUL byte); expected a text BVH file")
+            total += len(chunk)
+            if total > limit:
+                raise BvhError(p, None, f"more than {limit} bytes from a pipe or device; expected a BVH file")
+            lines += chunk.count(b"\n")
+            chunks.append(chunk)
+    return b"".join(chunks)
 
 
 def parse(data: bytes | str, path: str = "<string>", scale: float | None = None, up: str = "y") -> Motion:

@@ -8,7 +8,9 @@ expected line is known from the edit, not from the reader).
 from __future__ import annotations
 
 import importlib.util
+import os
 import sys
+import threading
 import time
 import tracemalloc
 from pathlib import Path
@@ -232,3 +234,41 @@ def test_reader_never_modifies_its_input(tmp_path):
         except BvhError:
             pass
         assert path.read_bytes() == c.data
+
+
+# --- pipes and devices ---------------------------------------------------------------------------
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/urandom"])
+def test_endless_devices_are_refused_not_read_forever(device):
+    if not os.path.exists(device):
+        pytest.skip(f"no {device}")
+    t0 = time.perf_counter()
+    with pytest.raises(BvhError, match="binary data"):
+        bvh.read(device)
+    assert time.perf_counter() - t0 < 10
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes")
+def test_a_named_pipe_is_read_and_capped(tmp_path, base):
+    fifo = tmp_path / "clip.bvh"
+    data = (BAD / "base.bvh").read_bytes()
+    for limit, ok in ((None, True), (100, False)):
+        os.mkfifo(fifo)
+        writer = threading.Thread(target=_feed, args=(fifo, data))
+        writer.start()
+        try:
+            if ok:
+                assert np.array_equal(bvh.read(fifo).rotations, base.rotations)
+            else:
+                with pytest.raises(BvhError, match="more than 100 bytes from a pipe"):
+                    bvh.read(fifo, max_bytes=limit)
+        finally:
+            writer.join(timeout=10)
+            fifo.unlink()
+
+
+def _feed(fifo: Path, data: bytes) -> None:
+    try:
+        with open(fifo, "wb") as fh:
+            fh.write(data)
+    except BrokenPipeError:  # the reader stopped early (the capped case)
+        pass
