@@ -11,7 +11,9 @@ the default falloff (every frame the blend touches is solved), locked lead wrist
    hinge, so its elbow/forearm keep 3 DOF). Time per frame (median and 90th percentile) and final
    goal error (median, max).
 2. Whole-shot NLP (both hands as constraints, smoothness term): wall time including the build.
-3. Style error (``style.style_rmse``) of the full adaptation with each solver.
+3. Style error (``style.style_rmse``) of the full adaptation with each solver, and how smoothly
+   the IK deviation from the source varies (RMS second difference of ``log(q_src⁻¹ q)``, rad/s²:
+   what the whole-shot form's smoothness term buys).
 
 Goals: DLS < 1 ms/frame, NLP < 20 ms/frame, whole-shot NLP < 2 s, style NLP ≤ DLS ≤ CCD.
 
@@ -37,6 +39,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from mjmotion import bvh, hitpoint
+from mjmotion import rotations as rot
 from mjmotion.ik import ccd, dls
 from mjmotion.ik.chains import ChainKinematics
 from mjmotion.ik.nlp import FrameSolver
@@ -139,9 +142,17 @@ def mink_solver(problem: hitpoint.HitProblem, posture_scale: float = 1e-3, max_i
     return solve, ""
 
 
+def deviation_acceleration(source, adapted) -> float:
+    """RMS over frames and joints of the second time difference of the IK deviation ``log(q_src⁻¹ q)`` (rad/s²)."""
+    dev = rot.log(rot.multiply(rot.conjugate(source.rotations), adapted.rotations))
+    moved = np.flatnonzero(np.abs(dev).max(axis=(0, 2)) > 0)
+    acc = np.diff(dev[:, moved], n=2, axis=0) * source.fps**2
+    return float(np.sqrt(np.mean(np.sum(acc**2, axis=-1))))
+
+
 def whole_shot_and_style(m, prop, offset: np.ndarray, with_ccd: bool) -> None:
     print(f"\nfull adaptation of {m.name} ({m.n_frames} frames), both hands:")
-    print(f"{'solver':9s} {'wall s':>8s} {'solve s/frame':>14s} {'hit err mm':>11s} {'grip err mm':>12s} {'style_rmse':>11s}")
+    print(f"{'solver':9s} {'wall s':>8s} {'solve s/frame':>14s} {'hit err mm':>11s} {'grip err mm':>12s} {'style_rmse':>11s} {'dev acc rad/s2':>14s}")
     results = {}
     for solver in ["nlp-shot", "nlp", "dls"] + (["ccd"] if with_ccd else []):
         s = time.perf_counter()
@@ -149,7 +160,7 @@ def whole_shot_and_style(m, prop, offset: np.ndarray, with_ccd: bool) -> None:
         wall = time.perf_counter() - s
         r = a.report
         results[solver] = r["style_rmse"]
-        print(f"{solver:9s} {wall:8.2f} {r['solve_s_per_frame']:14.5f} {r['hit_error_m'] * 1000:11.2e} {r['grip_error_m'] * 1000:12.2e} {r['style_rmse']:11.4f}")
+        print(f"{solver:9s} {wall:8.2f} {r['solve_s_per_frame']:14.5f} {r['hit_error_m'] * 1000:11.2e} {r['grip_error_m'] * 1000:12.2e} {r['style_rmse']:11.4f} {deviation_acceleration(m, a.motion):14.1f}")
         if solver == "nlp-shot":
             n = int((a.problem.blend > 0).sum())
             print(f"          whole-shot NLP: {r['solve_s_per_frame'] * n:.2f} s for {n} solved frames of a {m.n_frames}-frame swing (build + solve; goal < 2 s)")

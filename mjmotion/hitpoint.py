@@ -569,7 +569,7 @@ def adapt(
     margin: float = DEFAULT_MARGIN,
     weights: str = "style",
     edge: float = DEFAULT_EDGE,
-    smoothness: float = 1e3,
+    smoothness: float = 100.0,
     chain_start: str | None = None,
     prop: mjcf.Prop | None = None,
     style: bool = True,

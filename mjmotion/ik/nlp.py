@@ -266,7 +266,7 @@ class ShotSolver:
     the whole problem (20× faster to build and to evaluate).
     """
 
-    def __init__(self, compiled: CompiledModel, lead: Chain, second: Chain | None, frames: np.ndarray, smoothness: float = 1e3):
+    def __init__(self, compiled: CompiledModel, lead: Chain, second: Chain | None, frames: np.ndarray, smoothness: float = 100.0):
         chains = [lead] + ([second] if second is not None else [])
         self.fk = SymbolicFK(compiled, chains)
         frames = np.asarray(frames, dtype=int)
