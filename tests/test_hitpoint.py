@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from mjmotion import bvh, hitpoint, kinematics, mjcf
+from mjmotion import rotations as rot
 from mjmotion.cli import main
 
 GRID = [(dy, dz) for dy in (-0.2, 0.0, 0.2) for dz in (-0.2, 0.0, 0.2)]
@@ -110,6 +111,14 @@ def test_whole_shot_nlp_reaches_and_keeps_the_grip(short):
     r = a.report
     assert r["hit_error_m"] < 1e-3 and r["max_goal_error_m"] < 1e-3 and r["grip_error_m"] < 5e-3, r
     assert np.array_equal(a.motion.rotations[[0, -1]], sl.rotations[[0, -1]])
+    # The smoothness term makes the deviation from the source vary more smoothly than per-frame IK.
+    b = hitpoint.adapt(sl, offset=np.array([0.0, 0.1, -0.1]), prop=prop, solver="nlp", falloff=0.4, edge=0.05, style=False)
+
+    def roughness(x):
+        dev = rot.log(rot.multiply(rot.conjugate(sl.rotations), x.rotations))
+        return float(np.sum(np.diff(dev, n=2, axis=0) ** 2))
+
+    assert roughness(a.motion) < roughness(b.motion)
 
 
 def test_unreachable_target_is_flagged_not_raised(short):
@@ -150,7 +159,6 @@ def test_cli_writes_the_clip_and_the_report(swing, tmp_path, capsys):
 
 def test_style_weights_stiffen_what_the_style_space_sees(short):
     """A turn of a stiff coordinate moves the top-k PCA scores more than a turn of a supple one."""
-    from mjmotion import rotations as rot
     from mjmotion.style import PoseSpace
 
     s, prop = short
