@@ -4,26 +4,29 @@ The pipeline, one pure function :func:`adapt` over a source :class:`Motion`:
 
 1. **Effector** (§2.1.1): a point fixed to a joint — a club's sweet spot (the club fitted to both
    hands by :func:`fit_club`), a point on a foot, a fist, or any named site of the compiled model.
-2. **Hit frame**: given, or the frame of peak effector speed (:func:`detect_hit_frame`); the source
-   hit point is the effector there.
+2. **Hit frame**: given, or the frame of peak effector speed in the downswing
+   (:func:`detect_hit_frame`); the source hit point is the effector there.
 3. **Offset in effector space** (§2.2.4) and **importance blend** (§2.2.5): the goal at frame ``t``
    is the FK effector plus ``blend(t)`` times the offset carried by the effector's frame, with
    ``blend = clamp(1 − d/falloff, 0, 1)``, ``d`` the FK distance from the effector to the FK hit
    point. Golf addresses the ball (``d ≈ 0`` at the first frames), so the blend is also tapered
    to 0 over ``edge`` seconds at both ends: the first and last frames stay the source exactly.
 4. **IK** per frame from that frame's FK pose (§2.2.3) on a chain from the lower spine (never the
-   root, §2.2.2) to the effector, with freedoms, limits and stiffness from :mod:`mjmotion.ik.chains`:
+   root, §2.2.2) to the effector, with freedoms and limits from :mod:`mjmotion.ik.chains` and
+   stiffness learned from the source's PCA style space (:func:`style_weights`, §1.10):
    ``nlp`` (CasADi/IPOPT, the main solver), ``nlp-shot`` (one problem over the whole shot with both
    hands), ``dls`` or ``ccd`` (the seed's baselines).
 5. **Second hand** (§2.2.2): a club held in both hands: the other hand goes back, frame by frame,
    to its source position and orientation relative to the first hand (6-D IK on its arm).
 6. **Report**: goal and grip errors, style error (``style.style_rmse``, METRICS.md "Style"), timing.
+   ``hit_error_m`` here is the distance from the effector to the target point (the club's sweet
+   spot is where the ball's centre should be), not METRICS.md's ball-surface distance.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -270,7 +273,8 @@ class HitProblem:
         qpos: ``(T, nq)`` the source's FK poses.
         effector_fk: ``(T, 3)`` the source effector; ``hit``: the hit frame; ``target``: ``(3,)``.
         blend: ``(T,)``; ``goals``: ``(T, 3)`` effector goals.
-        second_goals: ``(T, 4, 4)`` source pose of the second hand relative to the lead chain's tip.
+        second_relative: ``(T, 4, 4)`` source pose of the second hand in the lead chain tip's frame.
+        falloff: metres; ``prop``: the club (``None`` for other effectors).
     """
 
     source: Motion
@@ -287,7 +291,6 @@ class HitProblem:
     second_relative: np.ndarray | None
     falloff: float
     prop: mjcf.Prop | None = None
-    extra: dict = field(default_factory=dict)
 
 
 def _frames(pose: kinematics.Pose, j: int) -> np.ndarray:
