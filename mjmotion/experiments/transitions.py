@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import bvh, plots
+from .. import rotations as rot
 from .. import evaluate as ev
 from .. import stream as st
 from ..blend import Track, yaw_of
@@ -78,6 +79,29 @@ def _recorded_tracks() -> Iterator[list[list[Track]]]:
         yield seen
     finally:
         st.compose = original  # type: ignore[assignment]
+
+
+def absolute_compose(tracks: tuple[Track, ...], fps: float, name: str = "naive") -> Motion:
+    """The naive baseline: the same tracks averaged in their clips' own coordinates (root positions
+    and every rotation, root included, weighted as they are) instead of by root increments.
+
+    Each clip is where it was captured, so a transition drags the character toward the other
+    clip's place and heading and back — the jump-and-turn of seed 000 §4.1's blip, spread over
+    the blend window. ``(N frames)`` on the first track's skeleton.
+    """
+    w = np.stack([tr.weights for tr in tracks], axis=1)
+    w = w / np.maximum(w.sum(axis=1, keepdims=True), 1e-12)  # (N, E)
+    samples = [tr.motion.sample(tr.times) for tr in tracks]
+    root = np.einsum("ne,nec->nc", w, np.stack([s[0] for s in samples], axis=1))
+    q = np.stack([s[1] for s in samples], axis=2)  # (N, J, E, 4)
+    q_out = rot.make_continuous(rot.weighted_average(q, np.broadcast_to(w[:, None, :], q.shape[:3]), axis=2))
+    skel = tracks[0].motion.skeleton
+    translations = None
+    if any(s[2] is not None for s in samples):
+        offsets = np.broadcast_to(skel.offsets, q.shape[:2] + (3,))
+        tr_all = np.stack([s[2] if s[2] is not None else offsets for s in samples], axis=1)
+        translations = np.einsum("ne,nejc->njc", w, tr_all)
+    return Motion(skel, fps, root, q_out, translations, name)
 
 
 def run_stream(script: st.Script) -> StreamResult:
@@ -245,6 +269,8 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
                 f"{c.time:g} s {c.kind}" + (f" {c.clip} (blend {c.blend:g} s)" if c.kind == "play" else f" {np.round(np.asarray(c.weights), 2).tolist()} (ramp {c.ramp:g} s)")
                 for c in script.commands
             ),
+            ("naive: the same tracks averaged in their clips' own coordinates (absolute roots and root rotations) "
+             "instead of composed from root increments — the baseline that shows a blip"),
             ("max joint speed ratio, root jump: METRICS.md against every source clip (≤ 1.5 and ≤ 0 m: no pop, no jump); "
                 "per-joint speed ratio: the same joint by joint (one source's spike cannot mask another joint's pop)"),
             ("heading step: the root's largest turn in one frame; seed 000 §4.1's time blip turned the character "
@@ -256,6 +282,11 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
     )  # fmt: skip
     for name, t0, t1 in phases(script):
         table.add(*phase_row(result, name, t0, t1, sources, checks))
+    # the same tracks composed naively: the metrics must flag what the incremental root avoids
+    naive = StreamResult(script, absolute_compose(result.tracks, script.fps), result.tracks)
+    for name, t0, t1 in phases(script):
+        if "back to locomotion" in name or name == "whole stream":
+            table.add(*phase_row(naive, f"naive: {name}", t0, t1, sources, checks))
     clip_names, weights = result.weights_by_clip()
     t = np.arange(result.motion.n_frames) / result.motion.fps
     files = [plots.weight_curves(t, weights, out_dir / "weights.png", labels=clip_names, title="stream weights per source clip")]
