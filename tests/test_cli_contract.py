@@ -162,6 +162,8 @@ KNOWN_BREAKS: dict[str, str] = {
     "cleanup --v-c nan": "cleanup: internal IndexError on clips shorter than its smoothing kernel (30 frames)",
     "cleanup --blend -2": "cleanup: internal IndexError on clips shorter than its smoothing kernel (30 frames)",
     "cleanup atomic": "cleanup: internal IndexError on clips shorter than its smoothing kernel (30 frames)",
+    "stream script huge-duration": "stream: internal MemoryError for duration 1e9 (allocates before checking)",
+    "stream script binary": "stream: internal UnicodeDecodeError on a binary script",
 }
 
 
@@ -531,6 +533,30 @@ def test_subprocess_verbose(tmp_path):
     p = _mjmotion("--verbose", "compile", "missing.bvh", "-o", "m.xml", cwd=tmp_path)
     assert p.returncode == 2 and "Traceback" in p.stderr and p.stderr.rstrip().splitlines()[-1].startswith("error:")
     assert not (tmp_path / "m.xml").exists()
+
+
+STREAM_SCRIPTS = {
+    "truncated-json": b'{"duration": 1,\n "clips": {',
+    "not-an-object": b"[]",
+    "negative-duration": b'{"duration": -1, "clips": {"a": {"file": "CLIP"}}, "locomotion": ["a"], "commands": [{"time": 0, "weights": {"a": 1}}]}',
+    "huge-duration": b'{"duration": 1e9, "clips": {"a": {"file": "CLIP"}}, "locomotion": ["a"], "commands": [{"time": 0, "weights": {"a": 1}}]}',
+    "unknown-clip": b'{"duration": 0.2, "clips": {"a": {"file": "CLIP"}}, "locomotion": ["b"], "commands": [{"time": 0, "weights": {"a": 1}}]}',
+    "missing-clip-file": b'{"duration": 0.2, "clips": {"a": {"file": "nosuch.bvh"}}, "locomotion": ["a"], "commands": [{"time": 0, "weights": {"a": 1}}]}',
+    "binary": bytes(range(256)) * 4,
+}
+
+
+@pytest.mark.parametrize(
+    "kind", [pytest.param(k, marks=_known(f"stream script {k}")) for k in STREAM_SCRIPTS]
+)  # fmt: skip
+def test_stream_refuses_bad_scripts(kind, tmp_path, human, capsys):
+    if "stream" not in SUBPARSERS:
+        pytest.skip("no stream verb yet")
+    script = tmp_path / "script.json"
+    script.write_bytes(STREAM_SCRIPTS[kind].replace(b"CLIP", str(human).encode()))
+    out = tmp_path / "out.bvh"
+    refused(*run(["stream", str(script), "-o", str(out)], capsys)[::2])
+    assert not out.exists()
 
 
 def test_hit_unreachable_target_is_reported_not_crashed(tmp_path, human, capsys):
