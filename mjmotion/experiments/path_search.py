@@ -220,6 +220,13 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
         ],
         files=[str(out_dir / "pairs.md"), *files],
     )  # fmt: skip
+    below = [r for r in detail.rows if r[3] == "free end" and isinstance(r[6], float) and r[6] < 1 - 1e-12]
+    if below:
+        table.notes.append(
+            f"free end: {len(below)} path(s) ({', '.join(sorted({str(r[4]) for r in below}))}) end with a lower mean cost than "
+            "DP's: DP keeps, per boundary cell, the cheapest total path and then picks the least average (Kovar & "
+            "Gleicher's rule, brute force likewise), which is not always the least-average path overall"
+        )
     (out_dir / "pairs.md").write_text(detail.markdown(), encoding="utf-8")
     table.write(out_dir)
     return table

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import bvh, plots
-from .. import rotations as rot
 from .. import evaluate as ev
+from .. import rotations as rot
 from .. import stream as st
 from ..blend import Track, yaw_of
 from ..errors import MjmotionError
