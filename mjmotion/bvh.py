@@ -544,7 +544,7 @@ def format_motion(motion: Motion) -> str:
     _write_hierarchy(out, skel, channels_out, file_offsets, file_ends)
     out.write("MOTION\n")
     out.write(f"Frames: {t}\n")
-    out.write(f"Frame Time: {1.0 / motion.fps:.10g}\n")
+    out.write(f"Frame Time: {_frame_time_text(motion.fps)}\n")
     if columns:
         data = np.column_stack(columns)
         dec = np.array(decimals)
@@ -553,6 +553,16 @@ def format_motion(motion: Motion) -> str:
     else:
         out.write("\n" * t)
     return out.getvalue()
+
+
+def _frame_time_text(fps: float) -> str:
+    """The shortest frame time (≥ 6 significant digits) that reads back as exactly ``fps``."""
+    ft = 1.0 / fps
+    for digits in range(6, 18):
+        text = f"{ft:.{digits}g}"
+        if 1.0 / float(text) == fps:
+            return text
+    return repr(ft)
 
 
 def _wrap_degrees(a: np.ndarray) -> np.ndarray:

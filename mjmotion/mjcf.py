@@ -218,16 +218,71 @@ def _quat_z_to(direction: np.ndarray) -> np.ndarray:
     return rot.exp(axis / s * angle)
 
 
+#: Segment mass fractions of the whole body (de Leva 1996, male; limbs per side, head with neck).
+SEGMENT_MASS = {
+    "head": 0.0694, "trunk": 0.4346, "upper_arm": 0.0271, "forearm": 0.0162, "hand": 0.0061,
+    "thigh": 0.1416, "shank": 0.0433, "foot": 0.0137,
+}  # fmt: skip
+#: Capsule radius of each segment's bones, metres for a 1.75 m stature (shoulder girdle and neck thinner).
+SEGMENT_RADIUS = {
+    "head": 0.085, "neck": 0.05, "girdle": 0.05, "trunk": 0.10, "upper_arm": 0.045, "forearm": 0.037,
+    "hand": 0.025, "thigh": 0.07, "shank": 0.05, "foot": 0.03,
+}  # fmt: skip
+_LIMB = ("upper_arm", "forearm", "hand", "thigh", "shank", "foot", "head")
+
+
+def segments(skeleton: Skeleton) -> list[str]:
+    """Each joint's body segment (the bones hanging from it belong to it).
+
+    Found from the named hands, feet and head: a hand's joint and everything below it is
+    ``hand``, its parent ``forearm``, the next ``upper_arm`` and the one above that the shoulder
+    ``girdle`` (trunk mass); likewise ``foot``/``shank``/``thigh`` from the ankle. ``head`` is
+    the head and neck joints and below. Helper bones (twists) take their parent's segment;
+    everything else is ``trunk``.
+    """
+    label: list[str | None] = [None] * skeleton.n_joints
+
+    def mark_subtree(j: int, name: str) -> None:
+        for k in _subtree(skeleton, j):
+            label[k] = name
+
+    for j, n in enumerate(skeleton.names):
+        low = n.lower()
+        if ("head" in low or "neck" in low) and "end" not in low and label[j] is None:
+            mark_subtree(j, "head")
+            if "neck" in low:
+                label[j] = "neck"
+    for chain_start, names in (
+        ([h for h in skeleton.hands().values()], ("hand", "forearm", "upper_arm", "girdle")),
+        ([a for a, _ in skeleton.feet().values()], ("foot", "shank", "thigh")),
+    ):
+        for j in chain_start:
+            mark_subtree(j, names[0])
+            k = j
+            for seg in names[1:]:
+                k = int(skeleton.parents[k])
+                if k <= 0:
+                    break
+                label[k] = seg
+    out = []
+    for j in range(skeleton.n_joints):
+        if label[j] is None:
+            p = int(skeleton.parents[j])
+            label[j] = label[p] if p >= 0 and label[p] in _LIMB else "trunk"
+        out.append(label[j])  # type: ignore[arg-type]
+    return out
+
+
+def _mass_class(segment: str) -> str:
+    return {"neck": "head", "girdle": "trunk"}.get(segment, segment)
+
+
 def _look_quat(forward: np.ndarray) -> np.ndarray:
     """Orientation of a camera looking along ``forward`` with the world's +z up (cameras look along -z)."""
     z = -forward / np.linalg.norm(forward)
     x = np.cross([0.0, 0.0, 1.0], z)
     x /= np.linalg.norm(x)
     return rot.from_matrix(np.column_stack([x, np.cross(z, x), z]))
-
-
-def _bone_radius(length: float, height: float) -> float:
-    return float(np.clip(0.12 * length, 0.018, 0.07)) * height / 1.75
 
 
 def compile(
@@ -268,6 +323,10 @@ def compile(
     foot_geoms: dict[str, list[str]] = {}
     feet = skeleton.feet()
     foot_boxes = _foot_boxes(skeleton, feet)
+    ankles = {a for a, _ in feet.values()}
+    segment_of = segments(skeleton)
+    volumes: dict[str, float] = {}
+    class_geoms: dict[str, list[mujoco.MjsGeom]] = {}
     for j, name in enumerate(skeleton.names):
         parent = spec.worldbody if j == 0 else bodies[int(skeleton.parents[j])]
         body = parent.add_body(name=name, pos=[0.0, 0.0, 0.0] if j == 0 else skeleton.offsets[j].tolist())
@@ -293,25 +352,35 @@ def compile(
             site_names.append(site)
             tips.append((skeleton.end_offsets[e], None))
         n_geoms = 0
-        for tip, _ in tips:
+        seg = segment_of[j]
+        radius = SEGMENT_RADIUS[seg] * height / 1.75
+        for c, (tip, _) in zip(skeleton.children(j) + [-1] * len(ends), tips):
             length = float(np.linalg.norm(tip))
-            if length < 0.01 * height / 1.75:
-                continue
+            if length < 0.01 * height / 1.75 or seg == "foot":
+                continue  # the foot's boxes are its geometry: bone capsules would poke through the sole
             if j == 0 and length > 0.35 * height:
                 # An armature root on the floor (iClone's RL_BoneRoot) is not a body segment.
                 continue
-            body.add_geom(
+            r = min(radius, 0.5 * length) if seg in ("hand", "head", "neck") else radius
+            end = np.asarray(tip, dtype=float)
+            if c in ankles:
+                # The shank's end cap stops at the ankle instead of reaching a radius past it (below the sole).
+                end = end * max(length - r, 0.5 * length) / length
+            geom = body.add_geom(
                 type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                fromto=[0.0, 0.0, 0.0, *tip.tolist()],
-                size=[_bone_radius(length, height), 0, 0],
+                fromto=[0.0, 0.0, 0.0, *end.tolist()],
+                size=[r, 0, 0],
                 contype=1,
                 conaffinity=0,
                 rgba=[0.75, 0.6, 0.5, 1.0],
                 group=1,
             )
+            float_len = float(np.linalg.norm(end))
+            volumes[_mass_class(seg)] = volumes.get(_mass_class(seg), 0.0) + np.pi * r * r * float_len + 4.0 / 3.0 * np.pi * r**3
+            class_geoms.setdefault(_mass_class(seg), []).append(geom)
             n_geoms += 1
         for label, (pos, quat, half) in foot_boxes.get(j, {}).items():
-            body.add_geom(
+            geom = body.add_geom(
                 name=label,
                 type=mujoco.mjtGeom.mjGEOM_BOX,
                 pos=pos.tolist(),
@@ -323,6 +392,8 @@ def compile(
                 group=1,
             )
             foot_geoms.setdefault(label.split("/")[1], []).append(label)
+            volumes["foot"] = volumes.get("foot", 0.0) + 8.0 * float(np.prod(half))
+            class_geoms.setdefault("foot", []).append(geom)
             n_geoms += 1
         if n_geoms == 0:
             # A zero-length bone (a hip joint, a twist bone): a tiny explicit inertia keeps MuJoCo valid.
@@ -357,14 +428,14 @@ def compile(
             conaffinity=1,
             rgba=[0.85, 0.1, 0.1, 1.0],
         )
-    # Two passes: compile at unit density, then scale the density to reach the target mass.
-    body_geoms = [g for b in bodies for g in b.geoms if g.name not in {p.name for p in props}]
-    for g in body_geoms:
-        g.density = 1000.0
-    model = spec.compile()
-    char_mass = float(sum(model.body_mass[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n)] for n in skeleton.names))
-    for g in body_geoms:
-        g.density = 1000.0 * mass / char_mass
+    # One density per segment so segment masses follow de Leva's fractions (absent segments' share
+    # is spread over the rest): mass distribution drives the inverse-dynamics residuals.
+    present = {c: SEGMENT_MASS[c] * (1 if c in ("head", "trunk") else 2) for c in class_geoms}
+    scale = 1.0 / sum(present.values()) if present else 0.0
+    for c, geoms in class_geoms.items():
+        density = mass * present[c] * scale / volumes[c]
+        for g in geoms:
+            g.density = density
     model = spec.compile()
     return _index(skeleton, spec, model, tuple(site_names), tuple(props), ball, foot_geoms)
 

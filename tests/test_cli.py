@@ -70,7 +70,7 @@ def test_convert_scale_fps_frames_keep_the_motion(walk, tmp_path):
     pb = kinematics.joint_positions(b)
     # The file's frame time is 0.00833333 s, not 1/120: 60 fps samples drift by < 1e-4 frames.
     assert np.abs(pa - pb).max() < 1e-5
-    assert "OFFSET" in out.read_text() and "Frame Time: 0.01666666667" in out.read_text()
+    assert "OFFSET" in out.read_text() and "Frame Time: 0.016666666666666666" in out.read_text()
 
 
 def test_outputs_are_protected(walk, tmp_path, capsys):

@@ -91,3 +91,38 @@ def test_unknown_prop_kind_is_refused(mocap):
         mjcf.parse_prop_option(m.skeleton, "racket:rwrist")
     with pytest.raises(MjmotionError, match="no joint named"):
         mjcf.parse_prop_option(m.skeleton, "club:nowhere")
+
+
+@pytest.mark.parametrize("clip", ["cmu_asfamc_converted/16_15", "cmu_cgspeed_daz/07_01", "cmu_cgspeed_max/131_01", "cmu_iclone_ccrig/002_05"])
+def test_segment_masses_follow_de_leva(mocap, clip):
+    skel = bvh.read(mocap / f"{clip}.bvh").skeleton
+    c = mjcf.compile(skel)
+    masses = c.model.body_mass[c.body_ids]
+    total = masses.sum()
+    by: dict[str, float] = {}
+    for mass, seg in zip(masses, mjcf.segments(skel)):
+        key = {"neck": "head", "girdle": "trunk"}.get(seg, seg)
+        by[key] = by.get(key, 0.0) + mass
+    for seg, frac in mjcf.SEGMENT_MASS.items():
+        expect = frac * (1 if seg in ("head", "trunk") else 2)
+        assert by[seg] / total == pytest.approx(expect, abs=2e-4), seg  # zero-length bones weigh 0.1 g each
+
+
+def test_no_body_geom_reaches_below_the_foot_sole_in_the_rest_pose(mocap):
+    # Standing in the rest pose with the soles at z = 0, nothing of the body may be lower.
+    skel = bvh.read(mocap / "cmu_asfamc_converted" / "16_15.bvh").skeleton
+    c = mjcf.compile(skel)
+    d = mujoco.MjData(c.model)
+    d.qpos[:] = c.model.qpos0
+    mujoco.mj_kinematics(c.model, d)
+    from mjmotion.evaluate import box_corners
+
+    def lowest(g):
+        size, pos, mat = c.model.geom_size[g], d.geom_xpos[g], d.geom_xmat[g].reshape(3, 3)
+        if c.model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+            return box_corners(pos[None, None], mat[None, None], size[None])[..., 2].min()
+        return pos[2] - abs(mat[2, 2]) * size[1] - size[0]
+
+    sole = min(lowest(g) for side in c.foot_geoms.values() for g in side)
+    others = [lowest(g) for g in c.body_geom_ids if all(g not in side for side in c.foot_geoms.values())]
+    assert min(others) >= sole - 1e-9
