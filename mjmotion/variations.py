@@ -705,17 +705,33 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
+def grip_joints(skeleton: Skeleton) -> dict[str, int]:
+    """``{"left": j, "right": j}``: the joints whose relative placement is the grip.
+
+    The hand joint proper as the hit-point module picks it (``hitpoint.hand_joints``: CMU's
+    ``lhand`` below the ``lwrist`` roll bone), so grip errors here and there measure the same thing.
+    """
+    try:
+        from .hitpoint import hand_joints
+    except ImportError:  # the hit-point module is optional here
+        return skeleton.hands()
+    return hand_joints(skeleton)
+
+
 def restore_grip_minimal(
     source: Motion, motion: Motion, path: ScorePath, first_hand: str = "left"
 ) -> tuple[Motion, float]:
     """The second hand back at its source placement relative to the first hand (§3.3), two-bone arm IK.
 
     For each path frame, the second hand's world pose is the first hand's (in the variant)
-    times the source's relative transform at the frames it stands for; the hand's subtree keeps
-    the source's local rotations. Returns the motion and the largest out-of-reach distance (m).
+    times the source's relative transform at the frames it stands for (hands from
+    :func:`grip_joints`). The arm's end joint (the wrist, or the hand itself when it has no wrist
+    bone) is solved so that the hand lands there exactly, the collarbone helping when the target
+    is beyond the arm's reach; the hand's subtree keeps the source's local rotations. Returns the
+    motion and the largest out-of-reach distance (m).
     """
     skel = source.skeleton
-    hands = skel.hands()
+    hands = grip_joints(skel)
     if set(hands) != {"left", "right"}:
         raise MjmotionError(
             "restoring the grip needs a left and a right hand in the skeleton"
@@ -731,27 +747,41 @@ def restore_grip_minimal(
         rot.conjugate(q1s), src.joint_positions[:, h2] - src.joint_positions[:, h1]
     )
     rel_rot = rot.multiply(rot.conjugate(q1s), q2s)
-    rel_pos_t = _source_at(rel_pos, path)
-    rel_rot_t = _quat_source_at(rel_rot, path)
     q1 = var.joint_rotations[:, h1]
-    target = var.joint_positions[:, h1] + rot.rotate(q1, rel_pos_t)
-    target_rot = rot.multiply(q1, rel_rot_t)
+    hand_pos = var.joint_positions[:, h1] + rot.rotate(q1, _source_at(rel_pos, path))
+    hand_rot = rot.multiply(q1, _quat_source_at(rel_rot, path))
+    # the arm's end: the wrist above a hand joint (kept at the source's local rotation), else the hand
+    wrist = skel.hands().get("right" if first_hand == "left" else "left", h2)
+    end = wrist if wrist != h2 and _is_below(skel, h2, wrist) else h2
+    keep = [end, *_descendants(skel, end)]
+    src_local = {j: _quat_source_at(source.rotations[:, j], path) for j in keep}
+    target_rot, target = hand_rot, hand_pos
+    if end != h2:
+        # from the hand's target pose back to the end joint's, through the source's joints between
+        chain = [h2]
+        while chain[-1] != end:
+            chain.append(int(skel.parents[chain[-1]]))
+        for child in chain[:-1]:
+            local_c = src_local[child]
+            off = skel.offsets[child]
+            target_rot = rot.multiply(target_rot, rot.conjugate(local_c))
+            target = target - rot.rotate(target_rot, off)
     local = motion.rotations
     for _ in range(
         4
     ):  # the shoulder moves on a sphere about the collarbone: a few passes close the gap
         turned = _reach_with_shoulder(
-            skel, motion.replace(rotations=local), var, h2, target
+            skel, motion.replace(rotations=local), var, end, target
         )
         if turned is local:
             break
         local = turned
         var = kinematics.forward(compiled, motion.replace(rotations=local))
     local, err = two_bone_ik(
-        skel, var.joint_positions, var.joint_rotations, local, h2, target, target_rot
+        skel, var.joint_positions, var.joint_rotations, local, end, target, target_rot
     )
-    for j in _descendants(skel, h2):
-        local[:, j] = _quat_source_at(source.rotations[:, j], path)
+    for j in keep[1:]:
+        local[:, j] = src_local[j]
     return motion.replace(rotations=local), float(np.max(err))
 
 
@@ -920,7 +950,7 @@ def grip_error_m(
     """METRICS.md ``grip_error_m``: distance of the second hand from where the source holds it
     relative to the first hand (at the source frames each frame stands for), max over frames."""
     skel = source.skeleton
-    hands = skel.hands()
+    hands = grip_joints(skel)
     h1, h2 = hands[first_hand], hands["right" if first_hand == "left" else "left"]
     compiled = mjcf.compile(skel)
     src = kinematics.forward(compiled, source)
