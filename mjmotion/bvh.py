@@ -142,6 +142,11 @@ def _decode(data: bytes | str, path: str) -> str:
 
 
 # --- hierarchy -----------------------------------------------------------------------------
+def _q(text: str, n: int = 40) -> str:
+    """``repr`` of text from the file, shortened: a message stays one readable line whatever the file holds."""
+    return repr(text if len(text) <= n else text[:n] + "…")
+
+
 def _strict_float(tok: str) -> float:
     """``float(tok)`` accepting only what the motion-section parser (``np.loadtxt``) accepts.
 
@@ -157,9 +162,9 @@ def _parse_float(tok: str, path: str, line: int, what: str) -> float:
     try:
         v = _strict_float(tok)
     except ValueError:
-        raise BvhError(path, line, f"{what}: {tok!r} is not a number") from None
+        raise BvhError(path, line, f"{what}: {_q(tok)} is not a number") from None
     if not np.isfinite(v):
-        raise BvhError(path, line, f"{what}: {tok!r} is not a finite number")
+        raise BvhError(path, line, f"{what}: {_q(tok)} is not a finite number")
     return v
 
 
@@ -182,13 +187,13 @@ def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
             t = toks[k]
             if not seen_header:
                 if t != "HIERARCHY":
-                    raise BvhError(path, ln, f"expected 'HIERARCHY' at the start of the file, found {t[:40]!r}")
+                    raise BvhError(path, ln, f"expected 'HIERARCHY' at the start of the file, found {_q(t)}")
                 seen_header = True
                 k += 1
                 continue
             if t in ("ROOT", "JOINT"):
                 if pending is not None:
-                    raise BvhError(path, ln, f"expected '{{' after {nodes[pending].name!r}, found {t!r}")
+                    raise BvhError(path, ln, f"expected '{{' after {_q(nodes[pending].name)}, found {_q(t)}")
                 rest = toks[k + 1 :]
                 brace = bool(rest) and rest[-1] == "{"
                 name = " ".join(rest[:-1] if brace else rest)
@@ -206,7 +211,7 @@ def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
                         raise BvhError(path, ln, "JOINT outside a joint's braces")
                     parent = stack[-1]
                 if name in names:
-                    raise BvhError(path, ln, f"duplicate joint name {name!r} (first on line {names[name]})")
+                    raise BvhError(path, ln, f"duplicate joint name {_q(name)} (first on line {names[name]})")
                 names[name] = ln
                 nodes.append(_Node(name, parent, ln))
                 pending = len(nodes) - 1
@@ -216,7 +221,7 @@ def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
                 k = len(toks)
             elif t == "End":
                 if pending is not None:
-                    raise BvhError(path, ln, f"expected '{{' after {nodes[pending].name!r}, found 'End'")
+                    raise BvhError(path, ln, f"expected '{{' after {_q(nodes[pending].name)}, found 'End'")
                 if k + 1 >= len(toks) or toks[k + 1] != "Site":
                     raise BvhError(path, ln, "expected 'End Site'")
                 if not stack or nodes[stack[-1]].is_end:
@@ -232,21 +237,21 @@ def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
                 k += 1
             elif t == "}":
                 if pending is not None:
-                    raise BvhError(path, ln, f"expected '{{' after {nodes[pending].name!r}, found '}}'")
+                    raise BvhError(path, ln, f"expected '{{' after {_q(nodes[pending].name)}, found '}}'")
                 if not stack:
                     raise BvhError(path, ln, "unbalanced '}': no open brace to close")
                 node = nodes[stack.pop()]
                 if node.offset is None:
-                    raise BvhError(path, ln, f"{node.name!r} (line {node.line}) has no OFFSET")
+                    raise BvhError(path, ln, f"{_q(node.name)} (line {node.line}) has no OFFSET")
                 if node.channels is None and not node.is_end:
-                    raise BvhError(path, ln, f"joint {node.name!r} (line {node.line}) has no CHANNELS")
+                    raise BvhError(path, ln, f"joint {_q(node.name)} (line {node.line}) has no CHANNELS")
                 k += 1
             elif t == "OFFSET":
                 cur = _current(nodes, stack, pending, path, ln, "OFFSET")
                 if len(toks) - k - 1 < 3:
                     raise BvhError(path, ln, f"OFFSET needs 3 numbers, found {len(toks) - k - 1}")
                 if cur.offset is not None:
-                    raise BvhError(path, ln, f"a second OFFSET for {cur.name!r}")
+                    raise BvhError(path, ln, f"a second OFFSET for {_q(cur.name)}")
                 cur.offset = np.array([_parse_float(x, path, ln, "OFFSET") for x in toks[k + 1 : k + 4]])
                 k += 4
             elif t == "CHANNELS":
@@ -254,13 +259,13 @@ def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
                 if cur.is_end:
                     raise BvhError(path, ln, "an End Site cannot have CHANNELS")
                 if cur.channels is not None:
-                    raise BvhError(path, ln, f"a second CHANNELS for {cur.name!r}")
+                    raise BvhError(path, ln, f"a second CHANNELS for {_q(cur.name)}")
                 if k + 1 >= len(toks):
                     raise BvhError(path, ln, "CHANNELS needs a count")
                 try:
                     count = int(toks[k + 1])
                 except ValueError:
-                    raise BvhError(path, ln, f"CHANNELS count {toks[k + 1]!r} is not a whole number") from None
+                    raise BvhError(path, ln, f"CHANNELS count {_q(toks[k + 1])} is not a whole number") from None
                 names_ = toks[k + 2 :]
                 if count < 0 or count > 6 or len(names_) != count:
                     raise BvhError(
@@ -270,7 +275,7 @@ def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
                 for c in names_:
                     canon = _CHANNEL_CASE.get(c.lower())
                     if canon is None:
-                        raise BvhError(path, ln, f"unknown channel {c!r}; expected X/Y/Z position or rotation")
+                        raise BvhError(path, ln, f"unknown channel {_q(c)}; expected X/Y/Z position or rotation")
                     chans.append(canon)
                 if len(set(chans)) != len(chans):
                     raise BvhError(path, ln, "a channel is listed twice")
@@ -279,17 +284,17 @@ def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
             elif t == "MOTION":
                 if pending is not None or stack:
                     open_ = nodes[stack[-1]] if stack else nodes[pending]  # type: ignore[index]
-                    raise BvhError(path, ln, f"unbalanced braces: {open_.name!r} (line {open_.line}) is not closed before MOTION")
+                    raise BvhError(path, ln, f"unbalanced braces: {_q(open_.name)} (line {open_.line}) is not closed before MOTION")
                 if not seen_root:
                     raise BvhError(path, ln, "MOTION before any ROOT joint")
                 return nodes, i - 1
             else:
-                raise BvhError(path, ln, f"unexpected {t[:40]!r} in the HIERARCHY section")
+                raise BvhError(path, ln, f"unexpected {_q(t)} in the HIERARCHY section")
     if not seen_header:
         raise BvhError(path, 1, "expected 'HIERARCHY'")
     if stack:
         node = nodes[stack[-1]]
-        raise BvhError(path, n_lines, f"unbalanced braces: {node.name!r} (line {node.line}) is never closed")
+        raise BvhError(path, n_lines, f"unbalanced braces: {_q(node.name)} (line {node.line}) is never closed")
     raise BvhError(path, n_lines, "no MOTION section; expected 'MOTION' after the hierarchy")
 
 
@@ -317,23 +322,24 @@ def _parse_motion_header(lines: list[str], motion_idx: int, path: str) -> tuple[
         raise BvhError(path, motion_idx + 1, "MOTION is not followed by 'Frames: N'")
     ln, s = header[0]
     if not s.startswith("Frames:"):
-        raise BvhError(path, ln, f"expected 'Frames: N', found {s[:40]!r}")
+        raise BvhError(path, ln, f"expected 'Frames: N', found {_q(s)}")
     val = s[len("Frames:") :].strip()
     try:
         frames = int(val)
     except ValueError:
-        raise BvhError(path, ln, f"Frames: {val[:40]!r} is not a whole number") from None
+        what = "is too large" if val.lstrip("+-").isdigit() else "is not a whole number"
+        raise BvhError(path, ln, f"Frames: {_q(val)} {what}") from None
     if frames < 1:
         raise BvhError(path, ln, f"Frames: {frames}; expected at least one frame")
     if len(header) < 2:
         raise BvhError(path, ln + 1, "expected 'Frame Time: SECONDS'")
     ln, s = header[1]
     if not s.startswith("Frame Time:"):
-        raise BvhError(path, ln, f"expected 'Frame Time: SECONDS', found {s[:40]!r}")
+        raise BvhError(path, ln, f"expected 'Frame Time: SECONDS', found {_q(s)}")
     val = s[len("Frame Time:") :].strip()
     ft = _parse_float(val, path, ln, "Frame Time")
     if ft <= 0:
-        raise BvhError(path, ln, f"Frame Time {val}; expected a positive number of seconds")
+        raise BvhError(path, ln, f"Frame Time {_q(val)}; expected a positive number of seconds")
     return frames, ft, i
 
 
@@ -394,7 +400,7 @@ def _diagnose_values(lines: list[str], start: int, n_channels: int, path: str) -
             try:
                 _strict_float(tok)
             except ValueError:
-                raise BvhError(path, ln, f"value {c + 1} {tok[:40]!r} is not a number") from None
+                raise BvhError(path, ln, f"value {c + 1} {_q(tok)} is not a number") from None
 
 
 # --- building the data model ----------------------------------------------------------------

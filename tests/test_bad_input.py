@@ -272,3 +272,22 @@ def _feed(fifo: Path, data: bytes) -> None:
             fh.write(data)
     except BrokenPipeError:  # the reader stopped early (the capped case)
         pass
+
+
+@pytest.mark.parametrize(
+    "edit",
+    [
+        lambda name: corpus.BASE.replace("JOINT LeftLeg", "JOINT Head").replace("JOINT Head\n", f"JOINT {name}\n", 1).replace("JOINT Head", f"JOINT {name}"),
+        lambda name: corpus.BASE.replace("Zrotation Xrotation Yrotation\n\t\tJOINT Head", f"Zrotation {name} Yrotation\n\t\tJOINT Head"),
+        lambda name: corpus.BASE.replace("OFFSET 0.00 60.00 0.00", f"OFFSET 0.00 {name} 0.00"),
+        lambda name: corpus.BASE.replace("Frame Time: 0.0333333", f"Frame Time: -{'3' * 100_000}"),
+        lambda name: corpus.BASE.replace("Frames: 3", f"Frames: {'9' * 100_000}"),
+        lambda name: corpus.BASE.replace("MOTION", f"{name}\nMOTION"),
+    ],
+    ids=["duplicate-name", "channel-name", "offset", "frame-time", "frames", "stray-token"],
+)
+def test_messages_stay_short_whatever_the_file_holds(edit):
+    """A megabyte-long name or token is quoted in a few dozen characters, not in full."""
+    with pytest.raises(BvhError) as info:
+        bvh.parse(edit("x" * 1_000_000), "long.bvh")
+    assert len(str(info.value)) < 250, str(info.value)[:300]
