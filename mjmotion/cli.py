@@ -30,7 +30,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports a usage mistake as one ``error:`` line (status 2)."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        sys.stderr.write(f"error: {message} (see '{self.prog} --help')\n")
+        sys.stderr.write(f"error: {_one_line(message)} (see '{self.prog} --help')\n")
         raise SystemExit(2)
 
 
@@ -72,6 +72,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(message: str) -> str:
+    """The message on one line (a file name or a verb's message may hold line breaks)."""
+    return message.replace("\r", "\\r").replace("\n", "\\n")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -84,13 +89,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except MjmotionError as e:
         if verbose:
             traceback.print_exc()
-        sys.stderr.write(f"error: {e}\n")
+        sys.stderr.write(f"error: {_one_line(str(e))}\n")
         return 2
     except OSError as e:
         if verbose:
             traceback.print_exc()
         where = f"{e.filename}: " if getattr(e, "filename", None) else ""
-        sys.stderr.write(f"error: {where}{e.strerror or e}\n")
+        sys.stderr.write(f"error: {_one_line(f'{where}{e.strerror or e}')}\n")
         return 2
     except KeyboardInterrupt:
         sys.stderr.write("error: interrupted\n")
@@ -98,7 +103,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as e:  # a bug: still one line, the traceback on request
         if verbose:
             traceback.print_exc()
-        sys.stderr.write(f"error: internal error: {type(e).__name__}: {e} (rerun with --verbose and report it)\n")
+        msg = _one_line(f"{type(e).__name__}: {e}")
+        sys.stderr.write(f"error: internal error: {msg} (rerun with --verbose and report it)\n")
         return 1
 
 

@@ -302,6 +302,13 @@ def test_wrong_arguments(name, capsys):
     refused(*run([name, *argv, "--no-such-option"], capsys)[::2], "--no-such-option")
 
 
+def test_error_is_one_line_even_for_names_with_line_breaks(tmp_path, capsys):
+    odd = tmp_path / "two\nlines\r.bvh"
+    line = refused(*run(["convert", str(odd), str(tmp_path / "out.bvh")], capsys)[::2], "no such file")
+    assert "two\\nlines\\r.bvh" in line
+    refused(*run(["info", str(odd), "--up", "x\ny"], capsys)[::2], "invalid choice")
+
+
 def test_no_verb_and_unknown_verb(capsys):
     assert run([], capsys)[0] == 2
     refused(*run(["no-such-verb"], capsys)[::2], "no-such-verb")
