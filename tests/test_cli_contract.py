@@ -444,6 +444,32 @@ def test_blend_refuses_incompatible_skeletons(tmp_path, clip, human, capsys):
     assert not out.exists()
 
 
+@pytest.mark.parametrize("name", _verb_params("extra-outputs"))
+def test_extra_outputs_follow_the_contract(name, tmp_path, clip, human, capsys):
+    """Reports and plots (--json, --plot, --truth): an existing one needs --force, an input never is one."""
+    spec = verb(name)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    extra = spec.extra_outputs(out_dir)
+    if not writes(spec) or not extra:
+        pytest.skip(f"{name} has no extra outputs")
+    inp = _input(spec, clip, human)
+    data = inp.read_bytes()
+    main_out = str(out_dir / f"out{spec.ext}")
+    for k in range(1, len(extra), 2):
+        existing = Path(extra[k])
+        existing.write_bytes(b"precious")
+        refused(*run([name, *spec.argv(str(inp), main_out), *extra], capsys)[::2], "--force")
+        assert existing.read_bytes() == b"precious" and not Path(main_out).exists()
+        existing.unlink()
+        if spec.inputless:
+            continue
+        as_input_args = list(extra)
+        as_input_args[k] = str(inp)
+        refused(*run([name, *spec.argv(str(inp), main_out), *as_input_args, "--force"], capsys)[::2], "input")
+        assert inp.read_bytes() == data and not Path(main_out).exists()
+
+
 @pytest.mark.parametrize("name", VERB_NAMES)
 def test_output_folder_must_exist(name, tmp_path, clip, capsys):
     spec = verb(name)
