@@ -335,7 +335,6 @@ def test_input_is_a_directory_or_under_a_file(name, tmp_path, clip, capsys):
     assert not out.exists()
 
 
-@pytest.mark.skipif(hasattr(os, "geteuid") and os.geteuid() == 0, reason="root reads unreadable folders")
 @pytest.mark.parametrize("name", VERB_NAMES)
 def test_unreadable_directory(name, tmp_path, clip, capsys):
     spec = verb(name, reads=True)
@@ -344,6 +343,9 @@ def test_unreadable_directory(name, tmp_path, clip, capsys):
     inp = locked / "clip.bvh"
     inp.write_bytes(clip.read_bytes())
     locked.chmod(0)
+    if os.access(inp, os.R_OK):  # root (with CAP_DAC_OVERRIDE) reads it anyway
+        locked.chmod(0o755)
+        pytest.skip("this user can read unreadable folders (root)")
     try:
         refused(*run([name, *spec.argv(str(inp), str(tmp_path / f"out{spec.ext}"))], capsys)[::2], str(inp))
         if writes(spec):
