@@ -263,22 +263,30 @@ def clip(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def human(tmp_path_factory) -> Path:
-    """A short real clip (30 frames of a CMU walk) for verbs that need feet and hands; else the base file."""
+def human(tmp_path_factory) -> Path | None:
+    """A short real clip (30 frames of a CMU walk) for verbs that need feet and hands; None without the mocap."""
     from conftest import data_dir
 
-    d = tmp_path_factory.mktemp("human")
-    p = d / "walk.bvh"
     root = data_dir()
     if root is None or not (root / "cmu_cgspeed_daz" / "09_06.bvh").is_file():
-        p.write_bytes((BAD / "base.bvh").read_bytes())
-        return p
+        return None
+    p = tmp_path_factory.mktemp("human") / "walk.bvh"
     assert cli.main(["convert", str(root / "cmu_cgspeed_daz" / "09_06.bvh"), str(p), "--frames", "0:30"]) == 0
     return p
 
 
-def _input(spec: Verb, clip: Path, human: Path) -> Path:
-    return as_input(spec, human if spec.humanoid else clip)
+def _human(human: Path | None) -> Path:
+    """The real clip, or skip (fail when ``MJMOTION_REQUIRE_DATA=1``) without the shared mocap."""
+    if human is None:
+        from conftest import require_data
+
+        require_data()
+        pytest.fail("the shared mocap has no cmu_cgspeed_daz/09_06.bvh")
+    return human
+
+
+def _input(spec: Verb, clip: Path, human: Path | None) -> Path:
+    return as_input(spec, _human(human) if spec.humanoid else clip)
 
 
 # --- every verb ------------------------------------------------------------------------------
@@ -439,8 +447,7 @@ def test_input_is_never_the_output(name, tmp_path, clip, capsys):
 def test_blend_refuses_incompatible_skeletons(tmp_path, clip, human, capsys):
     if "blend" not in SUBPARSERS:
         pytest.skip("no blend verb yet")
-    if human.read_bytes() == clip.read_bytes():
-        pytest.skip("needs the shared mocap for a second skeleton")
+    human = _human(human)
     out = tmp_path / "blend.bvh"
     refused(*run(["blend", str(clip), str(human), "--weights", "0.5,0.5", "-o", str(out)], capsys)[::2], "topolog")
     assert not out.exists()
@@ -588,7 +595,7 @@ def test_stream_refuses_bad_scripts(kind, tmp_path, human, capsys):
     if "stream" not in SUBPARSERS:
         pytest.skip("no stream verb yet")
     script = tmp_path / "script.json"
-    script.write_bytes(STREAM_SCRIPTS[kind].replace(b"CLIP", str(human).encode()))
+    script.write_bytes(STREAM_SCRIPTS[kind].replace(b"CLIP", str(_human(human)).encode()))
     out = tmp_path / "out.bvh"
     refused(*run(["stream", str(script), "-o", str(out)], capsys)[::2])
     assert not out.exists()
@@ -599,7 +606,7 @@ def test_hit_unreachable_target_is_reported_not_crashed(tmp_path, human, capsys)
     if "hit" not in SUBPARSERS:
         pytest.skip("no hit verb yet")
     out, report = tmp_path / "hit.bvh", tmp_path / "hit.json"
-    argv = ["hit", str(human), "--effector", "right_foot", "--target", "100", "0", "1", "-o", str(out), "--json", str(report)]
+    argv = ["hit", str(_human(human)), "--effector", "right_foot", "--target", "100", "0", "1", "-o", str(out), "--json", str(report)]
     rc, _, err = run(argv, capsys)
     assert "Traceback" not in err
     if rc == 0:
