@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 import numpy as np
 
@@ -17,7 +18,8 @@ HELP = "move a swing's hit point (IK with importance-based blending, keeping the
 DESCRIPTION = """Adapt SHOT.bvh so its effector (a club's sweet spot, a foot, a fist, or a site) meets a new
 ball position at the hit frame, blending IK in and out by the effector's distance to the hit
 point (seed 003 §2.2.5). Coordinates are metres in the model's world frame (Z up).
-An unreachable target is solved best-effort and reported with "reachable": false.
+An unreachable target is solved best-effort: the clip and report are written (with
+"reachable": false), one error line says so, and the exit status is 2.
 
 examples:
   mjmotion hit 64_01.bvh --offset 0 0.1 0.1 -o swing_hit.bvh --json report.json
@@ -76,5 +78,7 @@ def run(args: argparse.Namespace) -> int:
         f"grip error {r['grip_error_m'] * 1000:.3f} mm, style_rmse {r['style_rmse']}, solver {r['solver']}"
     )
     if not r["reachable"]:
-        print(f"warning: {r['message']}")
+        # Best effort is written and reported (issue 5); the exit status says the request failed (issue 9).
+        sys.stderr.write(f"error: {r['message']}; best effort written to {out}\n")
+        return 2
     return 0
