@@ -206,7 +206,12 @@ class Skeleton:
         return out
 
     def hands(self) -> dict[str, int]:
-        """``{"left": wrist/hand joint, "right": …}`` found by name (the joint nearest the arm's end)."""
+        """``{"left": j, "right": j}``: the first joint of each hand segment, found by name.
+
+        A joint named like a wrist wins over one named like a hand (CMU's ``lwrist`` over
+        ``lhand``), so everything from it down is the hand; :func:`mjmotion.hitpoint.hand_joints`
+        picks the joint that holds a club instead.
+        """
         out: dict[str, int] = {}
         for side in ("left", "right"):
             j = self._find_side(side, ("wrist", "hand"))
