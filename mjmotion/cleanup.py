@@ -18,6 +18,8 @@ Frames outside every plant's blend window (and the root window) keep their joint
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -40,6 +42,15 @@ class CleanupParams:
     blend: float = 0.2
     reach: float = 0.995
     root_window: float = 0.3
+
+    def __post_init__(self) -> None:
+        for name, low, strict in (("h_c", 0.0, True), ("v_c", 0.0, True), ("min_plant", 0.0, False), ("max_gap", 0.0, False),
+                                  ("blend", 0.0, False), ("reach", 0.0, True), ("root_window", 0.0, False)):  # fmt: skip
+            v = getattr(self, name)
+            ok = isinstance(v, numbers.Real) and math.isfinite(v) and (v > low if strict else v >= low)
+            if not ok or (name == "reach" and v > 1.0):
+                want = "in (0, 1]" if name == "reach" else f"{'>' if strict else '≥'} {low:g}"
+                raise MjmotionError(f"CleanupParams.{name} = {v!r}: expected a finite number {want}")
 
 
 @dataclass(frozen=True)
@@ -198,7 +209,9 @@ def _hann_smooth_max(x: np.ndarray, n: int) -> np.ndarray:
         return x
     k = np.hanning(2 * n + 3)[1:-1]
     k /= k.sum()
-    return np.stack([np.convolve(x[:, i], k, mode="same") for i in range(x.shape[1])], axis=1)
+    # The centred T frames of the full convolution: np.convolve's "same" returns the longer of
+    # the two inputs, so a clip shorter than the window would come back window-long.
+    return np.stack([np.convolve(x[:, i], k, mode="full")[n : n + len(x)] for i in range(x.shape[1])], axis=1)
 
 
 def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupResult:

@@ -34,6 +34,8 @@ within 5 cm of the floor for most of its swing, so real walks give ~1 m/s there;
 
 from __future__ import annotations
 
+import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -417,6 +419,17 @@ class Params:
     flight_force_ratio: float = 0.2
     fd_step: float = FD_STEP
     h_c_sensitivity: tuple[float, ...] = H_C_SENSITIVITY
+
+    def __post_init__(self) -> None:
+        positive = ("h_c", "v_c", "float_tol", "mu", "fd_step")
+        for name in (*positive, "cop_margin", "flight_force_ratio"):
+            v = getattr(self, name)
+            if not (isinstance(v, numbers.Real) and math.isfinite(v) and (v > 0 if name in positive else v >= 0)):
+                raise MjmotionError(f"Params.{name} = {v!r}: expected a finite number {'> 0' if name in positive else '≥ 0'}")
+        if isinstance(self.skate_window, bool) or not isinstance(self.skate_window, numbers.Integral) or self.skate_window < 1:
+            raise MjmotionError(f"Params.skate_window = {self.skate_window!r}: expected a whole number of frames ≥ 1")
+        if not all(isinstance(h, numbers.Real) and math.isfinite(h) and h > 0 for h in self.h_c_sensitivity):
+            raise MjmotionError(f"Params.h_c_sensitivity = {self.h_c_sensitivity!r}: expected finite contact heights > 0")
 
 
 @dataclass(frozen=True)

@@ -38,6 +38,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal, overload
 
 import numpy as np
 
@@ -71,9 +72,25 @@ class Script:
     loop_blend: float = 0.4
 
 
-def _number(value: object, where: str, minimum: float = 0.0) -> float:
+#: Memory a stream may use to compose its output. Composing holds, for every source track (each
+#: locomotion clip per loop playhead, each played clip), about this many bytes per output frame and
+#: joint (sampled and previous-frame quaternions, their stack and the weighted mean: measured on
+#: 09_06 looped for 60 s, 2.5 GB for 60 tracks × 7200 frames × 43 joints).
+MEMORY_LIMIT_BYTES = 2 * 2**30
+BYTES_PER_TRACK_FRAME_JOINT = 128
+
+
+def max_frames(n_joints: int, n_tracks: int = 1) -> int:
+    """The longest stream (output frames) that composes ``n_tracks`` tracks within
+    :data:`MEMORY_LIMIT_BYTES` on a skeleton of ``n_joints`` joints."""
+    return MEMORY_LIMIT_BYTES // (BYTES_PER_TRACK_FRAME_JOINT * max(1, n_joints) * max(1, n_tracks))
+
+
+def _number(value: object, where: str, minimum: float = 0.0, maximum: float = float("inf"), why: str = "") -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < minimum:
         raise MjmotionError(f"{where}: expected a number ≥ {minimum:g}, got {value!r}")
+    if value > maximum:
+        raise MjmotionError(f"{where}: {value:g} is more than the limit {maximum:g}{why}")
     return float(value)
 
 
@@ -108,7 +125,16 @@ def parse_script(data: dict, base: Path, load) -> Script:
     first = clips[loco[0]]
     for name, m in clips.items():
         first.skeleton.require_same_topology(m.skeleton, f"clips {loco[0]!r} and {name!r}")
-    fps = _number(data.get("fps", first.fps), "script.fps", 1.0)
+    fps = _number(data.get("fps", first.fps), "script.fps", 1.0, 10_000.0, " frames per second")
+    # Checked before anything is allocated: every time, ramp and blend within the longest stream
+    # one composing track allows (54 min at 120 fps for a 43-joint skeleton).
+    n_joints = first.skeleton.n_joints
+    limit_s = max_frames(n_joints) / fps
+    why = (
+        f" s (the longest stream that composes in {MEMORY_LIMIT_BYTES / 2**30:g} GiB: {max_frames(n_joints)} frames "
+        f"× {n_joints} joints × {BYTES_PER_TRACK_FRAME_JOINT} bytes per track at {fps:g} fps)"
+    )
+    duration = _number(data["duration"], "script.duration", 1.0 / fps, limit_s, why)
     clips = {k: (m if abs(m.fps - fps) <= 1e-6 * fps else m.resample(fps)) for k, m in clips.items()}
     commands = []
     if not isinstance(data["commands"], list) or not data["commands"]:
@@ -117,19 +143,19 @@ def parse_script(data: dict, base: Path, load) -> Script:
         where = f"script.commands[{k}]"
         if not isinstance(c, dict) or "time" not in c:
             raise MjmotionError(f"{where}: expected an object with a time")
-        t = _number(c["time"], f"{where}.time")
+        t = _number(c["time"], f"{where}.time", 0.0, limit_s, why)
         if "weights" in c:
             wd = c["weights"]
             if not isinstance(wd, dict) or any(n not in loco for n in wd):
                 raise MjmotionError(f"{where}.weights: expected {{locomotion clip: weight}} over {', '.join(loco)}")
             w = check_weights([float(wd.get(n, 0.0)) for n in loco], len(loco), f"{where}.weights")
-            commands.append(Command(t, "weights", w, ramp=_number(c.get("ramp", 0.5), f"{where}.ramp")))
+            commands.append(Command(t, "weights", w, ramp=_number(c.get("ramp", 0.5), f"{where}.ramp", 0.0, limit_s, why)))
         elif "play" in c:
             if c["play"] not in clips:
                 raise MjmotionError(f"{where}.play: no clip named {c['play']!r} in script.clips")
-            commands.append(Command(t, "play", clip=c["play"], blend=_number(c.get("blend", 0.3), f"{where}.blend")))
+            commands.append(Command(t, "play", clip=c["play"], blend=_number(c.get("blend", 0.3), f"{where}.blend", 0.0, limit_s, why)))
         elif c.get("return"):
-            commands.append(Command(t, "return", blend=_number(c.get("blend", 0.3), f"{where}.blend")))
+            commands.append(Command(t, "return", blend=_number(c.get("blend", 0.3), f"{where}.blend", 0.0, limit_s, why)))
         else:
             raise MjmotionError(f"{where}: expected one of weights, play or return")
     commands.sort(key=lambda c: c.time)
@@ -139,9 +165,9 @@ def parse_script(data: dict, base: Path, load) -> Script:
         clips=clips,
         locomotion=tuple(loco),
         commands=tuple(commands),
-        duration=_number(data["duration"], "script.duration", 1.0 / fps),
+        duration=duration,
         fps=fps,
-        loop_blend=_number(data.get("loop_blend", 0.4), "script.loop_blend", 1.0 / fps),
+        loop_blend=_number(data.get("loop_blend", 0.4), "script.loop_blend", 1.0 / fps, limit_s, why),
     )
 
 
@@ -151,8 +177,12 @@ def load_script(path: str, load) -> Script:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise MjmotionError(f"{path}: no such script") from None
+    except UnicodeDecodeError as e:
+        raise MjmotionError(f"{path}: not a text file (invalid UTF-8 at byte {e.start}); expected a JSON stream script") from None
     except json.JSONDecodeError as e:
         raise MjmotionError(f"{path}:{e.lineno}: not valid JSON ({e.msg})") from None
+    except RecursionError:
+        raise MjmotionError(f"{path}: JSON nested too deeply; expected a stream script") from None
     return parse_script(data, Path(path).resolve().parent, load)
 
 
@@ -215,6 +245,15 @@ class MotionStream:
 
     def run(self, name: str = "stream") -> Motion:
         """The streamed motion, ``duration × fps`` frames on the first locomotion clip's skeleton."""
+        return compose(self.tracks(), self.script.fps, name)
+
+    def tracks(self) -> list[Track]:
+        """The source tracks the stream composes (each locomotion clip per loop playhead, then each
+        played clip), weights ``(N,)`` each, ``N = duration × fps``.
+
+        Refuses (before composing) a stream whose tracks would not compose within
+        :data:`MEMORY_LIMIT_BYTES`: short locomotion clips loop often, and every loop adds tracks.
+        """
         s = self.script
         fps = s.fps
         n_out = int(round(s.duration * fps))
@@ -236,6 +275,8 @@ class MotionStream:
                 cursors[-1].fade[n] = 1.0
                 head = cursors[-1]
                 if head.tau + 1.5 * fade_n * max(self._advance(head.tau, w) - head.tau, 1e-6) >= self._ref[-1]:
+                    # every playhead adds at least one track: stop before they outgrow memory
+                    self._check_memory(n_out, len(done) + len(cursors) + 1 + len(action_tracks), at_least=True)
                     new = _Cursor(self.loop_point(head.tau), n_out)
                     new.taus[n] = new.tau
                     cursors.append(new)
@@ -259,7 +300,23 @@ class MotionStream:
                 if np.any(w[active] > 0):
                     tracks.append(Track(m, clip_t[:, k], clip_t[:, k] - prev_t[:, k], w))
         tracks.extend(action_tracks)
-        return compose(tracks, fps, name)
+        self._check_memory(n_out, len(tracks))
+        return tracks
+
+    def _check_memory(self, n_out: int, n_tracks: int, at_least: bool = False) -> None:
+        """Refuse a stream of ``n_out`` frames and ``n_tracks`` source tracks that would not
+        compose within :data:`MEMORY_LIMIT_BYTES`."""
+        s = self.script
+        n_joints = s.clips[s.locomotion[0]].skeleton.n_joints
+        if n_out <= max_frames(n_joints, n_tracks):
+            return
+        need = n_tracks * n_out * n_joints * BYTES_PER_TRACK_FRAME_JOINT
+        raise MjmotionError(
+            f"script.duration {s.duration:g} s: composing it needs {'over' if at_least else 'about'} {need / 2**30:.3g} GiB "
+            f"({'at least ' if at_least else ''}{n_tracks} source tracks × {n_out} frames × {n_joints} joints × "
+            f"{BYTES_PER_TRACK_FRAME_JOINT} bytes; every loop of the locomotion adds tracks), over the "
+            f"{MEMORY_LIMIT_BYTES / 2**30:g} GiB limit; use a shorter duration or longer locomotion clips"
+        )
 
     def _actions(self, n_out: int) -> tuple[np.ndarray, list[Track]]:
         """Weight ``(N,)`` of the action layer and one track per played clip."""
@@ -305,6 +362,13 @@ class MotionStream:
         return layer, tracks
 
 
-def stream(script: Script, name: str = "stream") -> Motion:
-    """Run ``script`` through a :class:`MotionStream`."""
-    return MotionStream(script).run(name)
+@overload
+def stream(script: Script, name: str = ..., with_tracks: Literal[False] = ...) -> Motion: ...
+@overload
+def stream(script: Script, name: str = ..., *, with_tracks: Literal[True]) -> tuple[Motion, tuple[Track, ...]]: ...
+def stream(script: Script, name: str = "stream", with_tracks: bool = False) -> Motion | tuple[Motion, tuple[Track, ...]]:
+    """Run ``script`` through a :class:`MotionStream`; with ``with_tracks`` also the source
+    tracks it composed (see :meth:`MotionStream.tracks`), as ``(motion, tracks)``."""
+    tracks = MotionStream(script).tracks()
+    motion = compose(tracks, script.fps, name)
+    return (motion, tuple(tracks)) if with_tracks else motion

@@ -146,3 +146,52 @@ def test_cli_cleanup(tmp_path, capsys):
     assert "already exists" in capsys.readouterr().err
     assert main(["cleanup", str(src), "-o", str(src), "--force"]) == 2
     assert d.is_dir()
+
+
+def test_hann_smoothing_keeps_the_clip_length_even_when_shorter_than_the_window():
+    """The root-shift smoothing is the centred part of the full convolution: equal to NumPy's
+    ``same`` mode when the clip is at least the window long, and still ``T`` frames when not."""
+    rng = np.random.default_rng(3)
+    n = 18  # 0.3 s root window at 120 fps: 37 frames
+    k = np.hanning(2 * n + 3)[1:-1]
+    k /= k.sum()
+    long = rng.normal(size=(100, 3))
+    same = np.stack([np.convolve(long[:, i], k, mode="same") for i in range(3)], axis=1)
+    assert np.array_equal(cl._hann_smooth_max(long, n), same)
+    for t in (1, 5, 30, 37):
+        x = rng.normal(size=(t, 3))
+        got = cl._hann_smooth_max(x, n)
+        # direct sum with zeros outside the clip: out[i] = Σ_j x[j] k[i - j + n]
+        direct = np.array([[sum(x[j, c] * k[i - j + n] for j in range(t) if 0 <= i - j + n < len(k)) for c in range(3)] for i in range(t)])
+        assert got.shape == (t, 3) and np.allclose(got, direct)
+
+
+def test_cleanup_of_clips_shorter_than_the_root_window():
+    """30 frames (0.25 s, under the 37-frame root window) of a T-pose start whose straight legs
+    need the root lowered: cleaned without error, bone lengths kept, same length."""
+    m = _clip("cmu_cgspeed_daz/09_06.bvh")[:30]
+    res = cl.cleanup(m)
+    assert res.max_root_shift_m > 0  # the smoothing path ran
+    assert res.motion.n_frames == 30 and np.all(np.isfinite(res.motion.rotations))
+    a, b = kinematics.joint_positions(m), kinematics.joint_positions(res.motion)
+    p = m.skeleton.parents
+    bone = lambda x: np.linalg.norm(x[:, 1:] - x[:, p[1:]], axis=-1)  # noqa: E731
+    assert np.allclose(bone(a), bone(b), atol=1e-9)
+    for t in (2, 3, 12):
+        assert cl.cleanup(m[:t]).motion.n_frames == t
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "field"),
+    [("--h-c", "-1", "h_c"), ("--h-c", "inf", "h_c"), ("--v-c", "nan", "v_c"), ("--v-c", "0", "v_c"), ("--blend", "-2", "blend")],
+)
+def test_invalid_parameters_are_refused_by_name(option, value, field, tmp_path, capsys):
+    with pytest.raises(cl.MjmotionError, match=f"CleanupParams.{field}"):
+        cl.CleanupParams(**{field: float(value)})
+    src = tmp_path / "in.bvh"
+    bvh.write(_clip("cmu_cgspeed_daz/09_06.bvh")[4:40], src)
+    out = tmp_path / "out.bvh"
+    assert main(["cleanup", str(src), "-o", str(out), option, value]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {option} {value}") and "expected" in err and "Traceback" not in err
+    assert not out.exists()

@@ -315,3 +315,46 @@ def test_short_and_footless_clips_give_clear_errors_or_results():
     skel = random_skeleton(rng, 5)
     with pytest.raises(ev.MjmotionError, match="no feet"):
         ev.evaluate(random_motion(rng, skel, 10))
+
+
+def test_cli_evaluate_report_never_replaces_a_clip_it_reads(tmp_path, capsys):
+    """--json naming the clip (or one of a folder's clips, by any spelling or a link) is refused
+    before any work, even with --force; another path inside the folder is fine."""
+    folder = tmp_path / "clips"
+    folder.mkdir()
+    clip = folder / "walk.bvh"
+    bvh.write(_clip("cmu_asfamc_converted/16_15.bvh")[10:40], clip)
+    data = clip.read_bytes()
+    (tmp_path / "link.bvh").symlink_to(clip)
+    for path, target in ((clip, clip), (clip, folder / "." / "walk.bvh"), (clip, tmp_path / "link.bvh"), (folder, clip)):
+        assert main(["evaluate", str(path), "--json", str(target), "--force"]) == 2
+        err = capsys.readouterr().err
+        assert "is an input of this command" in err and "Traceback" not in err
+        assert clip.read_bytes() == data
+    report = folder / "report.json"
+    assert main(["evaluate", str(folder), "--json", str(report), "--jobs", "1"]) == 0
+    assert json.loads(report.read_text())[0]["report"]["n_frames"] == 30
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [("--h-c", "-1"), ("--h-c", "0"), ("--v-c", "nan"), ("--v-c", "-0.5"), ("--grid-step", "inf"), ("--grid-step", "-0.05"),
+     ("--ball-radius", "0"), ("--jobs", "0"), ("--hit-grid", "1"), ("--ball-velocity", "0", "nan", "0")],
+)  # fmt: skip
+def test_cli_evaluate_refuses_bad_numbers_by_option(extra, tmp_path, capsys):
+    clip = tmp_path / "walk.bvh"
+    bvh.write(_clip("cmu_asfamc_converted/16_15.bvh")[10:40], clip)
+    out = tmp_path / "r.json"
+    assert main(["evaluate", str(clip), "--json", str(out), *extra]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {extra[0]} ") and "expected" in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_params_refuse_non_physical_thresholds():
+    for field, value in (("h_c", -1.0), ("v_c", float("nan")), ("float_tol", 0.0), ("cop_margin", -0.1), ("skate_window", 0)):
+        with pytest.raises(ev.MjmotionError, match=f"Params.{field}"):
+            ev.Params(**{field: value})
+    with pytest.raises(ev.MjmotionError, match="h_c_sensitivity"):
+        ev.Params(h_c_sensitivity=(0.03, -1.0))
+    assert ev.Params(h_c=0.03, v_c=0.2).h_c == 0.03

@@ -163,3 +163,60 @@ def test_cli_stream(mocap, tmp_path):
     cmd = [sys.executable, "-m", "mjmotion.cli", "stream", str(tmp_path / "bad.json"), "-o", str(tmp_path / "b.bvh")]
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 2 and "not valid JSON" in r.stderr
+
+
+def test_binary_or_deeply_nested_script_is_refused_naming_the_file(tmp_path):
+    binary = tmp_path / "binary.json"
+    binary.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(MjmotionError, match=r"binary\.json: not a text file \(invalid UTF-8 at byte 128\)"):
+        S.load_script(str(binary), _load)
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000)
+    with pytest.raises(MjmotionError, match=r"deep\.json: JSON nested too deeply"):
+        S.load_script(str(deep), _load)
+
+
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [
+        ({"duration": 1e9}, "script.duration"),
+        ({"loop_blend": 1e12}, "script.loop_blend"),
+        ({"fps": 1e7}, "script.fps"),
+        ({"commands": [{"time": 1e300, "weights": {"walk": 1}}]}, r"script.commands\[0\].time"),
+        ({"commands": [{"time": 0, "weights": {"walk": 1}, "ramp": 1e300}]}, r"script.commands\[0\].ramp"),
+        ({"commands": [{"time": 0, "play": "kick", "blend": 1e300}]}, r"script.commands\[0\].blend"),
+    ],
+)
+def test_times_beyond_the_memory_limit_are_refused_before_allocating(mocap, change, field):
+    """1e9 s would need terabytes: refused while parsing, with the limit and the reason."""
+    with pytest.raises(MjmotionError, match=field + r": .* is more than the limit"):
+        S.parse_script(_script(mocap, **change), mocap, _load)
+    script = S.parse_script(_script(mocap), mocap, _load)
+    j = script.clips["walk"].skeleton.n_joints
+    assert S.max_frames(j) * S.BYTES_PER_TRACK_FRAME_JOINT * j <= S.MEMORY_LIMIT_BYTES
+    assert S.max_frames(j) / 120 > 600  # at least ten minutes of one track at 120 fps fit
+
+
+def test_a_stream_whose_loops_outgrow_memory_is_refused_while_looping(mocap, monkeypatch):
+    """Every loop adds tracks: with room for two, a 9 s walk that loops twice is refused by
+    the loop check (before composing) and names the duration."""
+    script = S.parse_script(_script(mocap, duration=9.0, commands=[{"time": 0.0, "weights": {"walk": 1}}]), mocap, _load)
+    n_out, j = round(9.0 * script.fps), script.clips["walk"].skeleton.n_joints
+    monkeypatch.setattr(S, "MEMORY_LIMIT_BYTES", 2 * n_out * j * S.BYTES_PER_TRACK_FRAME_JOINT)
+    with pytest.raises(MjmotionError, match=r"script.duration 9 s: composing it needs over .* GiB \(at least 3 source tracks"):
+        S.MotionStream(script).tracks()
+
+
+def test_stream_returns_the_tracks_it_composed(mocap):
+    from mjmotion.blend import compose
+
+    cmds = [{"time": 0.0, "weights": {"walk": 1}}, {"time": 0.3, "weights": {"walk": 0.5, "fast": 0.5}, "ramp": 0.4}, {"time": 0.8, "play": "kick"}]
+    script = S.parse_script(_script(mocap, duration=2.0, commands=cmds), mocap, _load)
+    out, tracks = S.stream(script, "s", with_tracks=True)
+    assert isinstance(tracks, tuple) and {tr.motion.name for tr in tracks} == {"walk", "fast", "kick"}
+    total = np.sum([tr.weights for tr in tracks], axis=0)
+    assert total.shape == (out.n_frames,) and np.allclose(total, 1.0)
+    again = compose(list(tracks), script.fps, "s")
+    plain = S.stream(script, "s")
+    for m in (again, plain):
+        assert np.array_equal(m.rotations, out.rotations) and np.array_equal(m.root_positions, out.root_positions)

@@ -7,6 +7,7 @@ import json
 import math
 
 from .. import bvh
+from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load, output_path
 
@@ -56,6 +57,9 @@ def run(args: argparse.Namespace) -> int:
     from .. import cleanup as cl
     from .. import evaluate as ev
 
+    _check(args.h_c, "--h-c", "a contact height in metres", strict=True)
+    _check(args.v_c, "--v-c", "a contact speed in m/s", strict=True)
+    _check(args.blend, "--blend", "a blend time in seconds")
     out = output_path(args, args.file)
     rep_path = check_output(args.json, force=args.force, inputs=(args.file, str(out))) if args.json else None
     m = load(args.file, args)
@@ -78,6 +82,12 @@ def run(args: argparse.Namespace) -> int:
         write_text_atomic(rep_path, json.dumps(_nan_to_none(doc), indent=1, default=float, allow_nan=False))
         print(f"wrote {rep_path}")
     return 0
+
+
+def _check(value: float, option: str, what: str, strict: bool = False) -> None:
+    """Refuse a non-finite or negative (``strict``: non-positive) option before any work."""
+    if not (math.isfinite(value) and (value > 0 if strict else value >= 0)):
+        raise MjmotionError(f"{option} {value:g}: expected {what}, a finite number {'> 0' if strict else '≥ 0'}")
 
 
 def _f(v: float) -> str:

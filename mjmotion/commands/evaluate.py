@@ -153,8 +153,31 @@ def _params_line(report: dict[str, Any]) -> str:
     )
 
 
+def _finite(value: float, option: str, what: str, strict: bool = True) -> None:
+    """Refuse a non-finite or negative (``strict``: non-positive) option before any work."""
+    if not (math.isfinite(value) and (value > 0 if strict else value >= 0)):
+        raise MjmotionError(f"{option} {value:g}: expected {what}, a finite number {'> 0' if strict else '≥ 0'}")
+
+
+def check_options(args: argparse.Namespace) -> None:
+    """Every numeric option checked before any clip is read (each error names its option)."""
+    _finite(args.h_c, "--h-c", "a contact height in metres")
+    _finite(args.v_c, "--v-c", "a contact speed in m/s")
+    _finite(args.ball_radius, "--ball-radius", "a ball radius in metres")
+    _finite(args.grid_step, "--grid-step", "a hit-grid spacing in metres")
+    for option, values in (("--ball", args.ball), ("--ball-velocity", args.ball_velocity)):
+        if values is not None and not all(math.isfinite(v) for v in values):
+            raise MjmotionError(f"{option} {' '.join(f'{v:g}' for v in values)}: expected three finite numbers")
+    if args.jobs < 1:
+        raise MjmotionError(f"--jobs {args.jobs}: expected a number of processes ≥ 1")
+    if args.hit_grid is not None and args.hit_grid < 2:
+        raise MjmotionError(f"--hit-grid {args.hit_grid}: expected a grid size N ≥ 2 (a rank correlation needs several hit points)")
+    if args.frame is not None and args.frame < 0:
+        raise MjmotionError(f"--frame {args.frame}: expected a frame index ≥ 0")
+
+
 def run(args: argparse.Namespace) -> int:
-    out = check_output(args.json, force=args.force, inputs=()) if args.json else None
+    check_options(args)
     opts = {k: v for k, v in vars(args).items() if not k.startswith("_")}
     if os.path.isdir(args.path):
         files = sorted(str(p) for p in Path(args.path).rglob("*") if p.suffix.lower() == ".bvh" and p.is_file())
@@ -162,12 +185,17 @@ def run(args: argparse.Namespace) -> int:
             raise MjmotionError(f"{args.path}: no .bvh files found (searched recursively)")
         if args.ball is not None:
             raise MjmotionError("--ball applies to one clip; give a file, not a folder")
-        results = evaluate_files(files, opts, max(1, args.jobs))
     else:
         if not os.path.isfile(args.path):
             raise MjmotionError(f"{args.path}: no such file or folder")
+        files = [args.path]
+    # Checked before any work: the report may never replace one of the clips it reads.
+    out = check_output(args.json, force=args.force, inputs=files) if args.json else None
+    if os.path.isdir(args.path):
+        results = evaluate_files(files, opts, args.jobs)
+    else:
         results = [evaluate_file(args.path, opts)]
-    if args.hit_grid:
+    if args.hit_grid is not None:
         if os.path.isdir(args.path) or not args.prop or args.frame is None:
             raise MjmotionError("--hit-grid needs one clip, --prop and --frame")
         grid = _hit_grid(args, opts)

@@ -15,8 +15,6 @@ skeleton). Continuity is measured phase by phase:
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -63,24 +61,6 @@ class StreamResult:
         return names, np.divide(w, total, out=np.zeros_like(w), where=total > 0)
 
 
-@contextmanager
-def _recorded_tracks() -> Iterator[list[list[Track]]]:
-    """Record the tracks :meth:`mjmotion.stream.MotionStream.run` composes (the stream does not
-    return them), by wrapping the ``compose`` it calls."""
-    seen: list[list[Track]] = []
-    original = st.compose
-
-    def compose(tracks, fps, name="blend", origin=None):
-        seen.append(list(tracks))
-        return original(tracks, fps, name, origin)
-
-    st.compose = compose  # type: ignore[assignment]
-    try:
-        yield seen
-    finally:
-        st.compose = original  # type: ignore[assignment]
-
-
 def absolute_compose(tracks: tuple[Track, ...], fps: float, name: str = "naive") -> Motion:
     """The naive baseline: the same tracks averaged in their clips' own coordinates (root positions
     and every rotation, root included, weighted as they are) instead of by root increments.
@@ -106,9 +86,8 @@ def absolute_compose(tracks: tuple[Track, ...], fps: float, name: str = "naive")
 
 def run_stream(script: st.Script) -> StreamResult:
     """Run ``script`` and keep its tracks."""
-    with _recorded_tracks() as seen:
-        out = st.stream(script)
-    return StreamResult(script, out, tuple(seen[-1]))
+    out, tracks = st.stream(script, with_tracks=True)
+    return StreamResult(script, out, tracks)
 
 
 # --------------------------------------------------------------------------------------------
