@@ -12,6 +12,7 @@ written with ten significant digits, angles with six decimals and positions to 5
 
 from __future__ import annotations
 
+import functools
 import io
 import itertools
 import os
@@ -101,6 +102,9 @@ def _read_stream(p: str, limit: int) -> bytes:
 
 def parse(data: bytes | str, path: str = "<string>", scale: float | None = None, up: str = "y") -> Motion:
     """Parse BVH text (``bytes`` or ``str``); ``path`` only names the source in errors."""
+    fast = _parse_fast(data, path, scale, up)
+    if fast is not None:
+        return fast
     lines = _decode(data, path).split("\n")  # the decoded text is not kept: memory is ~2x the file
     nodes, motion_line = _parse_hierarchy(lines, path)
     frames, frame_time, first_data_line = _parse_motion_header(lines, motion_line, path)
@@ -109,6 +113,110 @@ def parse(data: bytes | str, path: str = "<string>", scale: float | None = None,
     values = _parse_values(lines, first_data_line, n_channels, frames, path)
     skel = _build_skeleton(nodes, path, scale, up)
     return _to_motion(skel, values, 1.0 / frame_time, path)
+
+
+# --- the compiled path for long clips --------------------------------------------------------
+#: Motion sections from this many bytes up take the compiled path (``mjmotion._fast``): below
+#: it, importing Numba (~0.5 s, once per process) costs more than the NumPy path saves.
+FAST_MIN_BYTES = 1 << 20
+#: At most this many numbers per file are converted by Python for the compiled path.
+_MAX_DEFERRED = 1 << 16
+
+
+@functools.lru_cache(maxsize=1)
+def _fast_kernels():
+    """``mjmotion._fast``, or ``None`` without a working Numba (then everything takes the NumPy path)."""
+    try:
+        from . import _fast
+    except ImportError:  # pragma: no cover - numba is a dependency
+        return None
+    return _fast
+
+
+def _parse_fast(data: bytes | str, path: str, scale: float | None, up: str) -> Motion | None:
+    """:func:`parse` for a long, regular file without splitting it into lines, or ``None``.
+
+    Only the head (hierarchy and motion header) is decoded and parsed as text; the values are
+    parsed from the bytes by a compiled kernel. On anything irregular (an error anywhere, a
+    number format the kernel does not take) this returns ``None`` and :func:`parse` starts over
+    on the NumPy path, so error messages and values are exactly the NumPy path's.
+    """
+    head = _parse_values_fast(data, path)
+    if head is None:
+        return None
+    nodes, frame_time, values, kernels = head
+    skel = _build_skeleton(nodes, path, scale, up)
+    return _to_motion(skel, values, 1.0 / frame_time, path, kernels)
+
+
+def _parse_values_fast(data: bytes | str, path: str):
+    """``(nodes, frame_time, values (T, C), kernels)`` by the compiled path, or ``None``."""
+    if len(data) < FAST_MIN_BYTES:
+        return None
+    if isinstance(data, str):
+        try:
+            data = data.encode("utf-8")
+        except UnicodeEncodeError:
+            return None
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")) or data.find(b"\x00") >= 0:
+        return None
+    cut = _motion_values_start(data)
+    if cut is None or len(data) - cut < FAST_MIN_BYTES:
+        return None
+    kernels = _fast_kernels()
+    if kernels is None:
+        return None
+    try:
+        lines = _decode(data[:cut], path).split("\n")
+        nodes, motion_line = _parse_hierarchy(lines, path)
+        frames, frame_time, first_data_line = _parse_motion_header(lines, motion_line, path)
+    except BvhError:
+        return None
+    n_channels = sum(len(n.channels or ()) for n in nodes if not n.is_end)
+    if first_data_line != len(lines) - 1 or n_channels == 0:
+        return None  # the head is not what the NumPy path would read as the header
+    if frames * n_channels > (len(data) - cut + 1) // 2:
+        return None  # too few bytes for 'Frames:' (a value and its separator take two): an error
+    values = np.empty((frames, n_channels))
+    deferred = np.empty((min(values.size, _MAX_DEFERRED), 4), dtype=np.int64)
+    n_deferred = kernels.parse_values(np.frombuffer(data, np.uint8), cut, values, deferred)
+    if n_deferred < 0:
+        return None
+    for a, b, row, col in deferred[:n_deferred].tolist():
+        # Numbers beyond the kernel's exact fast path: Python's correctly rounded conversion,
+        # the one np.loadtxt uses (the kernel checked their syntax: no '_', no 'inf').
+        values[row, col] = float(data[a:b])
+    if n_deferred and not np.isfinite(values).all():
+        return None
+    return nodes, frame_time, values, kernels
+
+
+def _motion_values_start(data: bytes) -> int | None:
+    """Byte offset after ``MOTION`` and the two non-blank lines after it, or ``None``."""
+    pos = data.find(b"MOTION")
+    if pos < 0:
+        return None
+    pos = _next_line(data, pos)
+    found = 0
+    while found < 2:
+        if pos >= len(data):
+            return None
+        end = _next_line(data, pos)
+        if data[pos:end].strip():
+            found += 1
+        pos = end
+    return pos if pos <= len(data) else None
+
+
+def _next_line(data: bytes, pos: int) -> int:
+    """Start of the line after the one holding ``pos`` (LF, CRLF or CR); ``len + 1`` at the end."""
+    lf = data.find(b"\n", pos)
+    if lf < 0:
+        lf = len(data)
+    cr = data.find(b"\r", pos, lf)
+    if cr >= 0:
+        return cr + 2 if data[cr + 1 : cr + 2] == b"\n" else cr + 1
+    return lf + 1
 
 
 # --- decoding ------------------------------------------------------------------------------
@@ -450,40 +558,39 @@ def _rotation_axes(channels: tuple[str, ...]) -> str:
 _BLOCK = 8192
 
 
-def _to_motion(skel: Skeleton, values: np.ndarray, fps: float, path: str) -> Motion:
+def _to_motion(skel: Skeleton, values: np.ndarray, fps: float, path: str, kernels=None) -> Motion:
+    """The motion of ``values: (T, C)`` (file units, degrees) on ``skel``; ``kernels`` is
+    ``mjmotion._fast`` for the compiled rotation kernel, ``None`` for NumPy (identical floats)."""
     t = values.shape[0]
     j_count = skel.n_joints
     c = up_matrix(skel.up)
+    # The axis change is a permutation: world component i is file component perm[i], so for a
+    # quaternion R_world = C R_file Cᵀ is (w, v) → (w, C v) = (w, v[perm]) — no arithmetic.
+    perm = np.argmax(c, axis=1)
     file_offsets = skel.offsets @ c / skel.scale  # back to file axes and units (C is orthonormal)
     inner_pos = any(skel.has_positions(j) for j in range(1, j_count))
     pos_joints = range(j_count) if inner_pos else range(1)
     local_file = np.empty((t, len(pos_joints), 3))  # only the root's unless inner joints move
     local_file[:] = file_offsets[: len(pos_joints)]
-    quats = np.empty((t, j_count, 4))
-    groups: dict[str, list[tuple[int, list[int]]]] = {}
+    rot_cols = np.full((j_count, 3), -1, dtype=np.int64)
+    rot_axes = np.full((j_count, 3), -1, dtype=np.int64)
     col = 0
     for j, chans in enumerate(skel.channels):
-        rot_cols = []
+        r = 0
         for ch in chans:
             if ch in POSITION_CHANNELS:
                 local_file[:, j, "XYZ".index(ch[0])] += values[:, col]
             else:
-                rot_cols.append(col)
+                rot_cols[j, r] = col
+                rot_axes[j, r] = "XYZ".index(ch[0])
+                r += 1
             col += 1
-        groups.setdefault(_rotation_axes(chans), []).append((j, rot_cols))
-    for axes, members in groups.items():
-        js = [m[0] for m in members]
-        if not axes:
-            quats[:, js] = rot.IDENTITY
-            continue
-        cols = np.array([m[1] for m in members])  # (n, k)
-        for a in range(0, t, _BLOCK):
-            b = min(t, a + _BLOCK)
-            ang = values[a:b, cols].reshape(-1, len(axes))  # (block*n, k)
-            quats[a:b, js] = rot.euler_to_quat(ang, axes).reshape(b - a, len(js), 4)
-    # Into the Z-up world, R_world = C R_file Cᵀ: for a quaternion, (w, v) → (w, C v).
-    quats[..., 1:] = quats[..., 1:] @ c.T
-    local = local_file @ c.T
+    quats = np.empty((t, j_count, 4))
+    if kernels is not None:
+        kernels.euler_quats(np.ascontiguousarray(values), rot_cols, rot_axes, perm.astype(np.int64), quats)
+    else:
+        _euler_quats_numpy(values, skel, rot_cols, perm, quats)
+    local = local_file[..., perm]
     local *= skel.scale
     return Motion(
         skeleton=skel,
@@ -492,6 +599,25 @@ def _to_motion(skel: Skeleton, values: np.ndarray, fps: float, path: str) -> Mot
         rotations=quats,
         translations=local if inner_pos else None,
     )
+
+
+def _euler_quats_numpy(values: np.ndarray, skel: Skeleton, rot_cols: np.ndarray, perm: np.ndarray, quats: np.ndarray) -> None:
+    """NumPy twin of ``_fast.euler_quats``: joints grouped by channel order, converted per block."""
+    t = values.shape[0]
+    groups: dict[str, list[int]] = {}
+    for j, chans in enumerate(skel.channels):
+        groups.setdefault(_rotation_axes(chans), []).append(j)
+    for axes, js in groups.items():
+        if not axes:
+            quats[:, js] = rot.IDENTITY
+            continue
+        cols = rot_cols[js, : len(axes)]  # (n, k)
+        for a in range(0, t, _BLOCK):
+            b = min(t, a + _BLOCK)
+            ang = values[a:b, cols].reshape(-1, len(axes))  # (block*n, k)
+            q = rot.euler_to_quat(ang, axes).reshape(b - a, len(js), 4)
+            quats[a:b, js, 0] = q[..., 0]
+            quats[a:b, js, 1:] = q[..., 1 + perm]
 
 
 # --- writing -------------------------------------------------------------------------------

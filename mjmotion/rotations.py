@@ -171,15 +171,17 @@ def euler_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
     written out here because it is several times faster for long clips).
     """
     angles = np.radians(np.asarray(angles_deg, dtype=float))
-    out = np.zeros((angles.shape[0], 4))
-    out[:, 0] = 1.0
+    out = np.zeros((4, angles.shape[0]))  # component-major: each step updates whole rows
+    out[0] = 1.0
     for k, axis in enumerate(axes.upper()):
         half = 0.5 * angles[:, k]
-        q = np.zeros_like(out)
-        q[:, 0] = np.cos(half)
-        q[:, 1 + "XYZ".index(axis)] = np.sin(half)
-        out = multiply(out, q)
-    return out
+        c, s = np.cos(half), np.sin(half)
+        # out ⊗ (c, s e_a): the non-zero terms of `multiply`, in its order (identical floats).
+        a = "XYZ".index(axis)
+        i, j = 1 + (a + 1) % 3, 1 + (a + 2) % 3
+        w, va, vi, vj = out[0], out[1 + a], out[i], out[j]
+        out[0], out[1 + a], out[i], out[j] = w * c - va * s, w * s + va * c, vi * c + vj * s, vj * c - vi * s
+    return np.ascontiguousarray(out.T)
 
 
 def quat_to_euler(q: np.ndarray, axes: str) -> np.ndarray:

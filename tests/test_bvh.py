@@ -184,3 +184,168 @@ def test_explicit_scale_and_up_override():
     assert m.skeleton.scale == 0.02 and m.skeleton.up == "z"
     # Z up: file Y stays world Y.
     assert np.allclose(m.root_positions[0], np.array([1, 92, 3]) * 0.02)
+
+
+# --- the compiled path for long clips (mjmotion._fast) ----------------------------------------
+def _same_motion(a, b):
+    assert a.skeleton.names == b.skeleton.names and a.skeleton.channels == b.skeleton.channels
+    assert np.array_equal(a.skeleton.offsets, b.skeleton.offsets) and a.fps == b.fps
+    assert np.array_equal(a.rotations, b.rotations)  # bit for bit (== also equates ±0)
+    assert np.array_equal(a.root_positions, b.root_positions)
+    assert (a.translations is None) == (b.translations is None)
+    if a.translations is not None:
+        assert np.array_equal(a.translations, b.translations)
+
+
+@pytest.mark.parametrize("path", clip_params())
+def test_compiled_reader_gives_the_numpy_readers_floats_on_every_shared_clip(path, monkeypatch):
+    if path is None:
+        require_data()
+    data = path.read_bytes()
+    # The values themselves: the kernel's parse against np.loadtxt's, bit for bit.
+    lines = bvh._decode(data, str(path)).split("\n")
+    nodes, motion_line = bvh._parse_hierarchy(lines, str(path))
+    frames, _, first = bvh._parse_motion_header(lines, motion_line, str(path))
+    n_channels = sum(len(n.channels or ()) for n in nodes if not n.is_end)
+    expect = bvh._parse_values(lines, first, n_channels, frames, str(path))
+    monkeypatch.setattr(bvh, "FAST_MIN_BYTES", 0)
+    seen = {}
+    real = bvh._to_motion
+
+    def spy(skel, values, fps, p, kernels=None):
+        seen["values"], seen["kernels"] = values, kernels
+        return real(skel, values, fps, p, kernels)
+
+    monkeypatch.setattr(bvh, "_to_motion", spy)
+    fast = bvh.parse(data, str(path))
+    assert seen["kernels"] is not None, "the compiled path refused a shared clip"
+    assert seen["values"].shape == expect.shape
+    assert np.array_equal(seen["values"], expect)
+    assert np.array_equal(np.signbit(seen["values"]), np.signbit(expect))  # -0.0 stays -0.0
+    monkeypatch.setattr(bvh, "FAST_MIN_BYTES", 1 << 62)
+    _same_motion(fast, bvh.parse(data, str(path)))
+
+
+#: Edits of a valid file's motion section: formats the kernel must read exactly like np.loadtxt,
+#: and faults whose errors must be the NumPy path's (same line, same message).
+MOTION_EDITS = {
+    "crlf": lambda h, rows: h.replace("\n", "\r\n") + "\r\n".join(" ".join(r) for r in rows) + "\r\n",
+    "cr": lambda h, rows: h + "\r".join(" ".join(r) for r in rows),
+    "tabs-blank-lines": lambda h, rows: h + "\n\n".join("\t".join(r) + " \t" for r in rows) + "\n\n  \n",
+    "signs-and-exponents": lambda h, rows: h + "\n".join(" ".join(f"{float(x):+.6e}" for x in r) for r in rows) + "\n",
+    "short-forms": lambda h, rows: h + "\n".join(" ".join(("." + x.split(".")[1]) if x.startswith("0.") else x.rstrip("0") for x in r) for r in rows),
+    "long-mantissas": lambda h, rows: h + "\n".join(" ".join(repr(float(x) / 3.0) + "1234" for x in r) for r in rows) + "\n",
+    "tiny-and-huge": lambda h, rows: h + "\n".join(" ".join(f"{float(x)}e-30" if i % 2 else f"{float(x)}E+25" for i, x in enumerate(r)) for r in rows) + "\n",
+    "missing-value": lambda h, rows: h + "\n".join(" ".join(r[:-1] if i == 3 else r) for i, r in enumerate(rows)) + "\n",
+    "extra-line": lambda h, rows: h + "\n".join(" ".join(r) for r in rows + [rows[0]]) + "\n",
+    "missing-line": lambda h, rows: h + "\n".join(" ".join(r) for r in rows[:-1]) + "\n",
+    "word": lambda h, rows: h + "\n".join(" ".join(["abc" if (i, j) == (2, 1) else x for j, x in enumerate(r)]) for i, r in enumerate(rows)),
+    "nan": lambda h, rows: h + "\n".join(" ".join(["nan" if (i, j) == (4, 0) else x for j, x in enumerate(r)]) for i, r in enumerate(rows)),
+    "overflow": lambda h, rows: h + "\n".join(" ".join(["1e999" if (i, j) == (1, 2) else x for j, x in enumerate(r)]) for i, r in enumerate(rows)),
+    "underscore": lambda h, rows: h + "\n".join(" ".join(["1_0" if (i, j) == (1, 2) else x for j, x in enumerate(r)]) for i, r in enumerate(rows)),
+    "glued": lambda h, rows: h + "\n".join(" ".join(["1.5-2" if (i, j) == (1, 2) else x for j, x in enumerate(r)]) for i, r in enumerate(rows)),
+    "bare-sign": lambda h, rows: h + "\n".join(" ".join(["-" if (i, j) == (1, 2) else x for j, x in enumerate(r)]) for i, r in enumerate(rows)),
+    "comma": lambda h, rows: h + "\n".join(",".join(r) for r in rows),
+    "vertical-tab": lambda h, rows: h + "\n".join("\x0b".join(r) for r in rows),
+    "nul": lambda h, rows: h + "\n".join(" ".join(r) for r in rows) + "\x00",
+    "bom": lambda h, rows: "\ufeff" + h + "\n".join(" ".join(r) for r in rows),
+    "frames-huge": lambda h, rows: h.replace("Frames: 12", "Frames: 999999999999") + "\n".join(" ".join(r) for r in rows),
+    "frames-tab-header-blank": lambda h, rows: h.replace("Frames: ", "\nFrames:\t") + "\n".join(" ".join(r) for r in rows),
+}
+
+
+@pytest.mark.parametrize("edit", list(MOTION_EDITS))
+@pytest.mark.parametrize("as_bytes", [False, True], ids=["str", "bytes"])
+def test_compiled_path_reads_or_refuses_exactly_as_the_numpy_path(edit, as_bytes, monkeypatch):
+    rng = np.random.default_rng(len(edit))
+    m = random_motion(rng, random_skeleton(rng, 7, inner_positions=True), 12)
+    text = bvh.format_motion(m)
+    scale = m.skeleton.scale  # random skeletons are too small for unit detection
+    head, body = text.split("Frame Time:", 1)
+    ft_line, values = body.split("\n", 1)
+    rows = [line.split() for line in values.splitlines() if line.strip()]
+    data = MOTION_EDITS[edit](head + "Frame Time:" + ft_line + "\n", rows)
+    if as_bytes:
+        data = data.encode("utf-8")
+
+    def run(min_bytes):
+        monkeypatch.setattr(bvh, "FAST_MIN_BYTES", min_bytes)
+        try:
+            return bvh.parse(data, "e.bvh", scale=scale)
+        except BvhError as e:
+            return (e.line, e.message)
+
+    fast, slow = run(0), run(1 << 62)
+    if isinstance(slow, tuple):
+        assert fast == slow
+    else:
+        _same_motion(fast, slow)
+    if edit in ("crlf", "cr", "tabs-blank-lines", "signs-and-exponents", "short-forms", "long-mantissas", "tiny-and-huge", "bom"):
+        monkeypatch.setattr(bvh, "FAST_MIN_BYTES", 0)
+        assert not isinstance(slow, tuple) and bvh._parse_fast(data, "e.bvh", scale, "y") is not None, "valid: compiled path"
+
+
+def test_value_kernel_rounds_every_number_as_python_does():
+    """Random decimal numbers of 1–20 digits and exponents to ±40: the kernel's floats (fast or
+    deferred to ``float``) equal Python's correctly rounded ones bit for bit."""
+    from mjmotion import _fast
+
+    rng = np.random.default_rng(7)
+    n = 20_000
+    tokens = []
+    for _ in range(n):
+        digits = "".join(map(str, rng.integers(0, 10, int(rng.integers(1, 21)))))
+        point = int(rng.integers(0, len(digits) + 1))
+        tok = (rng.choice(["", "-", "+"])) + digits[:point] + "." + digits[point:]
+        if rng.random() < 0.4:
+            tok += f"{rng.choice(['e', 'E'])}{int(rng.integers(-40, 41)):+d}"
+        tokens.append(tok if tok.strip("+-.") else "0")
+    text = ("\n".join(" ".join(tokens[i : i + 100]) for i in range(0, n, 100)) + "\n").encode()
+    out = np.empty((n // 100, 100))
+    deferred = np.empty((n, 4), dtype=np.int64)
+    k = _fast.parse_values(np.frombuffer(text, np.uint8), 0, out, deferred)
+    assert 0 < k < n  # both the exact fast path and the deferred conversion are exercised
+    for a, b, row, col in deferred[:k].tolist():
+        out[row, col] = float(text[a:b])
+    expect = np.array([float(t) for t in tokens]).reshape(out.shape)
+    assert np.array_equal(out.view(np.int64), expect.view(np.int64))
+
+
+def test_compiled_rotations_equal_rotations_euler_to_quat():
+    """Every channel layout (0–3 rotation channels, any order, repeats), large angles and ±0:
+    the kernel's quaternions are rotations.euler_to_quat's with the axis change, bit for bit."""
+    from mjmotion import _fast
+
+    rng = np.random.default_rng(3)
+    t, layouts = 50, ["", "X", "ZY", "ZXY", "YXZ", "XZX", "ZYX", "YZX"]
+    values = rng.uniform(-720, 720, (t, 3 * len(layouts)))
+    values[::7] = values[1]  # repeated frames: the kernel reuses its sines and cosines
+    values[5, :4] = [0.0, -0.0, 180.0, -90.0]
+    cols = np.full((len(layouts), 3), -1, dtype=np.int64)
+    axes = np.full_like(cols, -1)
+    for j, lay in enumerate(layouts):
+        cols[j, : len(lay)] = 3 * j + np.arange(len(lay))
+        axes[j, : len(lay)] = ["XYZ".index(a) for a in lay]
+    perm = np.argmax(bvh.up_matrix("y"), axis=1)
+    out = np.empty((t, len(layouts), 4))
+    _fast.euler_quats(values, cols, axes, perm, out)
+    for j, lay in enumerate(layouts):
+        q = rot.euler_to_quat(values[:, 3 * j : 3 * j + len(lay)], lay) if lay else np.tile(rot.IDENTITY, (t, 1))
+        assert np.array_equal(out[:, j, 0], q[:, 0]) and np.array_equal(out[:, j, 1:], q[:, 1 + perm]), lay
+        ref = rot.from_scipy(rot.to_scipy(q)) if lay else q  # and they are the rotations SciPy composes
+        assert np.allclose(np.abs(np.sum(q * ref, -1)), 1.0)
+
+
+def test_large_files_take_the_compiled_path_and_small_ones_do_not(monkeypatch):
+    rng = np.random.default_rng(11)
+    m = random_motion(rng, random_skeleton(rng, 4), 3)
+    assert m.skeleton.scale == 1.0
+    small = bvh.format_motion(m)
+    assert bvh._parse_fast(small, "s.bvh", 1.0, "y") is None  # below FAST_MIN_BYTES: no Numba import
+    frames = int(np.ceil(bvh.FAST_MIN_BYTES / (len(small.split("Frame Time:")[1]) / 3))) + 3
+    big_motion = random_motion(rng, m.skeleton, frames)
+    big = bvh.format_motion(big_motion)
+    fast = bvh._parse_fast(big, "b.bvh", 1.0, "y")
+    assert fast is not None and fast.n_frames == frames
+    monkeypatch.setattr(bvh, "FAST_MIN_BYTES", 1 << 62)
+    _same_motion(fast, bvh.parse(big, "b.bvh", scale=1.0))
