@@ -248,7 +248,8 @@ def blend_weights(effector: np.ndarray, hit: int, falloff: float, fps: float, ed
     """Importance blend ``(T,)`` in [0, 1] (§2.2.5), tapered to 0 at the clip's ends.
 
     ``blend = clamp(1 − |e_t − e_hit| / falloff, 0, 1)``, times a raised-cosine taper over the first
-    and last ``edge`` seconds (1 at the hit frame unless the hit is inside the taper).
+    and last ``edge`` seconds, each shortened to end at the hit frame when the hit is closer to
+    that end: the blend is 1 at the hit unless the hit is the first or last frame itself.
     """
     if not falloff > 0:
         raise MjmotionError(f"--falloff must be a positive distance in metres, got {falloff}")
@@ -256,8 +257,9 @@ def blend_weights(effector: np.ndarray, hit: int, falloff: float, fps: float, ed
     b = np.clip(1.0 - d / falloff, 0.0, 1.0)
     t = len(effector)
     n = max(1, round(edge * fps))
+    n_start, n_end = max(1, min(n, hit)), max(1, min(n, t - 1 - hit))
     i = np.arange(t)
-    ramp = np.minimum(np.minimum(i, t - 1 - i) / n, 1.0)
+    ramp = np.minimum(np.minimum(i / n_start, (t - 1 - i) / n_end), 1.0)
     return b * 0.5 * (1.0 - np.cos(np.pi * ramp))
 
 

@@ -114,7 +114,8 @@ VERBS: dict[str, Verb] = {
     ),
     "stream": Verb(lambda i, o: [i, "-o", o], ".bvh", humanoid=True, script=True),
     "hit": Verb(
-        lambda i, o: [i, "--effector", "right_foot", "--offset", "0", "0", "0.02", "-o", o],
+        # A 5 mm move: reachable within the short clip's own joint ranges (an unreachable one exits 2 by design).
+        lambda i, o: [i, "--effector", "right_foot", "--offset", "0", "0", "0.005", "-o", o],
         ".bvh",
         bad=(("--frame", "99999"), ("--effector", "NoSuchSite"), ("--falloff", "-1"), ("--lock", "NoSuchJoint")),
         humanoid=True,

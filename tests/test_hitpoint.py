@@ -180,3 +180,13 @@ def test_style_weights_stiffen_what_the_style_space_sees(short):
         moved[i] = float(np.mean(np.sum((space.scores(s.replace(rotations=rot.normalize(q)), k) - space.source_scores[:, :k]) ** 2, axis=1)))
     stiff, supple = moved
     assert moved[stiff] > moved[supple]
+
+
+def test_blend_is_full_at_a_hit_near_either_end_and_zero_at_the_ends():
+    from mjmotion.hitpoint import blend_weights
+
+    effector = np.cumsum(np.full((200, 3), 0.01), axis=0)  # a steadily moving effector
+    for hit in (3, 12, 100, 190, 196):
+        b = blend_weights(effector, hit, falloff=0.5, fps=120.0, edge=0.5)
+        assert b[hit] == pytest.approx(1.0) and b[0] == 0.0 and b[-1] == 0.0, hit
+        assert np.all(np.diff(b[: hit + 1]) >= -1e-12) and np.all(np.diff(b[hit:]) <= 1e-12), hit
