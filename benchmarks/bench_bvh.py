@@ -121,14 +121,18 @@ def cold_start(path: Path, runs: int = 5) -> None:
     imp_w, imp_c = med("import mjmotion.bvh")
     with tempfile.TemporaryDirectory() as cache:
         env = {"NUMBA_CACHE_DIR": cache}
-        compile_w, compile_c = fresh_process(read, env)  # compiles and fills the fresh cache
+        compile_w, compile_c = fresh_process(read, env)  # compiles and fills the fresh cache (one run)
         warm_w, warm_c = med(read, env)
     np_w, np_c = med(numpy_read)
     print(f"fresh process, 'import mjmotion.bvh' alone: {imp_w:.2f} s wall, {imp_c:.2f} s CPU (median of {runs}); "
           "then the first read of the clip costs")  # fmt: skip
-    print(f"  compiled path, Numba cache cold (compiles; once per machine): +{compile_w - imp_w:.2f} s wall, +{compile_c - imp_c:.2f} s CPU")
-    print(f"  compiled path, Numba cache warm (every later process):         +{warm_w - imp_w:.2f} s wall, +{warm_c - imp_c:.2f} s CPU")
-    print(f"  NumPy path (files below {bvh.FAST_MIN_BYTES} bytes of motion):        +{np_w - imp_w:.2f} s wall, +{np_c - imp_c:.2f} s CPU")
+    rows = [
+        ("compiled path, Numba cache cold (compiles; once per machine)", compile_w, compile_c),
+        ("compiled path, Numba cache warm (every later process)", warm_w, warm_c),
+        (f"NumPy path (what files under {bvh.FAST_MIN_BYTES} bytes of motion take)", np_w, np_c),
+    ]
+    for label, w, c in rows:
+        print(f"  {label:<66}{w - imp_w:+6.2f} s wall {c - imp_c:+6.2f} s CPU")
 
 
 def read_bvh_package_api(path: Path) -> list:
