@@ -347,5 +347,7 @@ def test_large_files_take_the_compiled_path_and_small_ones_do_not(monkeypatch):
     big = bvh.format_motion(big_motion)
     fast = bvh._parse_fast(big, "b.bvh", 1.0, "y")
     assert fast is not None and fast.n_frames == frames
+    fast_z = bvh._parse_fast(big, "b.bvh", 1.0, "z")  # a Z-up file: the identity permutation
     monkeypatch.setattr(bvh, "FAST_MIN_BYTES", 1 << 62)
     _same_motion(fast, bvh.parse(big, "b.bvh", scale=1.0))
+    _same_motion(fast_z, bvh.parse(big, "b.bvh", scale=1.0, up="z"))
