@@ -28,6 +28,7 @@ from . import evaluate as ev
 from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
+from .ik import analytic
 from .skeleton import Motion
 
 
@@ -164,43 +165,16 @@ def pin_offsets(plants: list[Plant], ankles_xy: np.ndarray, fps: float, blend: f
 def two_bone_ik(
     hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, target: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Analytic two-bone IK, vectorised over frames.
+    """Analytic two-bone IK of a leg, vectorised over frames (:func:`mjmotion.ik.analytic.two_bone`).
 
     ``hip, knee, ankle, target: (T, 3)``. Returns world rotations ``(T, 4)`` wxyz to apply to
     the thigh (``r_hip``, about the hip) and to the shin (``r_knee``, about the knee, applied
-    before ``r_hip``), and ``reached: (T,)`` bool. The knee stays in its current bending plane.
+    before ``r_hip``), and ``reached: (T,)`` bool. The knee stays in its current bending plane;
+    a straight leg bends about the axis perpendicular to the thigh and the target.
     """
-    u, v = hip - knee, ankle - knee
-    l1 = np.linalg.norm(u, axis=1)
-    l2 = np.linalg.norm(v, axis=1)
-    d_raw = np.linalg.norm(target - hip, axis=1)
-    lo, hi = np.abs(l1 - l2) + 1e-6, l1 + l2 - 1e-6
-    d = np.clip(d_raw, lo, hi)
-    cos_cur = np.einsum("ij,ij->i", u, v) / np.maximum(l1 * l2, 1e-12)
-    theta = np.arccos(np.clip(cos_cur, -1.0, 1.0))
-    theta_new = np.arccos(np.clip((l1**2 + l2**2 - d**2) / np.maximum(2 * l1 * l2, 1e-12), -1.0, 1.0))
-    n = np.cross(u, v)
-    nn = np.linalg.norm(n, axis=1)
-    # A straight leg has no bending plane: bend about an axis perpendicular to the thigh and the target.
-    fallback = np.cross(u, target - hip)
-    fallback_n = np.linalg.norm(fallback, axis=1)
-    n = np.where((nn > 1e-9)[:, None], n, fallback)
-    nn = np.where(nn > 1e-9, nn, fallback_n)
-    axis = n / np.maximum(nn, 1e-12)[:, None]
-    r_knee = rot.exp(axis * (theta_new - theta)[:, None])
-    a1 = knee + rot.rotate(r_knee, v)
-    r_hip = _arc(a1 - hip, target - hip)
-    return r_hip, r_knee, d_raw <= hi + 1e-9
-
-
-def _arc(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Shortest-arc rotations ``(T, 4)`` taking directions ``a`` to ``b``."""
-    a = a / np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-12)
-    b = b / np.maximum(np.linalg.norm(b, axis=1, keepdims=True), 1e-12)
-    c = np.cross(a, b)
-    w = 1.0 + np.einsum("ij,ij->i", a, b)
-    q = np.concatenate([w[:, None], c], axis=1)
-    return rot.normalize(np.where((w > 1e-9)[:, None], q, np.array([0.0, 1.0, 0.0, 0.0])))
+    axis = analytic.bend_axes(hip, knee, ankle, fallback=np.cross(knee - hip, target - hip))
+    r_hip, r_knee, short = analytic.two_bone(hip, knee, ankle, target, axis)
+    return r_hip, r_knee, short <= 1e-9
 
 
 def _hann_smooth_max(x: np.ndarray, n: int) -> np.ndarray:

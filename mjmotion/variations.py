@@ -28,6 +28,7 @@ import numpy as np
 from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
+from .ik import analytic
 from .skeleton import Motion, Skeleton
 from .style import PoseSpace, rotation_flips, style_rmse
 
@@ -383,20 +384,6 @@ def _fade(mask: np.ndarray, n_fade: int) -> np.ndarray:
     return np.sin(0.5 * np.pi * u) ** 2
 
 
-def _axis_angle_quat(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    return rot.exp(axis * angle[..., None])
-
-
-def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Shortest rotations ``(T, 4)`` taking directions ``a`` onto ``b`` (``(T, 3)``)."""
-    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
-    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
-    q = np.concatenate(
-        [1.0 + np.sum(a * b, axis=-1, keepdims=True), np.cross(a, b)], axis=-1
-    )
-    return rot.normalize(q)
-
-
 def two_bone_ik(
     skeleton: Skeleton,
     world_pos: np.ndarray,
@@ -440,14 +427,7 @@ def two_bone_ik(
     n_unit = np.where(
         good[:, None], n / np.maximum(nn, 1e-12)[:, None], rot.rotate(q_top, ref)
     )
-    bend = np.arctan2(np.sum(np.cross(u, v) * n_unit, axis=-1), np.sum(u * v, axis=-1))
-    d_raw = np.linalg.norm(target_pos - h, axis=-1)
-    d = np.clip(d_raw, np.abs(l1 - l2) + 1e-6, l1 + l2 - 1e-6)
-    cos_inner = np.clip((l1**2 + l2**2 - d**2) / (2 * l1 * l2), -1.0, 1.0)
-    new_bend = np.pi - np.arccos(cos_inner)
-    r_knee = _axis_angle_quat(n_unit, new_bend - bend)
-    v_new = rot.rotate(r_knee, v)
-    r_hip = _rotation_between(u + v_new, target_pos - h)
+    r_hip, r_knee, reach_error = analytic.two_bone(h, k, a, target_pos, n_unit)
     q_top_new = rot.multiply(r_hip, q_top)
     q_mid_new = rot.multiply(r_hip, rot.multiply(r_knee, world_rot[:, mid]))
     out = local_rot.copy()
@@ -459,7 +439,7 @@ def two_bone_ik(
     out[:, top] = rot.multiply(rot.conjugate(q_above), q_top_new)
     out[:, mid] = rot.multiply(rot.conjugate(q_top_new), q_mid_new)
     out[:, end] = rot.multiply(rot.conjugate(q_mid_new), target_rot)
-    return out, np.abs(d_raw - d)
+    return out, reach_error
 
 
 def _blend_local(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -814,7 +794,7 @@ def _reach_with_shoulder(
         p[:, top]
         + to_target * ((dist - 0.99 * reach) / np.maximum(dist, 1e-12))[:, None]
     )
-    r = _rotation_between(p[:, top] - p[:, clav], wanted - p[:, clav])
+    r = analytic.shortest_arc(p[:, top] - p[:, clav], wanted - p[:, clav])
     r[~short] = rot.IDENTITY
     q_clav = rot.multiply(r, pose.joint_rotations[:, clav])
     q_above = (

@@ -143,3 +143,33 @@ def test_dls_six_d_goal_and_ccd_position_goal(swing):
     kin.set_delta(np.zeros(lead.n_dof))
     r0 = ccd.solve(kin, q[t], kin.effector().copy(), lo1[t], hi1[t])
     assert r0.iterations == 0 and not r0.delta.any()
+
+
+def test_analytic_two_bone_reaches_targets_and_keeps_bone_lengths():
+    from mjmotion.ik import analytic
+
+    rng = np.random.default_rng(0)
+    n = 200
+    top = rng.normal(size=(n, 3))
+    mid = top + rng.normal(size=(n, 3)) * 0.3
+    end = mid + rng.normal(size=(n, 3)) * 0.3
+    l1, l2 = np.linalg.norm(mid - top, axis=1), np.linalg.norm(end - mid, axis=1)
+    # Targets inside the reachable shell, and some beyond it.
+    direction = rng.normal(size=(n, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    frac = rng.uniform(0.2, 1.3, n)
+    dist = np.abs(l1 - l2) + frac * (l1 + l2 - np.abs(l1 - l2))
+    target = top + direction * dist[:, None]
+    axis = analytic.bend_axes(top, mid, end, fallback=np.cross(mid - top, target - top))
+    r_top, r_mid, short = analytic.two_bone(top, mid, end, target, axis)
+    new_mid = top + rot.rotate(r_top, mid - top)
+    new_end = new_mid + rot.rotate(r_top, rot.rotate(r_mid, end - mid))
+    assert np.allclose(np.linalg.norm(new_mid - top, axis=1), l1)
+    assert np.allclose(np.linalg.norm(new_end - new_mid, axis=1), l2)
+    inside = frac <= 1.0
+    assert np.abs(np.linalg.norm(new_end - target, axis=1)[inside]).max() < 1e-5
+    assert np.allclose(short[inside], 0.0, atol=1e-5)
+    # Out of reach: the limb points straight at the target and says how far it is short.
+    out = ~inside
+    assert np.allclose(short[out], np.linalg.norm(target - top, axis=1)[out] - (l1 + l2)[out], atol=1e-5)
+    assert np.allclose(np.linalg.norm(new_end - target, axis=1)[out], short[out], atol=1e-5)
