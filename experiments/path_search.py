@@ -1,37 +1,12 @@
 """Minimal-cost path search: seed 004 Tables 2–4 (brute force, greedy, threshold recursion, DP) on real walks and runs.
 
-    python experiments/path_search.py [--data DIR] [--out results/path_search] [--quick]
+    python experiments/path_search.py [--data DIR | --bundled] [--out DIR] [--quick]
 
 Without --data the real mocap is MJMOTION_DATA or ../shared/mocap; --bundled uses the procedural
 clips of mjmotion.synth instead (what `mjmotion demo` runs).
 """
 
-from __future__ import annotations
-
-import argparse
-import sys
-import time
-from pathlib import Path
-
-from mjmotion.errors import MjmotionError
-from mjmotion.experiments import data_dir, path_search
-
-
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--data", help="mocap directory (default: MJMOTION_DATA or ../shared/mocap)")
-    p.add_argument("--bundled", action="store_true", help="use the bundled procedural clips instead of real mocap")
-    p.add_argument("--out", default="results/path_search", help="output folder (default: results/path_search)")
-    p.add_argument("--quick", action="store_true", help="the short version the demo runs")
-    args = p.parse_args()
-    start = time.perf_counter()
-    try:
-        table = path_search.run(Path(args.out), None if args.bundled else data_dir(args.data), quick=args.quick)
-    except MjmotionError as e:
-        sys.exit(f"error: {e}")
-    print(table.markdown())
-    print(f"wrote {Path(args.out) / 'table.md'} and {len(table.files)} more file(s) to {args.out}/ in {time.perf_counter() - start:.1f} s")
-
+from mjmotion.experiments import script
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(script("path_search", __doc__))

@@ -1,35 +1,9 @@
 """Shot variations: exaggerated, muted and aborted swings and kicks, before and after cleanup (seed 003 §3; issue 8).
 
-    python experiments/variations.py [--data DIR] [--out results/variations] [--quick] [--jobs N]
+    python experiments/variations.py [--data DIR | --bundled] [--out DIR] [--quick] [--jobs N]
 """
 
-from __future__ import annotations
-
-import os
-
-# Small matrices in two worker processes: one BLAS thread each (set before NumPy loads).
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
-
-import argparse
-import time
-from pathlib import Path
-
-from mjmotion.experiments import data_dir, variations
-
-
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--data", help="mocap directory (default: MJMOTION_DATA or ../shared/mocap)")
-    p.add_argument("--out", default="results/variations", help="output folder")
-    p.add_argument("--quick", action="store_true", help="a short version (one clip)")
-    p.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
-    args = p.parse_args()
-    start = time.perf_counter()
-    table = variations.run(Path(args.out), data_dir(args.data), quick=args.quick, jobs=args.jobs)
-    print(table.markdown())
-    print(f"wrote {Path(args.out) / 'table.md'} in {time.perf_counter() - start:.1f} s")
-
+from mjmotion.experiments import script
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(script("variations", __doc__))

@@ -33,3 +33,14 @@ def test_demo_refuses_unknown_experiments(tmp_path):
 
     with pytest.raises(MjmotionError, match="unknown experiment"):
         demo.run(tmp_path, names=("no_such",))
+
+
+def test_experiment_scripts_share_one_command_line(tmp_path, capsys):
+    from mjmotion.experiments import script
+
+    out = tmp_path / "tr"
+    assert script("transitions", None, ["--bundled", "--quick", "--out", str(out)]) == 0
+    assert "whole stream" in (out / "table.md").read_text()
+    assert script("transitions", None, ["--data", str(tmp_path / "missing")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "missing" in err and err.count("\n") == 1

@@ -76,3 +76,43 @@ def results_dir(name: str, root: str | os.PathLike[str] = "results") -> Path:
     out = Path(root) / name
     out.mkdir(parents=True, exist_ok=True)
     return out
+
+
+def script(name: str, doc: str | None, argv: list[str] | None = None) -> int:
+    """The command line every ``experiments/<name>.py`` script shares.
+
+    ``--data DIR`` (default ``MJMOTION_DATA`` or ``../shared/mocap``), ``--bundled`` (the procedural
+    clips instead), ``--out DIR`` (default ``results/<name>``), ``--quick`` (the demo's version),
+    ``--jobs N`` where the experiment runs work in parallel. Prints the table; an error a user can
+    act on is one ``error:`` line and status 2.
+    """
+    import argparse
+    import importlib
+    import inspect
+    import sys
+    import time
+
+    module = importlib.import_module(f"{__name__}.{name}")
+    takes_jobs = "jobs" in inspect.signature(module.run).parameters
+    p = argparse.ArgumentParser(prog=f"experiments/{name}.py", description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", metavar="DIR", help="mocap directory (default: MJMOTION_DATA or ../shared/mocap)")
+    p.add_argument("--bundled", action="store_true", help="use the bundled procedural clips instead of real mocap")
+    p.add_argument("--out", default=f"results/{name}", metavar="DIR", help=f"output folder (default: results/{name})")
+    p.add_argument("--quick", action="store_true", help="the short version `mjmotion demo` runs")
+    if takes_jobs:
+        p.add_argument("--jobs", type=int, default=2, metavar="N", help="worker processes (default 2)")
+    args = p.parse_args(argv)
+    start = time.perf_counter()
+    out = Path(args.out)
+    try:
+        source = None if args.bundled else data_dir(args.data)
+        if takes_jobs and args.jobs < 1:
+            raise MjmotionError(f"--jobs {args.jobs}: expected at least 1")
+        extra = {"jobs": args.jobs} if takes_jobs else {}
+        table = module.run(out, source, quick=args.quick, **extra)
+    except MjmotionError as e:
+        sys.stderr.write(f"error: {e}\n")
+        return 2
+    print(table.markdown())
+    print(f"wrote {out / 'table.md'} and {len(table.files)} more file(s) to {out}/ in {time.perf_counter() - start:.1f} s")
+    return 0
