@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MjmotionError
-from .experiments import Table
+from .experiments import Table, single_thread_blas
 
 #: The experiments, in the order the demo runs them.
 EXPERIMENTS = ("physics_audit", "path_search", "timewarp_blend", "transitions", "hitpoint_grid", "variations")
@@ -115,8 +115,10 @@ def summary(out: Path, steps: list[Step], videos: list[str], data_dir: Path | No
     lines = [
         "# mjmotion demo",
         "",
-        f"Data: {'real mocap from ' + str(data_dir) if data_dir else 'the bundled procedural clips (mjmotion.synth)'}; "
-        f"short versions of every experiment; {total:.0f} s in all.",
+        (
+            f"Data: {'real mocap from ' + str(data_dir) if data_dir else 'the bundled procedural clips (mjmotion.synth)'}; "
+            f"short versions of every experiment; {total:.0f} s in all."
+        ),
         "",
         "| experiment | seconds | table |",
         "|---|---|---|",
@@ -140,8 +142,9 @@ def run(out: Path, data_dir: Path | None = None, videos: bool = True, names: tup
         raise MjmotionError(f"unknown experiment(s) {', '.join(unknown)}; choose from {', '.join(EXPERIMENTS)}")
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    steps = run_experiments(out, data_dir, names)
-    files = render_videos(out, data_dir) if videos else []
+    with single_thread_blas():
+        steps = run_experiments(out, data_dir, names)
+        files = render_videos(out, data_dir) if videos else []
     total = time.perf_counter() - start
     path = summary(out, steps, files, data_dir, total)
     _say(f"demo finished in {total:.0f} s: {path}")

@@ -9,6 +9,7 @@ these with the real data.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -35,7 +36,7 @@ class Table:
     def markdown(self) -> str:
         def cell(v: object) -> str:
             if isinstance(v, float):
-                if v != v:
+                if math.isnan(v):
                     return "–"
                 return f"{v:.4g}" if abs(v) < 1e4 else f"{v:.3e}"
             if isinstance(v, bool):
@@ -55,6 +56,18 @@ class Table:
         path = out_dir / "table.md"
         path.write_text(self.markdown(), encoding="utf-8")
         return path
+
+
+def single_thread_blas():
+    """A context in which BLAS uses one thread.
+
+    The experiments' linear algebra is small (PCA of a few hundred frames): on a shared 2-core
+    machine OpenBLAS's threads contend with each other and with a second worker process, and an
+    SVD was measured 25× slower than on one thread.
+    """
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def data_dir(explicit: str | os.PathLike[str] | None = None, required: bool = True) -> Path | None:
@@ -109,7 +122,8 @@ def script(name: str, doc: str | None, argv: list[str] | None = None) -> int:
         if takes_jobs and args.jobs < 1:
             raise MjmotionError(f"--jobs {args.jobs}: expected at least 1")
         extra = {"jobs": args.jobs} if takes_jobs else {}
-        table = module.run(out, source, quick=args.quick, **extra)
+        with single_thread_blas():
+            table = module.run(out, source, quick=args.quick, **extra)
     except MjmotionError as e:
         sys.stderr.write(f"error: {e}\n")
         return 2

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..skeleton import Motion
-from . import Table
+from . import Table, single_thread_blas
 
 #: Grid spacings (metres) of the 3×3 target grids (issue 5; seed §2.5 tests "left-to-right and low-to-high").
 SPACINGS = (0.1, 0.2)
@@ -224,22 +224,6 @@ def run_grid(shot: Shot, solver: str, wrist: str, spacings: Sequence[float], lau
             ball.radius, ball.mass, restitution=ball.restitution,
         )  # fmt: skip
     return GridResult(shot.name, solver, wrist, offsets, reports, np.array(ends), np.array(still), pred, time.perf_counter() - start)
-
-
-def single_thread_blas():
-    """A context in which BLAS uses one thread (``threadpoolctl`` when installed, else a no-op).
-
-    The experiments' linear algebra is small (PCA of a few hundred frames): on this shared 2-core
-    machine OpenBLAS's threads contend with each other and with the second worker process and an
-    SVD takes 25× longer than on one thread.
-    """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # optional
-        import contextlib
-
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 def _task(args: tuple) -> GridResult:

@@ -55,10 +55,14 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
         "Physics audit: captured and synthesized motion",
         COLUMNS,
         notes=[
-            f"thresholds: h_c = {params.h_c} m, v_c = {params.v_c} m/s, float tolerance {params.float_tol * 1000:.0f} mm, "
-            f"friction μ = {params.mu}, CoP margin {params.cop_margin} m, finite-difference step {params.fd_step:.3f} s",
-            "skate mm/s: METRICS.md's definition (contact by height alone, which also counts low swing feet); "
-            "planted skate: the same speed over frames in contact by height and speed (v_c)",
+            (
+                f"thresholds: h_c = {params.h_c} m, v_c = {params.v_c} m/s, float tolerance {params.float_tol * 1000:.0f} mm, "
+                f"friction μ = {params.mu}, CoP margin {params.cop_margin} m, finite-difference step {params.fd_step:.3f} s"
+            ),
+            (
+                "skate mm/s: METRICS.md's definition (contact by height alone, which also counts low swing feet); "
+                "planted skate: the same speed over frames in contact by height and speed (v_c)"
+            ),
             "captured clips: a leading T-pose or transition (cgspeed's frames 0–3) is skipped",
         ],
     )
@@ -68,8 +72,10 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
         files = sorted(str(p) for p in Path(data_dir).rglob("*.bvh"))
         if quick:
             files = files[:: max(1, len(files) // 6)]
-        opts = dict(units="auto", up="y", frames=None, keep_start=False, prop=[], ball=None, frame=None,
-                    ball_radius=0.036, ball_velocity=(0.0, 0.0, 0.0), h_c=params.h_c, v_c=params.v_c)  # fmt: skip
+        opts = {
+            "units": "auto", "up": "y", "frames": None, "keep_start": False, "prop": [], "ball": None, "frame": None,
+            "ball_radius": 0.036, "ball_velocity": (0.0, 0.0, 0.0), "h_c": params.h_c, "v_c": params.v_c,
+        }  # fmt: skip
         for r in evaluate_files(files, opts, jobs):
             label = f"{Path(r['file']).parent.name}/{Path(r['file']).stem}"
             if "error" in r:

@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import Table
-from .hitpoint_grid import Shot, load_shots, single_thread_blas
+from . import Table, single_thread_blas
+from .hitpoint_grid import Shot, load_shots
 
 #: Scale factors of the exaggerated and muted variants (§3.2.3, Figure 3.7 red/green).
 EXAGGERATE, MUTE = 1.3, 0.7
