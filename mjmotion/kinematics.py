@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 
 from .errors import MjmotionError
-from .mjcf import Ball, CompiledModel, Prop, compile
+from .mjcf import CompiledModel, compile
 from .skeleton import Motion
 
 
@@ -117,8 +117,3 @@ def site_jacobian(compiled: CompiledModel, q: np.ndarray, site: str | int) -> tu
     jacr = np.zeros((3, m.nv))
     mujoco.mj_jacSite(m, d, jacp, jacr, sid)
     return jacp, jacr
-
-
-def model_for(motion: Motion, props: tuple[Prop, ...] = (), ball: Ball | None = None) -> CompiledModel:
-    """Compile ``motion``'s skeleton (a convenience for scripts)."""
-    return compile(motion.skeleton, props, ball)

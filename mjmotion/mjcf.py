@@ -591,10 +591,3 @@ def _index(
         ball_qpos_adr=ball_adr,
         foot_geoms=geoms,
     )
-
-
-def with_ball(compiled: CompiledModel, ball: Ball) -> CompiledModel:
-    """Recompile ``compiled``'s skeleton and props with ``ball`` added."""
-    return compile(compiled.skeleton, compiled.props, ball)
-
-

@@ -88,7 +88,3 @@ def parse_frames(text: str, n_frames: int) -> slice:
     if hi <= lo:
         raise MjmotionError(f"--frames {text}: selects no frames of a {n_frames}-frame clip")
     return sl
-
-
-def is_bvh(path: str) -> bool:
-    return os.path.isfile(path) and path.lower().endswith(".bvh")
