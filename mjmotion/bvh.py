@@ -24,7 +24,14 @@ import numpy as np
 
 from . import rotations as rot
 from .errors import BvhError, MjmotionError
-from .skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton, detect_scale, up_matrix
+from .skeleton import (
+    POSITION_CHANNELS,
+    ROTATION_CHANNELS,
+    Motion,
+    Skeleton,
+    detect_scale,
+    up_matrix,
+)
 
 _KNOWN_CHANNELS = set(POSITION_CHANNELS) | set(ROTATION_CHANNELS)
 _CHANNEL_CASE = {c.lower(): c for c in _KNOWN_CHANNELS}

@@ -16,8 +16,8 @@ each other. The world has a checker floor (z = 0), lights and a camera tracking 
 from __future__ import annotations
 
 import os
-from xml.etree import ElementTree
 from dataclasses import dataclass, field
+from xml.etree import ElementTree
 
 import mujoco
 import numpy as np
