@@ -534,6 +534,7 @@ def reach_hit_point(
     target: Sequence[float],
     falloff: float = 0.25,
     wrist: str = "locked",
+    pose: kinematics.Pose | None = None,
 ) -> Motion:
     """The shot adapted so ``prop``'s sweet spot meets ``target`` at ``hit_frame`` (seed 003 §2.2).
 
@@ -541,20 +542,21 @@ def reach_hit_point(
     out with a smoothstep over ``falloff`` seconds each side of the hit. ``wrist="locked"`` keeps
     the wrist's local rotation from the source (seed 003 §2.3.3: the club turns with the forearm);
     ``wrist="world"`` keeps the club's world orientation (the wrist absorbs the change).
+    ``pose``: ``motion``'s forward kinematics with ``prop`` (computed when not given; a grid of
+    targets on one shot passes it once).
     """
     from .cleanup import two_bone_ik
 
     if wrist not in ("locked", "world"):
         raise MjmotionError(f"wrist={wrist!r}: expected 'locked' or 'world'")
     skel = motion.skeleton
-    compiled = mjcf.compile(skel, (prop,))
     sh, el, wr = arm_chain(skel, skel.index(prop.joint))
     n = max(1, round(falloff * motion.fps))
     t = np.arange(motion.n_frames)
     x = np.clip(1.0 - np.abs(t - hit_frame) / (n + 1), 0.0, 1.0)
     weight = x * x * (3 - 2 * x)
     act = weight > 0
-    pose = kinematics.forward(compiled, motion)
+    pose = pose if pose is not None else kinematics.forward(mjcf.compile(skel, (prop,)), motion)
     delta = np.asarray(target, dtype=float) - pose.site(prop.site)[hit_frame]
     jp, jr = pose.joint_positions, pose.joint_rotations
     if wrist == "locked":
@@ -618,12 +620,14 @@ def hit_grid(
     rank-correlate launch direction with the hit point."""
     compiled = mjcf.compile(motion.skeleton, (prop,))
     geom = mujoco.mj_name2id(compiled.model, mujoco.mjtObj.mjOBJ_GEOM, prop.name)
-    base = kinematics.forward(compiled, motion[hit_frame : hit_frame + 1]).site(prop.site)[0]
+    # One model and one FK of the source shot serve every grid point.
+    pose = kinematics.forward(compiled, motion)
+    base = pose.site(prop.site)[hit_frame]
     points = base + np.asarray(offsets, dtype=float)
     paths = []
     h = 0
     for p in points:
-        adapted = reach_hit_point(motion, prop, hit_frame, p, falloff, wrist)
+        adapted = reach_hit_point(motion, prop, hit_frame, p, falloff, wrist, pose)
         pos, quat, h = effector_path(compiled, adapted, geom, hit_frame)
         paths.append((pos, quat))
     size = compiled.model.geom_size[geom].tolist()
