@@ -70,10 +70,7 @@ def hand_joints(skeleton: Skeleton) -> dict[str, int]:
 
 def _palm(skeleton: Skeleton, j: int) -> np.ndarray:
     """Offset ``(3,)`` in hand joint ``j``'s frame of its palm: halfway along the hand bone."""
-    tips = [skeleton.offsets[c] for c in skeleton.children(j)]
-    tips += [skeleton.end_offsets[e] for e in np.flatnonzero(skeleton.end_parents == j)]
-    tips = [t for t in tips if np.linalg.norm(t) > 1e-6]
-    return 0.5 * np.asarray(tips[0]) if tips else np.zeros(3)
+    return 0.5 * _first_tip(skeleton, j)
 
 
 def address_frames(points: np.ndarray, still: float = 0.03) -> int:
@@ -141,6 +138,7 @@ def fit_club(motion: Motion, kind: str = "club") -> mjcf.Prop:
 
 # --- effectors ---------------------------------------------------------------------------------
 def _first_tip(skeleton: Skeleton, j: int) -> np.ndarray:
+    """Offset ``(3,)`` in joint ``j``'s frame of the end of its bone: its first child or End Site."""
     tips = [skeleton.offsets[c] for c in skeleton.children(j)]
     tips += [skeleton.end_offsets[e] for e in np.flatnonzero(skeleton.end_parents == j)]
     tips = [t for t in tips if np.linalg.norm(t) > 1e-6]
