@@ -7,9 +7,9 @@ import json
 import math
 
 from .. import bvh
-from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load, output_path
+from .evaluate import _finite, _nan_to_none
 
 NAME = "cleanup"
 HELP = "remove footskate: pin foot plants, two-bone leg IK, root adjustment, smooth blending"
@@ -36,11 +36,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_input_options(p)
 
 
-def _metrics(motion, params) -> dict[str, float]:
+def _metrics(c, motion, params) -> dict[str, float]:
+    """Footskate and penetration of ``motion`` under ``c`` (its skeleton's compiled model)."""
     from .. import evaluate as ev
-    from .. import kinematics, mjcf
+    from .. import kinematics
 
-    c = mjcf.compile(motion.skeleton)
     pose = kinematics.forward(c, motion)
     tr = ev.foot_heights_speeds(c, motion, pose)
     g = ev.ground_metrics(ev.lowest_body_point(c, pose), tr, params.h_c, params.v_c)
@@ -56,16 +56,20 @@ def _metrics(motion, params) -> dict[str, float]:
 def run(args: argparse.Namespace) -> int:
     from .. import cleanup as cl
     from .. import evaluate as ev
+    from .. import mjcf
 
-    _check(args.h_c, "--h-c", "a contact height in metres", strict=True)
-    _check(args.v_c, "--v-c", "a contact speed in m/s", strict=True)
-    _check(args.blend, "--blend", "a blend time in seconds")
+    _finite(args.h_c, "--h-c", "a contact height in metres")
+    _finite(args.v_c, "--v-c", "a contact speed in m/s")
+    _finite(args.blend, "--blend", "a blend time in seconds", strict=False)
     out = output_path(args, args.file)
     rep_path = check_output(args.json, force=args.force, inputs=(args.file, str(out))) if args.json else None
     m = load(args.file, args)
     params = cl.CleanupParams(h_c=args.h_c, v_c=args.v_c, blend=args.blend)
     res = cl.cleanup(m, params)
-    before, after = _metrics(m, params), _metrics(res.motion, params)
+    # The cleaned clip keeps the source's skeleton (cleanup changes rotations and the root): one model for both.
+    c = mjcf.compile(m.skeleton)
+    c_after = c if res.motion.skeleton is m.skeleton else mjcf.compile(res.motion.skeleton)
+    before, after = _metrics(c, m, params), _metrics(c_after, res.motion, params)
     speed_ratio = ev.max_joint_speed_ratio(res.motion, m)
     bvh.write(res.motion, out)
     print(f"wrote {out}: {len(res.plants)} plants, {int(res.changed_frames.sum())}/{m.n_frames} frames changed, root moved ≤ {res.max_root_shift_m * 1000:.1f} mm")
@@ -77,17 +81,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"parameters: h_c={params.h_c} m, v_c={params.v_c} m/s, blend={params.blend} s, min plant={params.min_plant} s, gap closed ≤ {params.max_gap} s")
     if rep_path is not None:
         doc = dict(input=args.file, output=str(out), before=before, after=after, max_joint_speed_ratio=speed_ratio, **res.to_dict())
-        from .evaluate import _nan_to_none
-
         write_text_atomic(rep_path, json.dumps(_nan_to_none(doc), indent=1, default=float, allow_nan=False))
         print(f"wrote {rep_path}")
     return 0
-
-
-def _check(value: float, option: str, what: str, strict: bool = False) -> None:
-    """Refuse a non-finite or negative (``strict``: non-positive) option before any work."""
-    if not (math.isfinite(value) and (value > 0 if strict else value >= 0)):
-        raise MjmotionError(f"{option} {value:g}: expected {what}, a finite number {'> 0' if strict else '≥ 0'}")
 
 
 def _f(v: float) -> str:
