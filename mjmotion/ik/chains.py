@@ -33,7 +33,6 @@ from scipy.spatial.transform import Rotation
 
 from .. import rotations as rot
 from ..errors import MjmotionError
-from ..kinematics import qpos as motion_qpos
 from ..mjcf import CompiledModel
 from ..skeleton import Motion, Skeleton
 
@@ -405,8 +404,3 @@ def factor_rates(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
     out[:, 1] = rot.rotate(rot.conjugate(s3), axes[:, 1])
     out[:, 2] = axes[:, 2]
     return out
-
-
-def fk_qpos(compiled: CompiledModel, motion: Motion) -> np.ndarray:
-    """``(T, nq)`` MuJoCo positions of the source clip (the FK poses the IK starts from)."""
-    return motion_qpos(compiled, motion)
