@@ -37,6 +37,7 @@ from .errors import MjmotionError
 from .ik import ccd, dls
 from .ik.chains import DEFAULT_MARGIN, Chain, ChainKinematics, Effector, build_chain
 from .skeleton import Motion, Skeleton
+from .style import PoseSpace
 
 SOLVERS = ("nlp", "nlp-shot", "dls", "ccd")
 EFFECTORS = ("club", "left_foot", "right_foot", "left_fist", "right_fist")
@@ -181,7 +182,9 @@ def resolve_effector(motion: Motion, name: str, prop: mjcf.Prop | None = None) -
 
 
 # --- stiffness learned from the style space ---------------------------------------------------
-def style_weights(motion: Motion, chain: Chain, variance: float = 0.7, floor: float = 0.05) -> np.ndarray:
+def style_weights(
+    motion: Motion, chain: Chain, variance: float = 0.7, floor: float = 0.05, space: PoseSpace | None = None
+) -> np.ndarray:
     """Meredith & Maddock weights ``(n_dof,)`` learned from the clip's PCA style space (§1.10, §2.5.4).
 
     A coordinate's stiffness is how far a small turn of it moves the pose in the source's top-``k``
@@ -189,11 +192,10 @@ def style_weights(motion: Motion, chain: Chain, variance: float = 0.7, floor: fl
     ``kᵢ = meanₜ |Lₖᵀ (∂x/∂δᵢ ⊘ D)|²`` with ``x`` the pose parameters, ``D`` their deviations and
     ``Lₖ`` the loadings. Weights are ``1 / (kᵢ + floor · max k)``, normalised to a maximum of 1.
     A joint whose rotation never changes in the source is invisible to the PCA; it gets the
-    largest stiffness instead of none (it should not start moving now).
+    largest stiffness instead of none (it should not start moving now). ``space``: the clip's
+    ``PoseSpace.fit(motion)`` when the caller already has it (both chains of a shot share one).
     """
-    from .style import PoseSpace
-
-    space = PoseSpace.fit(motion)
+    space = space or PoseSpace.fit(motion)
     k = space.components_for(variance)
     lk = space.loadings[:, :k]
     row = -np.ones(space.kept.size, dtype=int)
@@ -343,7 +345,8 @@ def setup(
     skel = motion.skeleton
     eff, prop = resolve_effector(motion, effector, prop)
     compiled = mjcf.compile(skel, (prop,) if prop is not None else ())
-    pose = kinematics.forward(compiled, motion)
+    qpos = kinematics.qpos(compiled, motion)
+    pose = kinematics.forward(compiled, qpos)
     tip_frames = _frames(pose, eff.joint)
     e_fk = np.einsum("tab,b->ta", tip_frames[:, :3, :3], np.asarray(eff.offset)) + tip_frames[:, :3, 3]
     hit = detect_hit_frame(e_fk, motion.fps) if frame is None else int(frame)
@@ -359,8 +362,10 @@ def setup(
     start = skel.index(chain_start) if chain_start else _chain_start(skel, eff.joint)
     chain_weights = "clip" if weights == "style" else weights
     lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=chain_weights)
-    if weights == "style" and lead.n_dof:
-        lead = lead.with_weights(style_weights(motion, lead))
+    # One PCA of the source for both chains' weights (the second fits it itself if the lead has none).
+    space = PoseSpace.fit(motion) if weights == "style" and lead.n_dof else None
+    if space is not None:
+        lead = lead.with_weights(style_weights(motion, lead, space=space))
     second = None
     rel = None
     if effector == "club":
@@ -373,9 +378,9 @@ def setup(
             # The second arm only follows the first hand; its limits get twice the margin.
             second = build_chain(motion, s2, h2, None, wrist="swing", margin=2 * margin, weights=chain_weights)
             if weights == "style" and second.n_dof:
-                second = second.with_weights(style_weights(motion, second))
+                second = second.with_weights(style_weights(motion, second, space=space))
             rel = np.linalg.inv(tip_frames) @ _frames(pose, h2)
-    return HitProblem(motion, compiled, eff, lead, second, kinematics.qpos(compiled, motion), e_fk, hit, tgt, blend, goals, rel, falloff, prop)
+    return HitProblem(motion, compiled, eff, lead, second, qpos, e_fk, hit, tgt, blend, goals, rel, falloff, prop)
 
 
 # --- target grids (experiments) ---------------------------------------------------------------
