@@ -29,6 +29,7 @@ from . import rotations as rot
 from .errors import MjmotionError
 from .registration import Registration, register_many
 from .skeleton import Motion
+from .transform import floor_transform
 
 METHODS = ("registered", "linear")
 
@@ -289,18 +290,15 @@ def linear_blend(motions: list[Motion], weights: WeightCurve, name: str = "linea
     the first clip's does, facing the same way; then root positions are averaged as they are
     and rotations as quaternions. Runs for the shortest clip's length.
     """
-    from .transform import floor_transform
-
     motions = common_rate(list(motions))
     n_out = min(m.n_frames for m in motions)
     ref = motions[0]
     yaw0 = yaw_of(ref.rotations[0, 0])
     moved = []
     for m in motions:
-        d = yaw0 - yaw_of(m.rotations[0, 0])
-        m2 = floor_transform(m[:n_out], float(d), (0.0, 0.0))
-        off = ref.root_positions[0, :2] - m2.root_positions[0, :2]
-        moved.append(floor_transform(m2, 0.0, (float(off[0]), float(off[1]))))
+        d = float(yaw0 - yaw_of(m.rotations[0, 0]))
+        off = ref.root_positions[0, :2] - rot.rotate(_rz(d), m.root_positions[0])[:2]
+        moved.append(floor_transform(m[:n_out], d, (float(off[0]), float(off[1]))))
     w = weights(np.arange(n_out) / ref.fps)  # (N, n)
     q = np.stack([m.rotations for m in moved], axis=2)  # (N, J, n, 4)
     q_out = rot.make_continuous(rot.weighted_average(q, np.broadcast_to(w[:, None, :], q.shape[:3]), axis=2))
