@@ -201,11 +201,11 @@ def warp_rows(pair: Pair, compiled: mjcf.CompiledModel, out_dir: Path, figure: b
     theta, shift = WARP_MOVE
     warped = transform.floor_transform(transform.timewarp(a, w, n_b), theta, shift).replace(name=f"{a.name} warped")
     rows, files = [], []
+    pos_a, joint_w, rms_a = reg.positions_of(a), reg.joint_weights(a.skeleton), rms_angular_acceleration(a)
     for label, b, truth in ((f"{a.name} / known warp of it", warped, w_inv), (pair.label, pair.b, None)):
-        positions = (reg.positions_of(a), reg.positions_of(b))
+        positions = (pos_a, reg.positions_of(b))
         base = reg.register(a, b, positions=positions, loop=truth is not None)  # grid and DP path, shared by both curves
-        joint_w = reg.joint_weights(a.skeleton)
-        src_rms = float(np.mean([rms_angular_acceleration(a), rms_angular_acceleration(b)]))
+        src_rms = float(np.mean([rms_a, rms_angular_acceleration(b)]))
         t_discrete = None
         curves = {}
         for kind in ("discrete", "bspline"):
