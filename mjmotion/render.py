@@ -267,16 +267,18 @@ def build_scene(
     t = max(m.n_frames for m in motions)
     q = np.tile(model.qpos0, (t, 1))
     actor_bodies: list[np.ndarray] = []
+    root_tracks: list[np.ndarray] = []
     for i, (c, m) in enumerate(zip(compiled, motions)):
         qi = kinematics.qpos(c, m)
         qi[:, 0:3] += offsets[i]  # the root's free joint is world position
         idx = _qpos_map(c.model, model, _prefix(i))
         hold = np.minimum(np.arange(t), m.n_frames - 1)
         q[:, idx] = qi[hold]
+        root_tracks.append(q[:, idx[0:3]])
         root_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, _prefix(i) + c.skeleton.names[0])
         actor_bodies.append(np.flatnonzero(model.body_rootid == root_id))
 
-    roots = np.stack([q[:, _qpos_map(c.model, model, _prefix(i))[0:3]] for i, c in enumerate(compiled)])  # (N, T, 3)
+    roots = np.stack(root_tracks)  # (N, T, 3)
     stature = float(np.mean([max(m.skeleton.stature(), 0.3) for m in motions]))
     centre = roots.mean(axis=0)
     centre[:, 2] = 0.5 * stature  # a steady height: no bobbing with the pelvis
