@@ -691,10 +691,8 @@ def grip_joints(skeleton: Skeleton) -> dict[str, int]:
     The hand joint proper as the hit-point module picks it (``hitpoint.hand_joints``: CMU's
     ``lhand`` below the ``lwrist`` roll bone), so grip errors here and there measure the same thing.
     """
-    try:
-        from .hitpoint import hand_joints
-    except ImportError:  # the hit-point module is optional here
-        return skeleton.hands()
+    from .hitpoint import hand_joints
+
     return hand_joints(skeleton)
 
 
@@ -967,13 +965,11 @@ def effector_path_length(
 
 
 def fitted_club(source: Motion) -> mjcf.Prop | None:
-    """The club ``hitpoint.fit_club`` fits to a two-handed swing, or ``None`` (one hand, or no fitter)."""
+    """The club ``hitpoint.fit_club`` fits to a two-handed swing, or ``None`` (one hand, or no fit)."""
     if set(source.skeleton.hands()) != {"left", "right"}:
         return None
-    try:
-        from .hitpoint import fit_club
-    except ImportError:
-        return None
+    from .hitpoint import fit_club
+
     try:
         return fit_club(source)
     except MjmotionError:

@@ -79,14 +79,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _prop(motion, text: str):
-    """A prop from ``--prop``; a one-word club on a golf swing is fitted to both hands when that module exists."""
+    """A prop from ``--prop``; a one-word club on a golf swing is fitted to both hands (``hitpoint.fit_club``)."""
     from .. import mjcf
 
-    if text.partition(":")[0] == "club" and ":" not in text:
-        try:
-            from ..hitpoint import fit_club  # type: ignore[import-not-found]
-        except ImportError:
-            return mjcf.parse_prop_option(motion.skeleton, text)
+    if text == "club":
+        from ..hitpoint import fit_club
+
         return fit_club(motion)
     return mjcf.parse_prop_option(motion.skeleton, text)
 
