@@ -20,7 +20,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -29,6 +29,8 @@ from .. import registration as reg
 from ..errors import MjmotionError
 from ..skeleton import Motion
 from . import Table
+
+T = TypeVar("T")
 
 #: Sako's area thresholds (Table 4: 20 % failed, 30 % and 40 % optimal; 30–35 % recommended).
 AREA_THRESHOLDS = (0.20, 0.30, 0.35, 0.40, 1.0)
@@ -51,18 +53,18 @@ class Pair:
     b: Motion
 
 
+def daz_clip(data_dir: Path, name: str) -> Motion:
+    """A cgspeed daz clip without its leading T-pose frames (also :mod:`.timewarp_blend`'s walks and runs)."""
+    path = Path(data_dir) / "cmu_cgspeed_daz" / f"{name}.bvh"
+    if not path.is_file():
+        raise MjmotionError(f"{path}: missing; the experiment needs the cgspeed daz walks and runs (SOURCES.md)")
+    return bvh.read(str(path))[DAZ_START:].replace(name=name)
+
+
 def real_pairs(data_dir: Path, quick: bool = False) -> list[Pair]:
     """Same-flavour daz walks and runs (120 fps): walk × walk, walk × run, run × run."""
-    d = Path(data_dir) / "cmu_cgspeed_daz"
-
-    def clip(name: str) -> Motion:
-        path = d / f"{name}.bvh"
-        if not path.is_file():
-            raise MjmotionError(f"{path}: missing; the experiment needs the cgspeed daz walks and runs (SOURCES.md)")
-        return bvh.read(str(path))[DAZ_START:].replace(name=name)
-
     names = [("07_01", "09_01")] if quick else [("07_01", "08_01"), ("07_01", "09_01"), ("09_01", "09_11")]
-    return [Pair(f"{a} × {b}", clip(a), clip(b)) for a, b in names]
+    return [Pair(f"{a} × {b}", daz_clip(data_dir, a), daz_clip(data_dir, b)) for a, b in names]
 
 
 def bundled_pairs(quick: bool = False) -> list[Pair]:
@@ -91,8 +93,8 @@ def objective(path: reg.Path, loop: bool) -> float:
     return path.cost if loop else path.mean_cost
 
 
-def timed(fn: Callable[[], reg.Path], repeats: int) -> tuple[float, reg.Path]:
-    """Median wall time (s) of ``repeats`` calls and the last result."""
+def timed(fn: Callable[[], T], repeats: int) -> tuple[float, T]:
+    """Median wall time (s) of ``repeats`` calls of ``fn()`` and its last result."""
     times, out = [], None
     for _ in range(max(1, repeats)):
         t = time.perf_counter()

@@ -13,24 +13,21 @@ Two tables (both in ``table.md``):
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .. import blend as bl
-from .. import bvh, mjcf, plots, transform
 from .. import evaluate as ev
+from .. import mjcf, plots, transform
 from .. import registration as reg
 from .. import rotations as rot
-from ..errors import MjmotionError
 from ..skeleton import Motion
 from . import Table
+from .path_search import daz_clip, timed
 
 RUN_WEIGHTS = (0.0, 0.25, 0.5, 0.75, 1.0)
-#: cgspeed daz clips open with a T-pose and 3 frames interpolating out of it (SOURCES.md).
-DAZ_START = 4
 #: The known warp: source frame of warped frame ``i`` is ``(n−1)·(a + b·u + c·sin 2πu)``, ``u = i/(m−1)``;
 #: it keeps both ends, so the pair registers corner to corner (a periodic bundled walk matches
 #: itself a whole cycle later, so a free end would be free to slip by a cycle).
@@ -61,14 +58,6 @@ class Pair:
 # --------------------------------------------------------------------------------------------
 # clips
 # --------------------------------------------------------------------------------------------
-def daz_clip(data_dir: Path, name: str) -> Motion:
-    """A cgspeed daz clip without its leading T-pose frames."""
-    path = Path(data_dir) / "cmu_cgspeed_daz" / f"{name}.bvh"
-    if not path.is_file():
-        raise MjmotionError(f"{path}: missing; the experiment needs the cgspeed daz walks and runs (SOURCES.md)")
-    return bvh.read(str(path))[DAZ_START:].replace(name=name)
-
-
 def pairs_of(data_dir: Path | None, quick: bool) -> list[Pair]:
     """Walk/run pairs: daz 07_01/09_01 and 08_01/09_11, or the bundled walk and run."""
     if data_dir is None:
@@ -133,16 +122,6 @@ def angular_accelerations(motion: Motion) -> np.ndarray:
 def rms_angular_acceleration(motion: Motion) -> float:
     """RMS over frames and joints of :func:`angular_accelerations`, rad/s² (the peak is mocap noise)."""
     return float(np.sqrt(np.mean(angular_accelerations(motion) ** 2)))
-
-
-def median_time(fn, repeats: int):
-    """Median wall time (s) of ``repeats`` calls of ``fn()`` and its last result."""
-    times, out = [], None
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return float(np.median(times)), out
 
 
 def known_warp(n_source: int, n_frames: int) -> tuple:
@@ -215,7 +194,7 @@ def warp_rows(pair: Pair, compiled: mjcf.CompiledModel, out_dir: Path, figure: b
                 return c, reg.alignment_curve(positions[0], positions[1], c.samples, joint_w)
 
             make()  # warm-up (lazy imports, caches)
-            t_curve, (curve, align) = median_time(make, 5)
+            t_curve, (curve, align) = timed(make, 5)
             t_discrete = t_curve if kind == "discrete" else t_discrete
             curves[kind] = curve
             pr = reg.PairRegistration(base.grid, base.path, curve, align)
