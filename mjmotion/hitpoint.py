@@ -426,16 +426,10 @@ def grid_reports(
     for spacing in spacings:
         for off in target_grid(base, spacing):
             a = adapt(motion, offset=off, prop=prop, **options)  # type: ignore[arg-type]
-            moved = set(a.problem.lead.joint_indices) | (set(a.problem.second.joint_indices) if a.problem.second else set())
-            still = [j for j in range(motion.skeleton.n_joints) if j not in moved]
             r = dict(a.report)
             r["offset"] = off.tolist()
             r["spacing"] = spacing
-            r["first_last_equal"] = bool(np.array_equal(a.motion.rotations[[0, -1]], motion.rotations[[0, -1]]))
-            r["untouched_equal"] = bool(
-                np.array_equal(a.motion.rotations[:, still], motion.rotations[:, still])
-                and np.array_equal(a.motion.root_positions, motion.root_positions)
-            )
+            r["first_last_equal"], r["untouched_equal"] = source_kept(a)
             out.append(r)
     return out
 
@@ -461,6 +455,21 @@ class Adaptation:
     goal_error: np.ndarray
     grip_error: np.ndarray
     problem: HitProblem
+
+
+def source_kept(adaptation: Adaptation) -> tuple[bool, bool]:
+    """``(first_last_equal, untouched_equal)``: the first and last frames are the source's; the root
+    and every joint outside the two chains are the source's (bit for bit)."""
+    p, out = adaptation.problem, adaptation.motion
+    src = p.source
+    moved = set(p.lead.joint_indices) | (set(p.second.joint_indices) if p.second is not None else set())
+    still = [j for j in range(src.skeleton.n_joints) if j not in moved]
+    ends = bool(np.array_equal(out.rotations[[0, -1]], src.rotations[[0, -1]]))
+    kept = bool(
+        np.array_equal(out.rotations[:, still], src.rotations[:, still])
+        and np.array_equal(out.root_positions, src.root_positions)
+    )
+    return ends, kept
 
 
 def _rotations(problem: HitProblem, lead_delta: np.ndarray, second_delta: np.ndarray | None) -> np.ndarray:

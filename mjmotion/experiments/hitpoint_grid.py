@@ -202,11 +202,10 @@ def run_grid(shot: Shot, solver: str, wrist: str, spacings: Sequence[float], lau
             wrist=wrist if wrist != "–" else "locked", prop=shot.prop,  # type: ignore[arg-type]
         )  # fmt: skip
         p = a.problem
-        moved = set(p.lead.joint_indices) | (set(p.second.joint_indices) if p.second is not None else set())
-        others = [j for j in range(m.skeleton.n_joints) if j not in moved]
         reports.append(a.report)
-        ends.append(bool(np.array_equal(a.motion.rotations[[0, -1]], m.rotations[[0, -1]])))
-        still.append(bool(np.array_equal(a.motion.rotations[:, others], m.rotations[:, others]) and np.array_equal(a.motion.root_positions, m.root_positions)))
+        first_last, untouched = hitpoint.source_kept(a)
+        ends.append(first_last)
+        still.append(untouched)
         if launch:
             if geom is None:
                 geom = _struck_geom(p.compiled, shot, p.qpos[p.hit], p.effector_fk[p.hit])
