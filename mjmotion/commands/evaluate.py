@@ -172,6 +172,8 @@ def check_options(args: argparse.Namespace) -> None:
         raise MjmotionError(f"--jobs {args.jobs}: expected a number of processes ≥ 1")
     if args.hit_grid is not None and args.hit_grid < 2:
         raise MjmotionError(f"--hit-grid {args.hit_grid}: expected a grid size N ≥ 2 (a rank correlation needs several hit points)")
+    if args.hit_grid is not None and (os.path.isdir(args.path) or not args.prop or args.frame is None):
+        raise MjmotionError("--hit-grid needs one clip, --prop and --frame")
     if args.frame is not None and args.frame < 0:
         raise MjmotionError(f"--frame {args.frame}: expected a frame index ≥ 0")
 
@@ -196,8 +198,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         results = [evaluate_file(args.path, opts)]
     if args.hit_grid is not None:
-        if os.path.isdir(args.path) or not args.prop or args.frame is None:
-            raise MjmotionError("--hit-grid needs one clip, --prop and --frame")
         grid = _hit_grid(args, opts)
         for r in results:
             r["hit_grid"] = grid
