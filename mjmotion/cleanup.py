@@ -2,16 +2,22 @@
 planned and §4 left undone.
 
 1. **Plants**: runs of METRICS contact frames per foot (:func:`mjmotion.evaluate.contacts`),
-   gaps of up to ``max_gap`` frames closed, runs shorter than ``min_plant`` frames dropped.
-2. **Fix each plant**: the ankle's floor-plane position is pinned to its mean over the plant
-   (its height and the foot's world orientation stay as captured, so no penetration is added).
+   gaps of up to ``max_gap`` frames closed, runs shorter than ``min_plant`` frames dropped. Then,
+   up to ``refine`` times, the result is labelled with the same contact definition the metric
+   uses, and every contact frame that is not held still (a plant's inner frame) grows the plant
+   beside it or starts one (:func:`grow_plants`): held orientations and ramps change which frames
+   touch the floor, and a plant's end frames take half their speed from outside it.
+2. **Fix each plant**: the foot holds one world orientation (its middle frame's) and the point
+   that touches the floor — the lowest foot point, a heel or toe box corner or the toe, which is
+   what METRICS measures — stays where it is: the ankle rolls about it (:func:`contact_paths`;
+   for a rigid foot that is a fixed ankle at the plant's mean). Heights stay as captured.
 3. **Blend**: outside plants the pinning offset fades with a smoothstep over ``blend`` seconds;
    between two close plants it moves smoothly from one offset to the next — nothing pops.
 4. **Root**: where a target is beyond the leg's reach (``reach`` × thigh + shin), the root moves
    towards it by the shortfall, smoothed with a finite Hann window so it stays local.
 5. **Legs**: analytic two-bone IK per frame (vectorised): the knee bends in its current plane to
    the law-of-cosines angle, the hip swings the ankle onto the target; the ankle's local rotation
-   is then set so the foot keeps its captured world orientation. Bone lengths are unchanged.
+   is then set so the foot takes its step-2 world orientation. Bone lengths are unchanged.
 
 Frames outside every plant's blend window (and the root window) keep their joint angles exactly.
 """
@@ -43,6 +49,7 @@ class CleanupParams:
     blend: float = 0.2
     reach: float = 0.995
     root_window: float = 0.3
+    refine: int = 8
 
     def __post_init__(self) -> None:
         for name, low, strict in (("h_c", 0.0, True), ("v_c", 0.0, True), ("min_plant", 0.0, False), ("max_gap", 0.0, False),
@@ -52,6 +59,8 @@ class CleanupParams:
             if not ok or (name == "reach" and v > 1.0):
                 want = "in (0, 1]" if name == "reach" else f"{'>' if strict else '≥'} {low:g}"
                 raise MjmotionError(f"CleanupParams.{name} = {v!r}: expected a finite number {want}")
+        if not isinstance(self.refine, numbers.Integral) or isinstance(self.refine, bool) or self.refine < 0:
+            raise MjmotionError(f"CleanupParams.refine = {self.refine!r}: expected a whole number ≥ 0")
 
 
 @dataclass(frozen=True)
@@ -115,10 +124,14 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
     return x * x * (3.0 - 2.0 * x)
 
 
-def pin_offsets(plants: list[Plant], ankles_xy: np.ndarray, fps: float, blend: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pin_offsets(
+    plants: list[Plant], ankles_xy: np.ndarray, fps: float, blend: float, paths: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """How strongly and where to pin one foot.
 
-    ``ankles_xy: (T, 2)`` the foot's captured ankle positions; ``plants`` of this foot.
+    ``ankles_xy: (T, 2)`` the foot's captured ankle positions; ``plants`` of this foot;
+    ``paths: (T, 2)`` where the ankle must be at each plant frame (default: the plant's fixed
+    ``position``; :func:`contact_paths` lets the ankle roll so the touching point stays put).
     Returns the floor-plane offset ``(T, 2)`` onto the pinned positions, a weight ``(T,)`` in
     [0, 1] (1 inside plants, smoothstep ramps of ``blend`` seconds outside) and the index
     ``(T,)`` of the plant each frame is blended towards (-1 for none).
@@ -131,7 +144,8 @@ def pin_offsets(plants: list[Plant], ankles_xy: np.ndarray, fps: float, blend: f
     plants = sorted(plants, key=lambda p: p.start)
     frames = np.arange(t_count)
     for i, p in enumerate(plants):
-        off[p.start : p.stop] = np.asarray(p.position) - ankles_xy[p.start : p.stop]
+        goal = np.asarray(p.position) if paths is None else paths[p.start : p.stop]
+        off[p.start : p.stop] = goal - ankles_xy[p.start : p.stop]
         w[p.start : p.stop] = 1.0
         owner[p.start : p.stop] = i
     for i, p in enumerate(plants):
@@ -162,6 +176,49 @@ def pin_offsets(plants: list[Plant], ankles_xy: np.ndarray, fps: float, blend: f
     return off, w, owner
 
 
+def hold_orientations(plants: list[Plant], rotations: np.ndarray, fps: float, blend: float) -> tuple[np.ndarray, np.ndarray]:
+    """The orientation one foot holds and how strongly, per frame.
+
+    ``rotations: (T, 4)`` the foot's captured world rotations (wxyz). Through a plant the foot
+    holds its middle frame's orientation; the weight ``(T,)`` ramps in and out over ``blend``
+    seconds (smoothstep). Between two plants closer than twice that, the held orientation turns
+    from one plant's to the next along the way (never switching at once) while the weight dips
+    towards the captured swing and back. Returns held rotations ``(T, 4)`` and weights ``(T,)``.
+    """
+    t_count = len(rotations)
+    n = max(1, round(blend * fps))
+    frames = np.arange(t_count)
+    held = rotations.copy()
+    w = np.zeros(t_count)
+    plants = sorted(plants, key=lambda p: p.start)
+    mids = [rotations[(p.start + p.stop) // 2] for p in plants]
+    ramp_in = lambda p, x: _smoothstep((x - (p.start - n - 1)) / (n + 1))
+    ramp_out = lambda p, x: _smoothstep((p.stop + n - x) / (n + 1))
+    for i, p in enumerate(plants):
+        held[p.start : p.stop] = mids[i]
+        w[p.start : p.stop] = 1.0
+        prev = plants[i - 1] if i > 0 else None
+        if prev is not None and p.start - prev.stop <= 2 * n:
+            a, b = prev.stop, p.start
+            if b > a:
+                x = frames[a:b]
+                s = _smoothstep((x - (a - 1)) / (b - a + 1))
+                held[a:b] = rot.slerp(np.broadcast_to(mids[i - 1], (b - a, 4)), np.broadcast_to(mids[i], (b - a, 4)), s)
+                w[a:b] = np.maximum(ramp_out(prev, x), ramp_in(p, x))
+            continue
+        lo = max(0, p.start - n)
+        held[lo : p.start] = mids[i]
+        w[lo : p.start] = ramp_in(p, frames[lo : p.start])
+    for i, p in enumerate(plants):
+        nxt = plants[i + 1] if i + 1 < len(plants) else None
+        if nxt is not None and nxt.start - p.stop <= 2 * n:
+            continue
+        hi = min(t_count, p.stop + n)
+        held[p.stop : hi] = mids[i]
+        w[p.stop : hi] = ramp_out(p, frames[p.stop : hi])
+    return held, w
+
+
 def two_bone_ik(
     hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, target: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -188,6 +245,53 @@ def _hann_smooth_max(x: np.ndarray, n: int) -> np.ndarray:
     return np.stack([np.convolve(x[:, i], k, mode="full")[n : n + len(x)] for i in range(x.shape[1])], axis=1)
 
 
+def contact_paths(plants: list[Plant], ankles_xy: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """Ankle floor-plane paths that keep the touching point of one foot still through its plants.
+
+    ``reach: (T, P, 3)`` the foot's points relative to its ankle, in the world axes of the foot's
+    target orientation (a rigid foot gives the same vectors every plant frame; a flexing toe does
+    not). At each plant frame the lowest point — the one METRICS measures — is held where it was
+    the frame before, so the ankle rolls about a heel or toe corner instead of that corner sliding.
+    The path's mean over a plant is the plant's ``position``. Returns ``(T, 2)`` (``ankles_xy``
+    outside plants).
+    """
+    out = ankles_xy.copy()
+    k = np.argmin(reach[..., 2], axis=1)  # (T,)
+    for p in plants:
+        a, b = p.start, p.stop
+        kk = k[a + 1 : b]
+        step = -(reach[np.arange(a + 1, b), kk, :2] - reach[np.arange(a, b - 1), kk, :2])
+        cum = np.concatenate([np.zeros((1, 2)), np.cumsum(step, axis=0)])
+        out[a:b] = cum - cum.mean(axis=0) + np.asarray(p.position)
+    return out
+
+
+def _merge(plants: list[Plant], ankles_xy: np.ndarray, gap: int) -> list[Plant]:
+    """One foot's plants sorted, those overlapping or closer than ``gap`` frames joined (positions re-averaged)."""
+    spans: list[list[int]] = []
+    for p in sorted(plants, key=lambda p: p.start):
+        if spans and p.start - spans[-1][1] <= gap:
+            spans[-1][1] = max(spans[-1][1], p.stop)
+        else:
+            spans.append([p.start, p.stop])
+    side = plants[0].side if plants else ""
+    means = [ankles_xy[a:b].mean(axis=0) for a, b in spans]
+    return [Plant(side, a, b, (float(m[0]), float(m[1]))) for (a, b), m in zip(spans, means)]
+
+
+def grow_plants(plants: list[Plant], residual: np.ndarray, ankles_xy: np.ndarray, gap: int) -> list[Plant]:
+    """One foot's plants grown over ``residual: (T,)`` frames (contact in the result but not held still).
+
+    A residual frame becomes a plant's inner frame (the plant covers it and one frame either side,
+    so its central-difference speed is taken between held frames); residual frames within ``gap``
+    of each other join one plant, and plants that come within ``gap`` frames merge.
+    """
+    t_count = len(residual)
+    side = plants[0].side if plants else ""
+    extra = [Plant(side, max(0, a - 1), min(t_count, b + 1), (0.0, 0.0)) for a, b in _runs(residual)]
+    return _merge(list(plants) + extra, ankles_xy, gap)
+
+
 def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupResult:
     """Remove footskate from ``motion`` (see the module docstring)."""
     skel = motion.skeleton
@@ -206,32 +310,85 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupR
             raise MjmotionError(f"{motion.name}: the {side} foot {skel.names[ankle]!r} needs a knee and a hip above it")
         legs.append((hip, knee, ankle))
     ankles = pose.joint_positions[:, [a for _, _, a in legs]]
+    # Every METRICS foot point in its ankle's frame (T, F, P, 3): constant for a rigid foot, moving with a toe joint.
+    a_rot = pose.joint_rotations[:, [a for _, _, a in legs]]
+    local = rot.rotate(rot.conjugate(a_rot)[:, :, None, :].repeat(track.points.shape[2], axis=2), track.points - ankles[:, :, None, :])
     plants = find_plants(track, ankles, motion.fps, params)
+    gap = round(params.max_gap * motion.fps)
+    sole_geoms = [_subtree_geoms(compiled, a) for _, _, a in legs]
+    old_low = np.minimum(_soles(compiled, pose, sole_geoms), 0.0)
+    for it in range(params.refine + 1):
+        out, shift, unreached = _pin(compiled, motion, pose, legs, track.sides, ankles, local, plants, sole_geoms, old_low, params)
+        if it == params.refine:
+            break
+        # Plants as the metric sees the result: any contact frame not held still grows or starts a plant.
+        tr = ev.foot_heights_speeds(compiled, out)
+        t_count = motion.n_frames
+        held = np.zeros((t_count, len(legs)), dtype=bool)
+        for p in plants:
+            # A plant's end frames take their speed half from outside it (the clip's ends are one-sided).
+            held[p.start + (p.start > 0) : p.stop - (p.stop < t_count), track.sides.index(p.side)] = True
+        residual = ev.contacts(tr, params.h_c, params.v_c) & ~held
+        grown = [
+            q
+            for f, side in enumerate(track.sides)
+            for q in grow_plants([p for p in plants if p.side == side], residual[:, f], ankles[:, f, :2], gap)
+        ]
+        if sorted(grown, key=lambda p: (p.side, p.start)) == sorted(plants, key=lambda p: (p.side, p.start)):
+            break
+        plants = grown
+    out = out.replace(name=motion.name)
+    changed = (np.abs(out.rotations - motion.rotations).max(axis=(1, 2)) > 1e-9) | (np.linalg.norm(shift, axis=1) > 0)
+    return CleanupResult(
+        motion=out,
+        plants=tuple(sorted(plants, key=lambda p: (p.start, p.side))),
+        changed_frames=changed,
+        max_root_shift_m=float(np.linalg.norm(shift, axis=1).max()),
+        unreached_frames=unreached,
+        params=params,
+    )
+
+
+def _pin(
+    compiled: mjcf.CompiledModel,
+    motion: Motion,
+    pose: kinematics.Pose,
+    legs: list[tuple[int, int, int]],
+    sides: tuple[str, ...],
+    ankles: np.ndarray,
+    local: np.ndarray,
+    plants: list[Plant],
+    sole_geoms: list[np.ndarray],
+    old_low: np.ndarray,
+    params: CleanupParams,
+) -> tuple[Motion, np.ndarray, int]:
+    """One pass of steps 2–5 for the given plants: the cleaned motion, root shift ``(T, 3)``, unreached frames."""
     t_count = motion.n_frames
     targets = ankles.copy()
     support = np.zeros((t_count, len(legs)), dtype=bool)
     foot_rot = pose.joint_rotations[:, [a for _, _, a in legs]].copy()  # (T, F, 4) world
-    for f, side in enumerate(track.sides):
+    for f, side in enumerate(sides):
         mine = sorted((p for p in plants if p.side == side), key=lambda p: p.start)
-        off, w, owner = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend)
-        targets[:, f, :2] += off
+        _, w, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend)
         support[:, f] = w > 0
         # The foot holds one orientation through a plant (that of its middle frame), blended in/out.
-        if mine:
-            mid = np.array([(p.start + p.stop) // 2 for p in mine])
-            act = owner >= 0
-            held = foot_rot[mid[owner[act]], f]
-            foot_rot[act, f] = rot.slerp(foot_rot[act, f], rot.make_continuous(held) * np.sign(np.sum(held * foot_rot[act, f], axis=-1, keepdims=True) + 1e-12), w[act])
+        held, w_rot = hold_orientations(mine, foot_rot[:, f], motion.fps, params.blend)
+        foot_rot[:, f] = rot.slerp(foot_rot[:, f], held, w_rot)
+        # The point that touches the floor stays put (not the ankle): roll about it.
+        reach = rot.rotate(foot_rot[:, f, None, :].repeat(local.shape[2], axis=1), local[:, f])
+        paths = contact_paths(mine, ankles[:, f, :2], reach)
+        off, _, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend, paths)
+        targets[:, f, :2] += off
     # Root: move towards targets the legs cannot reach, smoothed so it does not pop.
     shift = np.zeros((t_count, 3))
     for f, (h, k, a) in enumerate(legs):
         hp = pose.joint_positions[:, h]
-        reach = params.reach * (
+        reach_len = params.reach * (
             np.linalg.norm(pose.joint_positions[:, k] - hp, axis=1) + np.linalg.norm(pose.joint_positions[:, a] - pose.joint_positions[:, k], axis=1)
         )
         vec = targets[:, f] - hp
         dist = np.linalg.norm(vec, axis=1)
-        excess = np.maximum(dist - reach, 0.0)
+        excess = np.maximum(dist - reach_len, 0.0)
         need = vec / np.maximum(dist, 1e-12)[:, None] * excess[:, None]
         bigger = np.linalg.norm(need, axis=1) > np.linalg.norm(shift, axis=1)
         shift[bigger] = need[bigger]
@@ -249,24 +406,27 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupR
     pose2 = kinematics.forward(compiled, moved) if np.any(shift) else pose
     out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
     # The held foot orientation may tip a sole below where it was: lift those targets and re-solve.
-    sole_geoms = [_subtree_geoms(compiled, a) for _, _, a in legs]
-    old_low = np.minimum(_soles(compiled, pose, sole_geoms), 0.0)
     for _ in range(2):
         lift = np.maximum(old_low - _soles(compiled, kinematics.forward(compiled, out), sole_geoms), 0.0)
         if lift.max() <= 1e-4:
             break
         targets[:, :, 2] += lift + 1e-4 * (lift > 0)
         out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
-    out = out.replace(name=motion.name)
-    changed = (np.abs(out.rotations - motion.rotations).max(axis=(1, 2)) > 1e-9) | (np.linalg.norm(shift, axis=1) > 0)
-    return CleanupResult(
-        motion=out,
-        plants=tuple(plants),
-        changed_frames=changed,
-        max_root_shift_m=float(np.linalg.norm(shift, axis=1).max()),
-        unreached_frames=unreached,
-        params=params,
-    )
+    # A knee bent lower (a pinned foot under a crouch) may go below the floor: raise the root there
+    # (smoothed like the reach shift) and solve the legs again, the feet staying on their targets.
+    low_src = np.minimum(ev.lowest_body_point(compiled, pose), 0.0)
+    for _ in range(3):
+        deficit = np.maximum(low_src - ev.lowest_body_point(compiled, kinematics.forward(compiled, out)), 0.0)
+        if deficit.max() <= 5e-4:
+            break
+        up = _hann_smooth_max((deficit + 5e-4 * (deficit > 0))[:, None], n_root)[:, 0]
+        hit = deficit > 0
+        up *= min(float(np.max((deficit[hit] + 5e-4) / np.maximum(up[hit], 1e-12))), 3.0)
+        shift[:, 2] += up
+        moved = motion.replace(root_positions=motion.root_positions + shift)
+        pose2 = kinematics.forward(compiled, moved)
+        out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
+    return out, shift, unreached
 
 
 def _solve_legs(

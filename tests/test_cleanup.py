@@ -175,7 +175,7 @@ def test_cleanup_of_clips_shorter_than_the_root_window():
     assert res.motion.n_frames == 30 and np.all(np.isfinite(res.motion.rotations))
     a, b = kinematics.joint_positions(m), kinematics.joint_positions(res.motion)
     p = m.skeleton.parents
-    bone = lambda x: np.linalg.norm(x[:, 1:] - x[:, p[1:]], axis=-1)  # noqa: E731
+    bone = lambda x: np.linalg.norm(x[:, 1:] - x[:, p[1:]], axis=-1)
     assert np.allclose(bone(a), bone(b), atol=1e-9)
     for t in (2, 3, 12):
         assert cl.cleanup(m[:t]).motion.n_frames == t
@@ -195,3 +195,79 @@ def test_invalid_parameters_are_refused_by_name(option, value, field, tmp_path, 
     err = capsys.readouterr().err
     assert err.startswith(f"error: {option} {value}") and "expected" in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_contact_paths_keep_the_lowest_point_still_while_a_toe_flexes():
+    """A foot held level whose toe box flexes down then up through a plant: the lowest point
+    switches from the heel corner to the toe tip and back, and whichever is lowest does not
+    move between frames; the ankle path averages to the plant position; outside it, untouched."""
+    t_count = 40
+    ang = np.deg2rad(np.concatenate([np.zeros(10), np.linspace(0, 30, 10), np.linspace(30, 0, 10), np.zeros(10)]))
+    heel = np.tile([-0.05, 0.0, -0.08], (t_count, 1))  # a foot-box corner, rigid in the ankle frame
+    ball = np.array([0.15, 0.0, -0.07])
+    toe = ball + 0.06 * np.column_stack([np.cos(ang), np.zeros(t_count), -np.sin(ang)])  # toe tip about the ball
+    reach = np.stack([np.zeros((t_count, 3)), heel, toe], axis=1)  # (T, P, 3): ankle, heel, toe tip
+    rng = np.random.default_rng(1)
+    ankles = rng.normal(size=(t_count, 2))
+    plant = cl.Plant("left", 5, 35, (1.0, 2.0))
+    path = cl.contact_paths([plant], ankles, reach)
+    assert np.array_equal(path[:5], ankles[:5]) and np.array_equal(path[35:], ankles[35:])
+    assert np.allclose(path[5:35].mean(axis=0), [1.0, 2.0])
+    k = np.argmin(reach[..., 2], axis=1)
+    assert set(k[5:35]) == {1, 2}  # both the heel and the toe tip touch at some point
+    world = path[:, None, :] + reach[..., :2]  # (T, P, 2)
+    t = np.arange(6, 35)
+    assert np.allclose(world[t, k[t]], world[t - 1, k[t]], atol=1e-12)
+    # The toe lowest means the ankle moves back as the toe tip rolls forward under it.
+    assert np.ptp(path[5:35, 0]) > 0.005
+
+
+def test_grow_plants_covers_residual_contacts_between_held_frames():
+    ankles = np.zeros((100, 2))
+    res = np.zeros(100, dtype=bool)
+    res[[19, 20, 60, 63, 98, 99]] = True  # next to a plant, a short run with a gap, the clip's end
+    grown = cl.grow_plants([cl.Plant("left", 21, 40, (0.0, 0.0))], res, ankles, gap=3)
+    assert [(p.start, p.stop) for p in grown] == [(18, 40), (59, 65), (97, 100)]
+    assert {p.side for p in grown} == {"left"}
+    assert cl.grow_plants([], np.zeros(10, dtype=bool), ankles[:10], gap=3) == []
+
+
+@pytest.fixture(scope="module")
+def library_blends():
+    """Linear walk/run blends as the lab makes them (:func:`mjmotion.blend.blend`, leading transients cut)."""
+    from mjmotion import blend, synth
+
+    pairs = [(synth.walk(seconds=3.0).motion, synth.run(seconds=3.0).motion)]
+    for a, b in (("cmu_cgspeed_daz/08_01.bvh", "cmu_cgspeed_daz/09_11.bvh"), ("cmu_iclone_ccrig/002_01.bvh", "cmu_iclone_ccrig/002_03.bvh")):
+        ma, mb = _clip(a), _clip(b)
+        pairs.append((ma[ev.leading_transient(ma) :], mb[ev.leading_transient(mb) :]))
+    out = []
+    for ma, mb in pairs:
+        lin = blend.blend([ma, mb], [0.5, 0.5], method="linear")
+        out.append((ma, mb, lin, cl.cleanup(lin)))
+    return out
+
+
+def test_cleanup_cuts_planted_skate_of_library_linear_blends_by_80_percent(library_blends):
+    """Issue 7's bar on the bundled pair and two real pairs (a toe-jointed rig among them),
+    with the other guarantees: no penetration added, no pops, frames far from plants exact."""
+    for ma, mb, lin, res in library_blends:
+        before, after = ev.planted_skate_mm_per_s(lin), ev.planted_skate_mm_per_s(res.motion)
+        assert before > 100 and after <= 0.2 * before, (lin.name, before, after)
+        c = mjcf.compile(lin.skeleton)
+        low0 = ev.lowest_body_point(c, kinematics.forward(c, lin))
+        low1 = ev.lowest_body_point(c, kinematics.forward(c, res.motion))
+        assert (np.minimum(low0, 0.0) - low1).max() <= 0.002
+        assert ev.max_joint_speed_ratio(res.motion, [ma, mb]) <= 1.5
+        plant = np.zeros(lin.n_frames, dtype=bool)
+        for pl in res.plants:
+            plant[pl.start : pl.stop] = True
+        far = ~binary_dilation(plant, iterations=round((res.params.blend + res.params.root_window / 2) * lin.fps) + 1)
+        assert np.array_equal(res.motion.rotations[far], lin.rotations[far])
+        assert np.array_equal(res.motion.root_positions[far], lin.root_positions[far])
+
+
+@pytest.mark.parametrize("value", [-1, 1.5, True])
+def test_refine_must_be_a_whole_number(value):
+    with pytest.raises(cl.MjmotionError, match="CleanupParams.refine"):
+        cl.CleanupParams(refine=value)
