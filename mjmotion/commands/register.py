@@ -51,14 +51,14 @@ def load_clips(files: list[str], args: argparse.Namespace) -> list:
         ranges = ranges * len(files)
     if len(ranges) != len(files):
         raise MjmotionError(f"--frames: give one range for all clips or one per clip ({len(files)}), got {len(ranges)}")
+    if args.fps is not None and not (args.fps > 0 and args.fps < float("inf")):
+        raise MjmotionError(f"--fps {args.fps}: expected a positive frame rate")
     clips = []
     for f, r in zip(files, ranges, strict=True):
         m = load(f, args)
         if r:
             m = m[parse_frames(r, m.n_frames)]
         if args.fps is not None:
-            if not (args.fps > 0 and args.fps < float("inf")):
-                raise MjmotionError(f"--fps {args.fps}: expected a positive frame rate")
             m = m.resample(args.fps)
         clips.append(m)
     return clips
