@@ -67,20 +67,29 @@ def _plane_bat(beta_deg: float, x_tilt: float = 0.0) -> np.ndarray:
     return _bat_frame(axis, face)  # type: ignore[arg-type]
 
 
-def prop_site(motion: Motion, prop: mjcf.Prop, frame: int, site: str = "sweet_spot") -> np.ndarray:
-    """World position ``(3,)`` of a prop site (``grip``, ``sweet_spot``, ``tip``) at ``frame`` (NumPy FK)."""
+def _holding_joint(motion: Motion, prop: mjcf.Prop, frame: int) -> tuple[np.ndarray, np.ndarray]:
+    """World position ``(3,)`` and rotation ``(4,)`` of the joint holding ``prop`` at ``frame`` (NumPy FK)."""
     pos, wq = forward_kinematics(motion.root_positions[frame : frame + 1], motion.rotations[frame : frame + 1], motion.skeleton)
     j = motion.skeleton.index(prop.joint)
+    return pos[0, j], wq[0, j]
+
+
+def _site_from(p: np.ndarray, q: np.ndarray, prop: mjcf.Prop, site: str) -> np.ndarray:
     along = {"grip": 0.0, "sweet_spot": prop.sweet_spot, "tip": prop.length}[site]
     local = np.asarray(prop.pos) + rot.rotate(np.asarray(prop.quat), np.array([0.0, 0.0, along]))
-    return pos[0, j] + rot.rotate(wq[0, j], local)
+    return p + rot.rotate(q, local)
+
+
+def prop_site(motion: Motion, prop: mjcf.Prop, frame: int, site: str = "sweet_spot") -> np.ndarray:
+    """World position ``(3,)`` of a prop site (``grip``, ``sweet_spot``, ``tip``) at ``frame`` (NumPy FK)."""
+    return _site_from(*_holding_joint(motion, prop, frame), prop, site)
 
 
 def prop_frame(motion: Motion, prop: mjcf.Prop, frame: int) -> tuple[np.ndarray, np.ndarray]:
     """Sweet-spot position ``(3,)`` and face normal ``(3,)`` (the prop frame's -x) at ``frame``."""
-    _, wq = forward_kinematics(motion.root_positions[frame : frame + 1], motion.rotations[frame : frame + 1], motion.skeleton)
-    q = rot.multiply(wq[0, motion.skeleton.index(prop.joint)], np.asarray(prop.quat))
-    return prop_site(motion, prop, frame), rot.rotate(q, np.array([-1.0, 0.0, 0.0]))
+    p, wq = _holding_joint(motion, prop, frame)
+    q = rot.multiply(wq, np.asarray(prop.quat))
+    return _site_from(p, wq, prop, "sweet_spot"), rot.rotate(q, np.array([-1.0, 0.0, 0.0]))
 
 
 # --- shared pieces -------------------------------------------------------------------------------
