@@ -512,8 +512,7 @@ def evaluate(
     track = foot_heights_speeds(compiled, motion, pose)
     lz = lowest_body_point(compiled, pose)
     g = ground_metrics(lz, track, params.h_c, params.v_c, params.float_tol)
-    con = contacts(track, params.h_c, params.v_c)
-    res = physics.residuals(compiled, motion, track, params)
+    res = physics.residuals(compiled, motion, track, params)  # res.flight: no foot in contact (h_c, v_c)
     lim, nlim = limit_violation_ratio(compiled, motion)
     speeds = joint_angular_speeds(motion) if motion.n_frames > 1 else np.zeros((1, 1))
     steps = np.linalg.norm(np.diff(motion.root_positions, axis=0), axis=1) if motion.n_frames > 1 else np.zeros(1)
@@ -530,8 +529,8 @@ def evaluate(
         skate_mm_per_s=skate_mm_per_s(track, params.h_c),
         planted_skate_mm_per_s=planted_skate_mm_per_s(track, params.h_c, params.v_c),
         skating_ratio=skating_ratio(track, params.h_c, params.v_c, params.skate_window),
-        contact_fraction=float(con.any(axis=1).mean()),
-        flight_fraction=float((~con.any(axis=1)).mean()),
+        contact_fraction=float((~res.flight).mean()),
+        flight_fraction=float(res.flight.mean()),
         sensitivity=tuple(skate_sensitivity(track, params.h_c_sensitivity, params.v_c)),
         penetrate_mm=g.penetrate_mm,
         float_mm=g.float_mm,
