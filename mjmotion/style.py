@@ -265,7 +265,5 @@ def rotation_flips(motion: Motion, max_step: float = 2.5) -> list[tuple[int, str
     parameters: the PCA then mixes branches and new paths through the space give distorted poses.
     """
     q = motion.rotations
-    d = rot.multiply(rot.conjugate(q[:-1]), q[1:])
-    ang = 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
-    frames, joints = np.nonzero(ang > max_step)
+    frames, joints = np.nonzero(rot.angle_between(q[:-1], q[1:]) > max_step)
     return [(int(f) + 1, motion.skeleton.names[j]) for f, j in zip(frames, joints)]
