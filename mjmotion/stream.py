@@ -325,6 +325,7 @@ class MotionStream:
         layer = np.zeros(n_out)
         tracks = []
         cmds = list(s.commands)
+        n = np.arange(n_out)
         for k, c in enumerate(cmds):
             if c.kind != "play" or c.clip is None:
                 continue
@@ -341,15 +342,14 @@ class MotionStream:
                     if n_ret < out_start:
                         out_start, n_blend_out = n_ret, max(1, int(round(later.blend * fps)))
                     break
-            n = np.arange(n_out)
-            ramp_in = bezier_ease((n - n0) / n_blend)
-            ramp_out = 1.0 - bezier_ease((n - out_start) / n_blend_out)
-            wk = np.where(n < n0, 0.0, np.minimum(ramp_in, ramp_out))
             if out_start <= n0:
                 raise MjmotionError(
                     f"script: play {c.clip!r} at {c.time:g} s would fade out before it starts (clip {clip.n_frames / fps:.2f} s, "
                     f"blend {c.blend:g} s); use a longer clip, a shorter blend or a later return"
                 )
+            ramp_in = bezier_ease((n - n0) / n_blend)
+            ramp_out = 1.0 - bezier_ease((n - out_start) / n_blend_out)
+            wk = np.where(n < n0, 0.0, np.minimum(ramp_in, ramp_out))
             layer = np.maximum(layer, wk)
             t = np.clip(n - n0, 0, clip.n_frames - 1).astype(float)
             steps = np.where((n > n0) & (n - n0 <= clip.n_frames - 1), 1.0, 0.0)
