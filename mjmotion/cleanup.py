@@ -220,18 +220,44 @@ def hold_orientations(plants: list[Plant], rotations: np.ndarray, fps: float, bl
 
 
 def two_bone_ik(
-    hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, target: np.ndarray
+    hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, target: np.ndarray, fallback: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Analytic two-bone IK of a leg, vectorised over frames (:func:`mjmotion.ik.analytic.two_bone`).
 
     ``hip, knee, ankle, target: (T, 3)``. Returns world rotations ``(T, 4)`` wxyz to apply to
     the thigh (``r_hip``, about the hip) and to the shin (``r_knee``, about the knee, applied
     before ``r_hip``), and ``reached: (T,)`` bool. The knee stays in its current bending plane;
-    a straight leg bends about the axis perpendicular to the thigh and the target.
+    a straight leg bends about ``fallback: (T, 3)`` (default: the axis perpendicular to the
+    thigh and the target; :func:`knee_hinge_axis` gives the knee's own).
     """
-    axis = analytic.bend_axes(hip, knee, ankle, fallback=np.cross(knee - hip, target - hip))
+    if fallback is None:
+        axis = analytic.bend_axes(hip, knee, ankle, fallback=np.cross(knee - hip, target - hip))
+    else:
+        axis = analytic.bend_axes(hip, knee, ankle, fallback=fallback)
+        # A captured "straight" knee is bent by rounding noise (1e-9 m² crosses): its plane means nothing.
+        th, sh = knee - hip, ankle - knee
+        straight = np.linalg.norm(np.cross(th, sh), axis=-1) < 1e-4 * np.linalg.norm(th, axis=-1) * np.linalg.norm(sh, axis=-1)
+        axis[straight] = fallback[straight] / np.maximum(np.linalg.norm(fallback[straight], axis=-1, keepdims=True), 1e-12)
     r_hip, r_knee, short = analytic.two_bone(hip, knee, ankle, target, axis)
     return r_hip, r_knee, short <= 1e-9
+
+
+def knee_hinge_axis(pose: kinematics.Pose, hip: int, knee: int, ankle: int) -> np.ndarray | None:
+    """The knee's bend axis in the thigh's frame ``(3,)``: the mean over the frames where the
+    captured knee is bent (over 3°) of ``(knee − hip) × (ankle − knee)``, or None if it never is.
+    A straight captured leg has no bend plane; bending it about this axis keeps the knee bending
+    the way it does in the rest of the clip (an axis picked from the target flips it).
+    """
+    jp = pose.joint_positions
+    th, sh = jp[:, knee] - jp[:, hip], jp[:, ankle] - jp[:, knee]
+    n = np.cross(th, sh)
+    nn = np.linalg.norm(n, axis=1)
+    bent = nn > math.sin(math.radians(3.0)) * np.linalg.norm(th, axis=1) * np.linalg.norm(sh, axis=1)
+    if not bent.any():
+        return None
+    local = rot.rotate(rot.conjugate(pose.joint_rotations[bent, hip]), n[bent] / nn[bent, None]).mean(axis=0)
+    size = np.linalg.norm(local)
+    return local / size if size > 1e-9 else None
 
 
 def _hann_smooth_max(x: np.ndarray, n: int) -> np.ndarray:
@@ -450,7 +476,9 @@ def _solve_legs(
         act = support[:, f] | (np.linalg.norm(shift, axis=1) > 0)
         if not act.any():
             continue
-        r_hip, r_knee, ok = two_bone_ik(jp[act, h], jp[act, k], jp[act, a], targets[act, f])
+        hinge = knee_hinge_axis(pose, h, k, a)
+        fallback = None if hinge is None else rot.rotate(wr[act, h], np.broadcast_to(hinge, (int(act.sum()), 3)))
+        r_hip, r_knee, ok = two_bone_ik(jp[act, h], jp[act, k], jp[act, a], targets[act, f], fallback)
         unreached += int((~ok).sum())
         w_hip = rot.multiply(r_hip, wr[act, h])
         w_knee = rot.multiply(r_hip, rot.multiply(r_knee, wr[act, k]))

@@ -271,3 +271,51 @@ def test_cleanup_cuts_planted_skate_of_library_linear_blends_by_80_percent(libra
 def test_refine_must_be_a_whole_number(value):
     with pytest.raises(cl.MjmotionError, match="CleanupParams.refine"):
         cl.CleanupParams(refine=value)
+
+
+def test_held_orientation_turns_smoothly_between_close_plants():
+    """Two plants 20 frames apart (under twice the 12-frame ramp): the held orientation goes from
+    the first plant's to the second's gradually, never in one frame (it used to switch halfway)."""
+    fps, t_count = 60.0, 80
+    yaw = np.deg2rad(np.linspace(0.0, 90.0, t_count))
+    q = np.column_stack([np.cos(yaw / 2), np.zeros(t_count), np.zeros(t_count), np.sin(yaw / 2)])
+    plants = [cl.Plant("left", 10, 30, (0.0, 0.0)), cl.Plant("left", 50, 70, (0.0, 0.0))]
+    held, w = cl.hold_orientations(plants, q, fps, blend=0.2)
+    assert np.allclose(held[10:30], q[20]) and np.allclose(held[50:70], q[60]) and np.all(w[10:30] == 1)
+    angle = 2 * np.degrees(np.arccos(np.clip(np.abs(np.sum(held[1:] * held[:-1], axis=1)), 0, 1)))
+    step = (90.0 * 40 / (t_count - 1)) / 20  # the 40 frames between plant middles, turned over 20 frames
+    assert angle[29:50].max() < 2.0 * step and angle[29:50].sum() == pytest.approx(90.0 * 40 / (t_count - 1), rel=1e-6)
+    assert np.abs(np.diff(w)).max() < 0.2 and w[40] < 1.0  # the swing between keeps some of its own turn
+
+
+def test_a_straight_captured_knee_bends_about_its_own_hinge():
+    """Legs captured dead straight (crosses of rounding size) bend about the given hinge, on the
+    hinge's side, whatever side the target lies; without it the target picks the plane."""
+    rng = np.random.default_rng(5)
+    n = 50
+    hip = np.zeros((n, 3))
+    knee = np.tile([0.0, 0.0, -0.45], (n, 1)) + rng.normal(scale=1e-10, size=(n, 3))
+    ankle = np.tile([0.0, 0.0, -0.9], (n, 1))
+    hinge = np.tile([0.0, 1.0, 0.0], (n, 1))
+    target = np.column_stack([rng.uniform(-0.2, 0.2, n), rng.uniform(-0.2, 0.2, n), np.full(n, -0.8)])
+    r_hip, r_knee, ok = cl.two_bone_ik(hip, knee, ankle, target, hinge)
+    assert ok.all()
+    k1 = hip + rot.rotate(r_hip, knee - hip)
+    a1 = k1 + rot.rotate(r_hip, rot.rotate(r_knee, ankle - knee))
+    assert np.allclose(a1, target, atol=1e-9)
+    bend = np.cross(k1 - hip, a1 - k1)
+    assert np.all(np.sum(bend * hinge, axis=1) > 0)  # bent about +hinge, never the other way
+
+
+def test_cleanup_of_clean_mocap_keeps_joint_speeds_and_the_floor():
+    """A dead-straight stance knee (16_24) used to snap sideways when the plant bent it, a crouching
+    stylised walk (131_01) pushed a knee 4–10 mm under the floor; joint speeds stay within 1.5× and
+    nothing new goes below the floor by more than 2 mm."""
+    for rel in ("cmu_asfamc_converted/16_24.bvh", "cmu_cgspeed_max/131_01.bvh"):
+        m = _clip(rel)
+        res = cl.cleanup(m)
+        assert res.plants and ev.max_joint_speed_ratio(res.motion, m) <= 1.5
+        c = mjcf.compile(m.skeleton)
+        low0 = ev.lowest_body_point(c, kinematics.forward(c, m))
+        low1 = ev.lowest_body_point(c, kinematics.forward(c, res.motion))
+        assert (np.minimum(low0, 0.0) - low1).max() <= 0.002
