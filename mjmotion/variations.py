@@ -1013,10 +1013,11 @@ def report(
         rmse, k_style = style_rmse(source, result)
         out["style_rmse"] = {"rmse": rmse, "k": k_style}
     try:
+        compiled = mjcf.compile(source.skeleton)  # one model for the three clips' foot tracks
         out["footskate_mm_per_s"] = {
-            "source": _finite(evaluate.skate_mm_per_s(source)),
-            "raw": _finite(evaluate.skate_mm_per_s(raw)),
-            "result": _finite(evaluate.skate_mm_per_s(result)),
+            "source": _finite(evaluate.skate_mm_per_s(evaluate.foot_heights_speeds(compiled, source))),
+            "raw": _finite(evaluate.skate_mm_per_s(evaluate.foot_heights_speeds(compiled, raw))),
+            "result": _finite(evaluate.skate_mm_per_s(evaluate.foot_heights_speeds(compiled, result))),
             "h_c": evaluate.H_C,
         }
     except MjmotionError as exc:  # no feet in the skeleton

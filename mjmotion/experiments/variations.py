@@ -163,13 +163,18 @@ def run_shot(shot: Shot) -> ShotResult:
         return V.effector_path_length(m, joint, (a, b), prop)  # type: ignore[arg-type]
 
     base_len = path_len(src)
-    skate_src, planted_src = ev.skate_mm_per_s(src), ev.planted_skate_mm_per_s(src)
+    # one compiled model for every clip's foot track (the metrics would each compile and run FK)
+    track_src = ev.foot_heights_speeds(compiled, src)
+    skate_src, planted_src = ev.skate_mm_per_s(track_src), ev.planted_skate_mm_per_s(track_src)
     rows = []
     paths = {"source": space.source_scores}
     marks = {"source": shot.hit_frame}
     for label, p in variants.items():
         raw = V.synthesise(space, p)
         clean, _ = V.clean_up(src, raw, p, first_hand=shot.first_hand)
+        pose_clean = kinematics.forward(compiled, clean)
+        track_raw = ev.foot_heights_speeds(compiled, raw)
+        track_clean = ev.foot_heights_speeds(compiled, clean, pose_clean)
         length = path_len(clean)
         grip = (
             (1000 * V.grip_error_m(src, raw, p, shot.first_hand), 1000 * V.grip_error_m(src, clean, p, shot.first_hand))
@@ -179,7 +184,7 @@ def run_shot(shot: Shot) -> ShotResult:
         style = style_rmse(src, clean)[0] if clean.n_frames == src.n_frames else float("nan")
         prefix = end = float("nan")
         if label.startswith("aborted"):
-            got = kinematics.forward(compiled, clean).joint_positions
+            got = pose_clean.joint_positions
             f = ph.abort
             prefix = 1000 * float(np.max(np.linalg.norm(got[: f + 1] - ref[: f + 1], axis=-1)))
             # the rest pose where the character stands: the source's last frame moved by the path's shift
@@ -190,8 +195,8 @@ def run_shot(shot: Shot) -> ShotResult:
         rows.append((
             shot.name, label, k, float(space.cumulative[k - 1]), base_len, length, length / base_len if base_len > 0 else float("nan"),
             ev.max_joint_speed_ratio(raw, src), ev.max_joint_speed_ratio(clean, src),
-            skate_src, ev.skate_mm_per_s(raw), ev.skate_mm_per_s(clean),
-            planted_src, ev.planted_skate_mm_per_s(raw), ev.planted_skate_mm_per_s(clean),
+            skate_src, ev.skate_mm_per_s(track_raw), ev.skate_mm_per_s(track_clean),
+            planted_src, ev.planted_skate_mm_per_s(track_raw), ev.planted_skate_mm_per_s(track_clean),
             grip[0], grip[1], style, prefix, end,
         ))  # fmt: skip
         paths[label] = p.scores
