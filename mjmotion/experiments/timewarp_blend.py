@@ -156,9 +156,13 @@ def registration_from(pr: reg.PairRegistration) -> reg.Registration:
 # --------------------------------------------------------------------------------------------
 # the experiment
 # --------------------------------------------------------------------------------------------
-def blend_rows(pair: Pair, compiled: mjcf.CompiledModel, weights: tuple[float, ...]) -> tuple[list[tuple], dict]:
-    """Rows of :data:`BLEND_COLUMNS` for every weight and method, and the 0.5 blends' foot tracks."""
-    registration = reg.register_many([pair.a, pair.b], reference=0)
+def blend_rows(
+    pair: Pair, compiled: mjcf.CompiledModel, weights: tuple[float, ...], positions: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[list[tuple], dict]:
+    """Rows of :data:`BLEND_COLUMNS` for every weight and method, and the 0.5 blends' foot tracks.
+
+    ``positions``: the pair's joint positions ``(T, J, 3)`` if already computed."""
+    registration = reg.register_many([pair.a, pair.b], reference=0, positions=list(positions) if positions is not None else None)
     rows, tracks = [], {}
     for w in weights:
         for method in ("linear", "registered"):
@@ -171,18 +175,22 @@ def blend_rows(pair: Pair, compiled: mjcf.CompiledModel, weights: tuple[float, .
     return rows, tracks
 
 
-def warp_rows(pair: Pair, compiled: mjcf.CompiledModel, out_dir: Path, figure: bool) -> tuple[list[tuple], list[str]]:
+def warp_rows(
+    pair: Pair, compiled: mjcf.CompiledModel, out_dir: Path, figure: bool, positions: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[list[tuple], list[str]]:
     """Rows of :data:`WARP_COLUMNS`: recovery of a known warp of ``pair.a`` and a .5 walk/run blend,
-    with the discrete and the B-spline timewarp (seed 004 Table 5)."""
+    with the discrete and the B-spline timewarp (seed 004 Table 5). ``positions``: the pair's joint
+    positions ``(T, J, 3)`` if already computed."""
     a = pair.a
     n_b = round(0.85 * a.n_frames)
     w, w_inv = known_warp(a.n_frames, n_b)
     theta, shift = WARP_MOVE
     warped = transform.floor_transform(transform.timewarp(a, w, n_b), theta, shift).replace(name=f"{a.name} warped")
     rows, files = [], []
-    pos_a, joint_w, rms_a = reg.positions_of(a), reg.joint_weights(a.skeleton), rms_angular_acceleration(a)
-    for label, b, truth in ((f"{a.name} / known warp of it", warped, w_inv), (pair.label, pair.b, None)):
-        positions = (pos_a, reg.positions_of(b))
+    pos_a, pos_b = positions if positions is not None else (reg.positions_of(a), reg.positions_of(pair.b))
+    joint_w, rms_a = reg.joint_weights(a.skeleton), rms_angular_acceleration(a)
+    for label, b, truth, pos in ((f"{a.name} / known warp of it", warped, w_inv, None), (pair.label, pair.b, None, pos_b)):
+        positions = (pos_a, reg.positions_of(b) if pos is None else pos)
         base = reg.register(a, b, positions=positions, loop=truth is not None)  # grid and DP path, shared by both curves
         src_rms = float(np.mean([rms_a, rms_angular_acceleration(b)]))
         t_discrete = None
@@ -267,22 +275,24 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
     for n, pair in enumerate(pairs):
         compiled = mjcf.compile(pair.a.skeleton)
         pair = Pair(pair.label, on_floor(pair.a, compiled), on_floor(pair.b, mjcf.compile(pair.b.skeleton)))
-        rows, tracks = blend_rows(pair, compiled, RUN_WEIGHTS)
+        positions = (reg.positions_of(pair.a), reg.positions_of(pair.b))  # FK once per clip, for every registration below
+        rows, tracks = blend_rows(pair, compiled, RUN_WEIGHTS, positions)
         for r in rows:
             blends.add(*r)
-        wrows, wfiles = warp_rows(pair, compiled, out_dir, figure=n == 0)
+        wrows, wfiles = warp_rows(pair, compiled, out_dir, figure=n == 0, positions=positions)
         for r in wrows:
             warps.add(*r)
         if n == 0:
-            files += wfiles + figures(out_dir, pair, tracks)
+            files += wfiles + figures(out_dir, pair, tracks, positions)
     blends.files = [str(out_dir / "timewarp.md"), *files]
     (out_dir / "timewarp.md").write_text(warps.markdown(), encoding="utf-8")
     (out_dir / "table.md").write_text(blends.markdown() + "\n" + warps.markdown(), encoding="utf-8")
     return blends
 
 
-def figures(out_dir: Path, pair: Pair, tracks: dict) -> list[str]:
-    """Foot contacts of the .5 linear and registered blends, and the pair's distance grid."""
+def figures(out_dir: Path, pair: Pair, tracks: dict, positions: tuple[np.ndarray, np.ndarray] | None = None) -> list[str]:
+    """Foot contacts of the .5 linear and registered blends, and the pair's distance grid
+    (``positions``: the pair's joint positions if already computed)."""
     files = []
     for method, (m, tr) in tracks.items():
         con = ev.contacts(tr)
@@ -292,8 +302,7 @@ def figures(out_dir: Path, pair: Pair, tracks: dict) -> list[str]:
             title=f"{method} blend {pair.label} at .5: planted skate {skate:.0f} mm/s, {steps_per_s(tr):.2f} steps/s",
         )  # fmt: skip
         files.append(str(f))
-    pa, pb = reg.positions_of(pair.a), reg.positions_of(pair.b)
-    pr = reg.register(pair.a, pair.b, positions=(pa, pb))
+    pr = reg.register(pair.a, pair.b, positions=positions or (reg.positions_of(pair.a), reg.positions_of(pair.b)))
     f = plots.distance_grid(
         pr.grid.cost, pr.path.cells, pr.curve.samples, out_dir / "grid.png",
         labels=(f"frame of {pair.a.name}", f"frame of {pair.b.name}"), title=f"{pair.label}: DP path and B-spline timewarp",
