@@ -277,6 +277,7 @@ class HitProblem:
         blend: ``(T,)``; ``goals``: ``(T, 3)`` effector goals.
         second_relative: ``(T, 4, 4)`` source pose of the second hand in the lead chain tip's frame.
         falloff: metres; ``prop``: the club (``None`` for other effectors).
+        space: ``PoseSpace.fit(source)`` when the style weights needed it (reused for ``style_rmse``).
     """
 
     source: Motion
@@ -293,6 +294,7 @@ class HitProblem:
     second_relative: np.ndarray | None
     falloff: float
     prop: mjcf.Prop | None = None
+    space: PoseSpace | None = None
 
 
 def _frames(pose: kinematics.Pose, j: int) -> np.ndarray:
@@ -380,7 +382,7 @@ def setup(
             if weights == "style" and second.n_dof:
                 second = second.with_weights(style_weights(motion, second, space=space))
             rel = np.linalg.inv(tip_frames) @ _frames(pose, h2)
-    return HitProblem(motion, compiled, eff, lead, second, qpos, e_fk, hit, tgt, blend, goals, rel, falloff, prop)
+    return HitProblem(motion, compiled, eff, lead, second, qpos, e_fk, hit, tgt, blend, goals, rel, falloff, prop, space)
 
 
 # --- target grids (experiments) ---------------------------------------------------------------
@@ -641,7 +643,7 @@ def _report(problem: HitProblem, out: Motion, solver: str, elapsed: float, n: in
     if style:
         from .style import style_rmse
 
-        r, kk = style_rmse(problem.source, out)
+        r, kk = style_rmse(problem.source, out, space=problem.space)
         rmse, k = float(r), int(kk)
     report = {
         "hit_frame": int(problem.hit),

@@ -237,20 +237,21 @@ def reconstruction_errors(
 
 
 def style_rmse(
-    source: Motion, adapted: Motion, variance: float = 0.7
+    source: Motion, adapted: Motion, variance: float = 0.7, space: PoseSpace | None = None
 ) -> tuple[float, int]:
     """Style error of ``adapted`` against ``source`` (seed 003 §2.5.5; docs/METRICS.md "Style").
 
     PCA of ``source``; ``k`` = smallest number of components explaining ≥ ``variance``; both
     clips projected into the top-``k`` space, frames paired one to one;
-    ``rmse = sqrt(mean_t |s_t − a_t|²)``. Returns ``(rmse, k)``.
+    ``rmse = sqrt(mean_t |s_t − a_t|²)``. Returns ``(rmse, k)``. ``space``: ``PoseSpace.fit(source)``
+    when the caller already has it.
     """
     if adapted.n_frames != source.n_frames:
         raise MjmotionError(
             f"style_rmse pairs frames one to one: source {source.name!r} has {source.n_frames} frames, "
             f"adapted {adapted.name!r} has {adapted.n_frames}"
         )
-    space = PoseSpace.fit(source)
+    space = space or PoseSpace.fit(source)
     k = space.components_for(variance)
     s = space.source_scores[:, :k]
     a = space.scores(adapted, k)
