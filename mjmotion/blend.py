@@ -118,13 +118,6 @@ def yaw_of(q: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(q[..., 3], q[..., 0])
 
 
-def _rz(yaw: np.ndarray) -> np.ndarray:
-    """Quaternions ``(..., 4)`` of rotations by ``yaw`` about z."""
-    h = 0.5 * np.asarray(yaw, dtype=float)
-    z = np.zeros_like(h)
-    return np.stack([np.cos(h), z, z, np.sin(h)], axis=-1)
-
-
 def _rotate2(yaw: np.ndarray, v: np.ndarray) -> np.ndarray:
     c, s = np.cos(yaw), np.sin(yaw)
     return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
@@ -171,7 +164,7 @@ def compose(
         yaw.append(y)
         dyaw.append(_wrap(y - yp))
         disp.append(_rotate2(-yp, (p - pp)[:, :2]))  # the step in the clip's own heading
-        tilt.append(rot.multiply(_rz(-y), q[:, 0]))
+        tilt.append(rot.multiply(rot.about_z(-y), q[:, 0]))
     yaw_a, dyaw_a = np.stack(yaw, 1), np.stack(dyaw, 1)  # (N, E)
     disp_a = np.stack(disp, 1)  # (N, E, 2)
     root_a = np.stack(root, 1)  # (N, E, 3)
@@ -192,7 +185,7 @@ def compose(
     q_all[:, 0] = np.stack(tilt, axis=1)
     wq = np.broadcast_to(w[:, None, :], q_all.shape[:3])
     q_out = rot.weighted_average(q_all, wq, axis=2)
-    q_out[:, 0] = rot.multiply(_rz(heading), q_out[:, 0])
+    q_out[:, 0] = rot.multiply(rot.about_z(heading), q_out[:, 0])
     q_out = rot.make_continuous(q_out)
     translations = None
     if any(tr.motion.translations is not None for tr in tracks):
@@ -297,7 +290,7 @@ def linear_blend(motions: list[Motion], weights: WeightCurve, name: str = "linea
     moved = []
     for m in motions:
         d = float(yaw0 - yaw_of(m.rotations[0, 0]))
-        off = ref.root_positions[0, :2] - rot.rotate(_rz(d), m.root_positions[0])[:2]
+        off = ref.root_positions[0, :2] - rot.rotate(rot.about_z(d), m.root_positions[0])[:2]
         moved.append(floor_transform(m[:n_out], d, (float(off[0]), float(off[1]))))
     w = weights(np.arange(n_out) / ref.fps)  # (N, n)
     q = np.stack([m.rotations for m in moved], axis=2)  # (N, J, n, 4)

@@ -136,6 +136,13 @@ def exp(r: np.ndarray) -> np.ndarray:
     return np.concatenate([np.cos(half), r * k], axis=-1)
 
 
+def about_z(angle: np.ndarray | float) -> np.ndarray:
+    """Quaternions ``(..., 4)`` of turns by ``angle`` radians about the vertical (z) axis."""
+    h = 0.5 * np.asarray(angle, dtype=float)
+    z = np.zeros_like(h)
+    return np.stack([np.cos(h), z, z, np.sin(h)], axis=-1)
+
+
 def angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Rotation angle (radians) taking ``a`` to ``b``, shapes ``(..., 4)`` → ``(...)``."""
     dot = np.abs(np.sum(np.asarray(a) * np.asarray(b), axis=-1))

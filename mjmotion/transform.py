@@ -18,7 +18,7 @@ def floor_transform(motion: Motion, theta: float, translation: tuple[float, floa
     A point ``p`` goes to ``Rz(theta) p + (tx, ty, 0)``; the root's orientation is turned by
     the same ``Rz``.
     """
-    qz = np.array([np.cos(theta / 2), 0.0, 0.0, np.sin(theta / 2)])
+    qz = rot.about_z(theta)
     root = rot.rotate(qz, motion.root_positions) + np.array([translation[0], translation[1], 0.0])
     q = motion.rotations.copy()
     q[:, 0] = rot.multiply(qz, q[:, 0])
