@@ -231,13 +231,8 @@ def two_bone_ik(
     thigh and the target; :func:`knee_hinge_axis` gives the knee's own).
     """
     if fallback is None:
-        axis = analytic.bend_axes(hip, knee, ankle, fallback=np.cross(knee - hip, target - hip))
-    else:
-        axis = analytic.bend_axes(hip, knee, ankle, fallback=fallback)
-        # A captured "straight" knee is bent by rounding noise (1e-9 m² crosses): its plane means nothing.
-        th, sh = knee - hip, ankle - knee
-        straight = np.linalg.norm(np.cross(th, sh), axis=-1) < 1e-4 * np.linalg.norm(th, axis=-1) * np.linalg.norm(sh, axis=-1)
-        axis[straight] = fallback[straight] / np.maximum(np.linalg.norm(fallback[straight], axis=-1, keepdims=True), 1e-12)
+        fallback = np.cross(knee - hip, target - hip)
+    axis = analytic.bend_axes(hip, knee, ankle, fallback=fallback)
     r_hip, r_knee, short = analytic.two_bone(hip, knee, ankle, target, axis)
     return r_hip, r_knee, short <= 1e-9
 

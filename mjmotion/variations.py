@@ -418,7 +418,7 @@ def two_bone_ik(
     # the bend axis in the upper bone's frame, borrowed from bent frames where the limb is straight
     q_top = world_rot[:, top]
     n_local = rot.rotate(rot.conjugate(q_top), n / np.maximum(nn, 1e-12)[:, None])
-    good = nn > 1e-4 * l1 * l2
+    good = nn > analytic.STRAIGHT_SINE * l1 * l2
     if good.any():
         ref = n_local[good].mean(axis=0)
     else:

@@ -22,12 +22,19 @@ def shortest_arc(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return rot.normalize(np.where(w > 1e-9, q, np.array([0.0, 1.0, 0.0, 0.0])))
 
 
+#: A limb bent by less than this sine is straight: its bend plane is rounding noise (captured
+#: "straight" knees cross at 1e-9 m²), so the fallback axis is used instead.
+STRAIGHT_SINE = 1e-4
+
+
 def bend_axes(top: np.ndarray, mid: np.ndarray, end: np.ndarray, fallback: np.ndarray) -> np.ndarray:
     """Unit bend axes ``(T, 3)``: ``(mid − top) × (end − mid)``, or ``fallback`` where the limb is straight."""
-    n = np.cross(mid - top, end - mid)
+    u, v = mid - top, end - mid
+    n = np.cross(u, v)
     nn = np.linalg.norm(n, axis=-1, keepdims=True)
+    lengths = np.linalg.norm(u, axis=-1, keepdims=True) * np.linalg.norm(v, axis=-1, keepdims=True)
     f = fallback / np.maximum(np.linalg.norm(fallback, axis=-1, keepdims=True), 1e-12)
-    return np.where(nn > 1e-9, n / np.maximum(nn, 1e-12), f)
+    return np.where(nn > STRAIGHT_SINE * lengths, n / np.maximum(nn, 1e-12), f)
 
 
 def two_bone(
