@@ -488,11 +488,7 @@ def _solve_legs(
 def _subtree_geoms(compiled: mjcf.CompiledModel, joint: int) -> np.ndarray:
     """Ids of the character geoms on ``joint``'s body and its descendants (a foot and its toes)."""
     skel = compiled.skeleton
-    sub = {joint}
-    for c in range(joint + 1, skel.n_joints):
-        if int(skel.parents[c]) in sub:
-            sub.add(c)
-    bodies = {int(compiled.body_ids[j]) for j in sub}
+    bodies = {int(compiled.body_ids[j]) for j in [joint, *skel.descendants(joint)]}
     return np.array([g for g in compiled.body_geom_ids if int(compiled.model.geom_bodyid[g]) in bodies], dtype=int)
 
 

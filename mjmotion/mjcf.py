@@ -243,7 +243,7 @@ def segments(skeleton: Skeleton) -> list[str]:
     label: list[str | None] = [None] * skeleton.n_joints
 
     def mark_subtree(j: int, name: str) -> None:
-        for k in _subtree(skeleton, j):
+        for k in [j, *skeleton.descendants(j)]:
             label[k] = name
 
     for j, n in enumerate(skeleton.names):
@@ -491,7 +491,7 @@ def _foot_boxes(skeleton: Skeleton, feet: dict[str, tuple[int, int | None]]) -> 
     out: dict[int, dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
     for side, (ankle, toe) in feet.items():
         # The toe tip: the farthest End Site or joint below the ankle.
-        below = [c for c in _subtree(skeleton, ankle) if c != ankle]
+        below = skeleton.descendants(ankle)
         pts = [rest[c] for c in below] + [ends[e] for e in range(len(ends)) if skeleton.end_parents[e] in below + [ankle]]
         if not pts:
             continue
@@ -528,14 +528,6 @@ def _foot_boxes(skeleton: Skeleton, feet: dict[str, tuple[int, int | None]]) -> 
             center_t = t + fwd * tlen / 2 + up * (t_sole + t_top) / 2
             half_t = np.array([tlen / 2, half_w, max((t_top - t_sole) / 2, 0.008)])
             out.setdefault(toe, {})[f"toe/{side}"] = (center_t - t, quat, half_t)
-    return out
-
-
-def _subtree(skeleton: Skeleton, j: int) -> list[int]:
-    out = [j]
-    for c in range(j + 1, skeleton.n_joints):
-        if skeleton.parents[c] in out:
-            out.append(c)
     return out
 
 

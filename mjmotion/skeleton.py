@@ -196,7 +196,7 @@ class Skeleton:
             if ankle is None:
                 continue
             toe = None
-            for c in self._descendants(ankle):
+            for c in self.descendants(ankle):
                 name = self.names[c]
                 # Helper bones (iClone's "ShareBone", twist bones) are not the toe.
                 if re.search("toe|ball", name, re.IGNORECASE) and not re.search("share|twist", name, re.IGNORECASE):
@@ -219,13 +219,14 @@ class Skeleton:
                 out[side] = j
         return out
 
-    def _descendants(self, j: int) -> list[int]:
+    def descendants(self, j: int) -> list[int]:
+        """Every joint below ``j`` (children, their children, …), in index order."""
+        inside = {j}
         out = []
-        stack = self.children(j)
-        while stack:
-            c = stack.pop(0)
-            out.append(c)
-            stack = self.children(c) + stack
+        for c in range(j + 1, self.n_joints):
+            if int(self.parents[c]) in inside:
+                inside.add(c)
+                out.append(c)
         return out
 
     def _find_side(self, side: str, words: tuple[str, ...]) -> int | None:

@@ -446,10 +446,6 @@ def _blend_local(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
     return rot.slerp(a, b, np.broadcast_to(w[:, None], a.shape[:2]))
 
 
-def _descendants(skeleton: Skeleton, j: int) -> list[int]:
-    return [c for c in range(j + 1, skeleton.n_joints) if _is_below(skeleton, c, j)]
-
-
 def _is_below(skeleton: Skeleton, c: int, j: int) -> bool:
     while c > j:
         c = int(skeleton.parents[c])
@@ -585,7 +581,7 @@ def hold_source_feet(
             target_rot,
         )
         if toe is not None:
-            for j in [toe, *_descendants(skel, toe)]:
+            for j in [toe, *skel.descendants(toe)]:
                 solved[:, j] = _quat_source_at(source.rotations[:, j], path)
         chain = [
             int(skel.parents[skel.parents[ankle]]),
@@ -593,7 +589,7 @@ def hold_source_feet(
             ankle,
         ]
         chain += [
-            j for j in ([toe, *_descendants(skel, toe)] if toe is not None else [])
+            j for j in ([toe, *skel.descendants(toe)] if toe is not None else [])
         ]
         local[:, chain] = _blend_local(local[:, chain], solved[:, chain], w)
         held[side] = int(low.sum())
@@ -731,7 +727,7 @@ def restore_grip_minimal(
     # the arm's end: the wrist above a hand joint (kept at the source's local rotation), else the hand
     wrist = skel.hands().get("right" if first_hand == "left" else "left", h2)
     end = wrist if wrist != h2 and _is_below(skel, h2, wrist) else h2
-    keep = [end, *_descendants(skel, end)]
+    keep = [end, *skel.descendants(end)]
     src_local = {j: _quat_source_at(source.rotations[:, j], path) for j in keep}
     target_rot, target = hand_rot, hand_pos
     if end != h2:

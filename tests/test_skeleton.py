@@ -105,3 +105,17 @@ def test_feet_and_hands_on_every_flavour(mocap):
         assert s.names[a] == ankle and (t is None if toe is None else s.names[t] == toe)
         assert s.names[s.hands()["right"]] == hand
         assert 1.4 < s.stature() < 2.0
+
+
+def test_descendants_of_a_random_tree_match_the_parent_walk():
+    rng = np.random.default_rng(7)
+    skel = random_skeleton(rng, 30)
+    for j in range(skel.n_joints):
+        below = []
+        for c in range(skel.n_joints):
+            k = c
+            while k > j:
+                k = int(skel.parents[k])
+            if k == j and c != j:
+                below.append(c)
+        assert skel.descendants(j) == below

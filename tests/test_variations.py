@@ -200,7 +200,7 @@ def _leg(skel, ankle):
     return [
         int(skel.parents[skel.parents[ankle]]),
         int(skel.parents[ankle]),
-        *V._descendants(skel, skel.parents[ankle]),
+        *skel.descendants(int(skel.parents[ankle])),
     ]
 
 
