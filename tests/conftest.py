@@ -95,3 +95,20 @@ def random_motion(rng: np.random.Generator, skeleton: Skeleton, n_frames: int = 
             if skeleton.has_positions(k):
                 tr[:, k] += rng.normal(0.0, 0.05, (n_frames, 3))
     return Motion(skeleton, 60.0, root, q, tr, name="random")
+
+
+def linear_blend(a: Motion, b: Motion, w: float = 0.5) -> Motion:
+    """A test-side frame-by-frame blend on ``a``'s skeleton (averaged roots and quaternions, no
+    alignment): the sliding baseline the footskate metrics and cleanup are checked against."""
+    n = min(a.n_frames, b.n_frames)
+    a, b = a[:n], b[:n]
+    qb = np.where((np.sum(a.rotations * b.rotations, axis=-1) < 0)[..., None], -b.rotations, b.rotations)
+    q = rot.normalize((1 - w) * a.rotations + w * qb)
+    return a.replace(root_positions=(1 - w) * a.root_positions + w * b.root_positions, rotations=q, name="blend")
+
+
+def shared_clip(rel: str, start: int = 0) -> Motion:
+    """A shared clip by its path under the data directory, from frame ``start``."""
+    from mjmotion import bvh
+
+    return bvh.read(require_data() / rel)[start:]

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import require_data
+from conftest import linear_blend, require_data, shared_clip
 from scipy.ndimage import binary_dilation
 
 from mjmotion import bvh, kinematics, mjcf
@@ -14,20 +14,6 @@ from mjmotion import cleanup as cl
 from mjmotion import evaluate as ev
 from mjmotion import rotations as rot
 from mjmotion.cli import main
-from mjmotion.skeleton import Motion
-
-
-def linear_blend(a: Motion, b: Motion, w: float = 0.5) -> Motion:
-    """Frame-by-frame linear blend on ``a``'s skeleton: averaged root positions and quaternions."""
-    n = min(a.n_frames, b.n_frames)
-    a, b = a[:n], b[:n]
-    qb = np.where((np.sum(a.rotations * b.rotations, axis=-1) < 0)[..., None], -b.rotations, b.rotations)
-    q = rot.normalize((1 - w) * a.rotations + w * qb)
-    return a.replace(root_positions=(1 - w) * a.root_positions + w * b.root_positions, rotations=q, name="blend")
-
-
-def _clip(rel: str, start: int = 0) -> Motion:
-    return bvh.read(require_data() / rel)[start:]
 
 
 def test_two_bone_ik_reaches_reachable_targets_and_keeps_lengths():
@@ -74,7 +60,7 @@ def test_pin_offsets_hold_plants_and_blend_smoothly():
 def blends():
     out = []
     for walk, run in (("cmu_cgspeed_daz/07_01.bvh", "cmu_cgspeed_daz/09_01.bvh"), ("cmu_cgspeed_daz/08_01.bvh", "cmu_cgspeed_daz/09_11.bvh")):
-        w, r = _clip(walk, 4), _clip(run, 4)
+        w, r = shared_clip(walk, 4), shared_clip(run, 4)
         b = linear_blend(w, r)
         out.append((w, r, b, cl.cleanup(b)))
     return out
@@ -122,7 +108,7 @@ def test_cleanup_changes_only_frames_around_plants(blends):
 
 
 def test_cleanup_of_a_flight_changes_nothing():
-    m = _clip("cmu_asfamc_converted/64_01.bvh")[:60]
+    m = shared_clip("cmu_asfamc_converted/64_01.bvh")[:60]
     air = m.replace(root_positions=m.root_positions + [0, 0, 0.5])
     res = cl.cleanup(air)
     assert not res.plants and not res.changed_frames.any()
@@ -131,7 +117,7 @@ def test_cleanup_of_a_flight_changes_nothing():
 
 def test_cli_cleanup(tmp_path, capsys):
     d = require_data()
-    w, r = _clip("cmu_cgspeed_daz/07_01.bvh", 4), _clip("cmu_cgspeed_daz/09_01.bvh", 4)
+    w, r = shared_clip("cmu_cgspeed_daz/07_01.bvh", 4), shared_clip("cmu_cgspeed_daz/09_01.bvh", 4)
     src = tmp_path / "blend.bvh"
     bvh.write(linear_blend(w, r), src)
     out, rep = tmp_path / "clean.bvh", tmp_path / "clean.json"
@@ -169,7 +155,7 @@ def test_hann_smoothing_keeps_the_clip_length_even_when_shorter_than_the_window(
 def test_cleanup_of_clips_shorter_than_the_root_window():
     """30 frames (0.25 s, under the 37-frame root window) of a T-pose start whose straight legs
     need the root lowered: cleaned without error, bone lengths kept, same length."""
-    m = _clip("cmu_cgspeed_daz/09_06.bvh")[:30]
+    m = shared_clip("cmu_cgspeed_daz/09_06.bvh")[:30]
     res = cl.cleanup(m)
     assert res.max_root_shift_m > 0  # the smoothing path ran
     assert res.motion.n_frames == 30 and np.all(np.isfinite(res.motion.rotations))
@@ -189,7 +175,7 @@ def test_invalid_parameters_are_refused_by_name(option, value, field, tmp_path, 
     with pytest.raises(cl.MjmotionError, match=f"CleanupParams.{field}"):
         cl.CleanupParams(**{field: float(value)})
     src = tmp_path / "in.bvh"
-    bvh.write(_clip("cmu_cgspeed_daz/09_06.bvh")[4:40], src)
+    bvh.write(shared_clip("cmu_cgspeed_daz/09_06.bvh")[4:40], src)
     out = tmp_path / "out.bvh"
     assert main(["cleanup", str(src), "-o", str(out), option, value]) == 2
     err = capsys.readouterr().err
@@ -239,7 +225,7 @@ def library_blends():
 
     pairs = [(synth.walk(seconds=3.0).motion, synth.run(seconds=3.0).motion)]
     for a, b in (("cmu_cgspeed_daz/08_01.bvh", "cmu_cgspeed_daz/09_11.bvh"), ("cmu_iclone_ccrig/002_01.bvh", "cmu_iclone_ccrig/002_03.bvh")):
-        ma, mb = _clip(a), _clip(b)
+        ma, mb = shared_clip(a), shared_clip(b)
         pairs.append((ma[ev.leading_transient(ma) :], mb[ev.leading_transient(mb) :]))
     out = []
     for ma, mb in pairs:
@@ -312,7 +298,7 @@ def test_cleanup_of_clean_mocap_keeps_joint_speeds_and_the_floor():
     stylised walk (131_01) pushed a knee 4–10 mm under the floor; joint speeds stay within 1.5× and
     nothing new goes below the floor by more than 2 mm."""
     for rel in ("cmu_asfamc_converted/16_24.bvh", "cmu_cgspeed_max/131_01.bvh"):
-        m = _clip(rel)
+        m = shared_clip(rel)
         res = cl.cleanup(m)
         assert res.plants and ev.max_joint_speed_ratio(res.motion, m) <= 1.5
         c = mjcf.compile(m.skeleton)

@@ -8,26 +8,13 @@ import math
 import mujoco
 import numpy as np
 import pytest
-from conftest import clip_params, require_data
+from conftest import clip_params, linear_blend, require_data, shared_clip
 
 from mjmotion import bvh, kinematics, mjcf
 from mjmotion import evaluate as ev
 from mjmotion import rotations as rot
 from mjmotion.cli import main
 from mjmotion.skeleton import Motion
-
-
-def linear_blend(a: Motion, b: Motion, w: float = 0.5) -> Motion:
-    """Frame-by-frame linear blend on ``a``'s skeleton: averaged root positions and quaternions."""
-    n = min(a.n_frames, b.n_frames)
-    a, b = a[:n], b[:n]
-    qb = np.where((np.sum(a.rotations * b.rotations, axis=-1) < 0)[..., None], -b.rotations, b.rotations)
-    q = rot.normalize((1 - w) * a.rotations + w * qb)
-    return a.replace(root_positions=(1 - w) * a.root_positions + w * b.root_positions, rotations=q, name="blend")
-
-
-def _clip(rel: str, start: int = 0) -> Motion:
-    return bvh.read(require_data() / rel)[start:]
 
 
 def _ground(m: Motion) -> ev.GroundMetrics:
@@ -47,7 +34,7 @@ def _on_floor(m: Motion) -> Motion:
 
 
 def test_lowest_point_matches_mujoco_collision():
-    m = _clip("cmu_asfamc_converted/16_15.bvh")[100:103]
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh")[100:103]
     sunk = m.replace(root_positions=m.root_positions - [0, 0, 0.04])
     c = mjcf.compile(m.skeleton)
     lz = ev.lowest_body_point(c, kinematics.forward(c, sunk))
@@ -116,7 +103,7 @@ def test_skating_ratio_known_fraction():
 
 
 def test_foot_dragged_at_0_3_m_s_gives_300_mm_s():
-    stand = _clip("cmu_asfamc_converted/64_01.bvh")[:120]  # golf address: both feet planted
+    stand = shared_clip("cmu_asfamc_converted/64_01.bvh")[:120]  # golf address: both feet planted
     base = ev.skate_mm_per_s(stand)
     assert base < 80
     dragged = stand.replace(root_positions=stand.root_positions + np.outer(stand.times, [0.3, 0.0, 0.0]))
@@ -127,8 +114,8 @@ def test_foot_dragged_at_0_3_m_s_gives_300_mm_s():
 
 
 def test_clean_walk_skates_far_less_than_walk_run_blend():
-    walk = _clip("cmu_iclone_ccrig/002_01.bvh")
-    run = _clip("cmu_iclone_ccrig/002_03.bvh")
+    walk = shared_clip("cmu_iclone_ccrig/002_01.bvh")
+    run = shared_clip("cmu_iclone_ccrig/002_03.bvh")
     blend = linear_blend(walk, run)
     w, b = ev.foot_heights_speeds(None, walk[: blend.n_frames]), ev.foot_heights_speeds(None, blend)
     assert ev.skate_mm_per_s(w) < 0.5 * ev.skate_mm_per_s(b)
@@ -139,7 +126,7 @@ def test_clean_walk_skates_far_less_than_walk_run_blend():
 
 
 def test_shift_down_3cm_penetrates_30mm_and_float_10cm():
-    m = _on_floor(_clip("cmu_asfamc_converted/16_15.bvh", 2))
+    m = _on_floor(shared_clip("cmu_asfamc_converted/16_15.bvh", 2))
     g0 = _ground(m)
     assert g0.penetrate_mm == pytest.approx(0.0, abs=1e-6) and g0.float_mm == pytest.approx(0.0, abs=1e-6)
     down = m.replace(root_positions=m.root_positions - [0, 0, 0.03])
@@ -153,7 +140,7 @@ def test_shift_down_3cm_penetrates_30mm_and_float_10cm():
 
 
 def test_real_clip_floated_10cm_shows_large_float():
-    m = _clip("cmu_asfamc_converted/16_01.bvh")
+    m = shared_clip("cmu_asfamc_converted/16_01.bvh")
     g0 = _ground(m)
     g1 = _ground(m.replace(root_positions=m.root_positions + [0, 0, 0.10]))
     assert g1.float_mm > g0.float_mm + 80.0
@@ -162,7 +149,7 @@ def test_real_clip_floated_10cm_shows_large_float():
 
 def test_golf_floor_offset_detected_below_zero():
     # SOURCES.md: subject 64's floor is 2-4 cm below y = 0 (its feet sink through z = 0).
-    g = _ground(_clip("cmu_asfamc_converted/64_03.bvh"))
+    g = _ground(shared_clip("cmu_asfamc_converted/64_03.bvh"))
     assert g.penetrate_mm > 10.0 and g.floor_offset_m < 0.0
 
 
@@ -170,7 +157,7 @@ def test_golf_floor_offset_detected_below_zero():
 
 
 def test_joint_speed_ratio_and_root_jump():
-    m = _clip("cmu_asfamc_converted/16_15.bvh", 2)[:200]
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh", 2)[:200]
     assert ev.max_joint_speed_ratio(m, m) == pytest.approx(1.0)
     assert ev.root_jump_m(m, m) == pytest.approx(0.0)
     q = m.rotations.copy()
@@ -187,7 +174,7 @@ def test_joint_speed_ratio_and_root_jump():
 
 
 def test_limit_violation_ratio_counts_frames_beyond_declared_range():
-    m = _clip("cmu_asfamc_converted/16_15.bvh", 2)[:100]
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh", 2)[:100]
     c = mjcf.compile(m.skeleton)
     assert ev.limit_violation_ratio(c, m) == (0.0, 0)
     j = m.skeleton.index("ltibia")
@@ -201,24 +188,24 @@ def test_limit_violation_ratio_counts_frames_beyond_declared_range():
 
 
 def test_leading_transient_finds_daz_tpose():
-    m = _clip("cmu_cgspeed_daz/07_01.bvh")
+    m = shared_clip("cmu_cgspeed_daz/07_01.bvh")
     assert 3 <= ev.leading_transient(m) <= 4
-    assert ev.leading_transient(_clip("cmu_asfamc_converted/16_01.bvh")) == 0
+    assert ev.leading_transient(shared_clip("cmu_asfamc_converted/16_01.bvh")) == 0
 
 
 # ----------------------------------------------------------------- the report on real clips
 
 
 def test_jump_has_flight_with_small_residual_and_runs_fly():
-    rep = ev.evaluate(_clip("cmu_asfamc_converted/16_01.bvh"))
+    rep = ev.evaluate(shared_clip("cmu_asfamc_converted/16_01.bvh"))
     assert rep.flight_fraction > 0.08
     assert rep.flight_residual < 0.3
     d = rep.to_dict()
     assert d["params"]["h_c"] == 0.05 and len(d["sensitivity"]) == 3
     json.dumps(d)
-    run = ev.evaluate(_clip("cmu_iclone_ccrig/002_03.bvh"))
+    run = ev.evaluate(shared_clip("cmu_iclone_ccrig/002_03.bvh"))
     assert run.flight_fraction > 0.1
-    walk = ev.evaluate(_clip("cmu_asfamc_converted/16_15.bvh", 2))
+    walk = ev.evaluate(shared_clip("cmu_asfamc_converted/16_15.bvh", 2))
     assert walk.flight_fraction < 0.02
 
 
@@ -290,7 +277,7 @@ def test_cli_evaluate_hit_and_grid(tmp_path, capsys):
 
 
 def test_grip_error_zero_for_the_source_and_sees_a_moved_hand():
-    m = _clip("cmu_asfamc_converted/64_01.bvh")[200:260]
+    m = shared_clip("cmu_asfamc_converted/64_01.bvh")[200:260]
     assert ev.grip_error_m(m, m, "rwrist", "lwrist") == pytest.approx(0.0, abs=1e-12)
     # Rigidly turning and moving the whole clip keeps the grip.
     q = rot.exp(np.array([0.0, 0.0, 0.7]))
@@ -305,7 +292,7 @@ def test_grip_error_zero_for_the_source_and_sees_a_moved_hand():
 
 
 def test_short_and_footless_clips_give_clear_errors_or_results():
-    m = _clip("cmu_asfamc_converted/16_15.bvh")
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh")
     assert ev.evaluate(m[10:15]).n_frames == 5  # the difference stencil shrinks to fit
     with pytest.raises(ev.MjmotionError, match="at least 3 frames"):
         ev.evaluate(m[10:12])
@@ -323,7 +310,7 @@ def test_cli_evaluate_report_never_replaces_a_clip_it_reads(tmp_path, capsys):
     folder = tmp_path / "clips"
     folder.mkdir()
     clip = folder / "walk.bvh"
-    bvh.write(_clip("cmu_asfamc_converted/16_15.bvh")[10:40], clip)
+    bvh.write(shared_clip("cmu_asfamc_converted/16_15.bvh")[10:40], clip)
     data = clip.read_bytes()
     (tmp_path / "link.bvh").symlink_to(clip)
     for path, target in ((clip, clip), (clip, folder / "." / "walk.bvh"), (clip, tmp_path / "link.bvh"), (folder, clip)):
@@ -343,7 +330,7 @@ def test_cli_evaluate_report_never_replaces_a_clip_it_reads(tmp_path, capsys):
 )  # fmt: skip
 def test_cli_evaluate_refuses_bad_numbers_by_option(extra, tmp_path, capsys):
     clip = tmp_path / "walk.bvh"
-    bvh.write(_clip("cmu_asfamc_converted/16_15.bvh")[10:40], clip)
+    bvh.write(shared_clip("cmu_asfamc_converted/16_15.bvh")[10:40], clip)
     out = tmp_path / "r.json"
     assert main(["evaluate", str(clip), "--json", str(out), *extra]) == 2
     err = capsys.readouterr().err
