@@ -33,7 +33,7 @@ import numpy as np
 from . import evaluate as ev
 from . import kinematics, mjcf
 from . import rotations as rot
-from .errors import MjmotionError
+from .errors import MjmotionError, require_number
 from .ik import analytic
 from .skeleton import Motion
 
@@ -54,11 +54,7 @@ class CleanupParams:
     def __post_init__(self) -> None:
         for name, low, strict in (("h_c", 0.0, True), ("v_c", 0.0, True), ("min_plant", 0.0, False), ("max_gap", 0.0, False),
                                   ("blend", 0.0, False), ("reach", 0.0, True), ("root_window", 0.0, False)):  # fmt: skip
-            v = getattr(self, name)
-            ok = isinstance(v, numbers.Real) and math.isfinite(v) and (v > low if strict else v >= low)
-            if not ok or (name == "reach" and v > 1.0):
-                want = "in (0, 1]" if name == "reach" else f"{'>' if strict else '≥'} {low:g}"
-                raise MjmotionError(f"CleanupParams.{name} = {v!r}: expected a finite number {want}")
+            require_number(f"CleanupParams.{name} =", getattr(self, name), low, strict, 1.0 if name == "reach" else None)
         if not isinstance(self.refine, numbers.Integral) or isinstance(self.refine, bool) or self.refine < 0:
             raise MjmotionError(f"CleanupParams.refine = {self.refine!r}: expected a whole number ≥ 0")
 

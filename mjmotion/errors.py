@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import math
+import numbers
+
 
 class MjmotionError(Exception):
     """Base of every error caused by input (a file, an argument, an impossible request)."""
@@ -24,3 +27,14 @@ class SkeletonMismatchError(MjmotionError):
 
 class OutputExistsError(MjmotionError):
     """An output path exists (and ``--force`` was not given) or names an input."""
+
+
+def require_number(label: str, value: object, low: float = 0.0, strict: bool = True, high: float | None = None, what: str = "") -> None:
+    """Refuse anything but a finite real number above ``low`` (``strict``) or at least ``low``, and at
+    most ``high``; the message names ``label`` (an option or a field) and, if given, ``what`` it is."""
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+    ok = ok and (value > low if strict else value >= low) and (high is None or value <= high)  # type: ignore[operator]
+    if not ok:
+        bound = f"in ({low:g}, {high:g}]" if high is not None else f"{'>' if strict else '≥'} {low:g}"
+        shown = f"{value:g}" if isinstance(value, numbers.Real) and not isinstance(value, bool) else repr(value)
+        raise MjmotionError(f"{label} {shown}: expected {what + ', ' if what else ''}a finite number {bound}")

@@ -45,7 +45,7 @@ import numpy as np
 
 from . import kinematics, mjcf
 from . import rotations as rot
-from .errors import MjmotionError
+from .errors import MjmotionError, require_number
 from .kinematics import Pose
 from .mjcf import CompiledModel
 from .skeleton import Motion
@@ -424,9 +424,7 @@ class Params:
     def __post_init__(self) -> None:
         positive = ("h_c", "v_c", "float_tol", "mu", "fd_step")
         for name in (*positive, "cop_margin", "flight_force_ratio"):
-            v = getattr(self, name)
-            if not (isinstance(v, numbers.Real) and math.isfinite(v) and (v > 0 if name in positive else v >= 0)):
-                raise MjmotionError(f"Params.{name} = {v!r}: expected a finite number {'> 0' if name in positive else '≥ 0'}")
+            require_number(f"Params.{name} =", getattr(self, name), strict=name in positive)
         if isinstance(self.skate_window, bool) or not isinstance(self.skate_window, numbers.Integral) or self.skate_window < 1:
             raise MjmotionError(f"Params.skate_window = {self.skate_window!r}: expected a whole number of frames ≥ 1")
         if not all(isinstance(h, numbers.Real) and math.isfinite(h) and h > 0 for h in self.h_c_sensitivity):

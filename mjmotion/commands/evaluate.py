@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ..errors import MjmotionError
+from ..errors import MjmotionError, require_number
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load, parse_frames
 
@@ -155,8 +155,7 @@ def _params_line(report: dict[str, Any]) -> str:
 
 def _finite(value: float, option: str, what: str, strict: bool = True) -> None:
     """Refuse a non-finite or negative (``strict``: non-positive) option before any work."""
-    if not (math.isfinite(value) and (value > 0 if strict else value >= 0)):
-        raise MjmotionError(f"{option} {value:g}: expected {what}, a finite number {'> 0' if strict else '≥ 0'}")
+    require_number(option, value, strict=strict, what=what)
 
 
 def check_options(args: argparse.Namespace) -> None:
