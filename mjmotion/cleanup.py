@@ -12,14 +12,22 @@ planned and §4 left undone.
    what METRICS measures — stays where it is: the ankle rolls about it (:func:`contact_paths`;
    for a rigid foot that is a fixed ankle at the plant's mean). Heights stay as captured.
 3. **Blend**: outside plants the pinning offset fades with a smoothstep over ``blend`` seconds;
-   between two close plants it moves smoothly from one offset to the next — nothing pops.
-4. **Root**: where a target is beyond the leg's reach (``reach`` × thigh + shin), the root moves
+   between two close plants it moves smoothly from one offset to the next — nothing pops. The
+   ankle path is also eased into and out of each plant over ``ease`` seconds
+   (:func:`ease_releases`): the foot leaves and arrives at zero speed instead of being released
+   at the captured foot's speed.
+4. **Swing clearance** (:func:`swing_lift`): METRICS counts a foot as skating whenever it moves
+   within ``h_c`` of the floor, swinging or not. Outside plants, a foot faster than ``v_c`` with
+   its lowest point under ``clearance`` (default ``h_c``; 0 turns this off) is lifted to it, the
+   lift spread smoothly over ``lift_ramp`` seconds and faded to zero into every plant.
+5. **Root**: where a target is beyond the leg's reach (``reach`` × thigh + shin), the root moves
    towards it by the shortfall, smoothed with a finite Hann window so it stays local.
-5. **Legs**: analytic two-bone IK per frame (vectorised): the knee bends in its current plane to
+6. **Legs**: analytic two-bone IK per frame (vectorised): the knee bends in its current plane to
    the law-of-cosines angle, the hip swings the ankle onto the target; the ankle's local rotation
    is then set so the foot takes its step-2 world orientation. Bone lengths are unchanged.
 
-Frames outside every plant's blend window (and the root window) keep their joint angles exactly.
+Frames outside every plant's blend window (and the root window) where no foot is lifted keep
+their joint angles exactly; only hips, knees and ankles (and the root) ever change.
 """
 
 from __future__ import annotations
@@ -40,7 +48,12 @@ from .skeleton import Motion
 
 @dataclass(frozen=True)
 class CleanupParams:
-    """Cleanup settings. ``h_c``/``v_c`` as METRICS contact; times in seconds."""
+    """Cleanup settings. ``h_c``/``v_c`` as METRICS contact; times in seconds.
+
+    ``clearance`` (m): height a moving foot is lifted to outside plants (None: ``h_c``; 0: never
+    lift, swings stay as captured); ``lift_ramp``: how quickly a lift rises; ``ease``: how long
+    a foot takes to leave or reach a plant from rest.
+    """
 
     h_c: float = ev.H_C
     v_c: float = ev.V_C
@@ -50,13 +63,24 @@ class CleanupParams:
     reach: float = 0.995
     root_window: float = 0.3
     refine: int = 8
+    clearance: float | None = None
+    lift_ramp: float = 0.03
+    ease: float = 0.1
 
     def __post_init__(self) -> None:
         for name, low, strict in (("h_c", 0.0, True), ("v_c", 0.0, True), ("min_plant", 0.0, False), ("max_gap", 0.0, False),
-                                  ("blend", 0.0, False), ("reach", 0.0, True), ("root_window", 0.0, False)):  # fmt: skip
+                                  ("blend", 0.0, False), ("reach", 0.0, True), ("root_window", 0.0, False), ("lift_ramp", 0.0, False),
+                                  ("ease", 0.0, False)):  # fmt: skip
             require_number(f"CleanupParams.{name} =", getattr(self, name), low, strict, 1.0 if name == "reach" else None)
+        if self.clearance is not None:
+            require_number("CleanupParams.clearance =", self.clearance, 0.0, False, None)
         if not isinstance(self.refine, numbers.Integral) or isinstance(self.refine, bool) or self.refine < 0:
             raise MjmotionError(f"CleanupParams.refine = {self.refine!r}: expected a whole number ≥ 0")
+
+    @property
+    def swing_clearance(self) -> float:
+        """Height (m) a moving foot is lifted to: ``clearance``, by default ``h_c`` (0 turns lifting off)."""
+        return self.h_c if self.clearance is None else float(self.clearance)
 
 
 @dataclass(frozen=True)
@@ -71,7 +95,7 @@ class Plant:
 
 @dataclass(frozen=True)
 class CleanupResult:
-    """The cleaned motion and what was done."""
+    """The cleaned motion and what was done; ``lift: (T, F)`` how far step 4 raised each foot (m)."""
 
     motion: Motion
     plants: tuple[Plant, ...]
@@ -79,6 +103,7 @@ class CleanupResult:
     max_root_shift_m: float
     unreached_frames: int
     params: CleanupParams = field(default_factory=CleanupParams)
+    lift: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -86,6 +111,8 @@ class CleanupResult:
             "changed_frames": int(self.changed_frames.sum()),
             "max_root_shift_m": self.max_root_shift_m,
             "unreached_frames": self.unreached_frames,
+            "lifted_frames": int((self.lift > 0).any(axis=1).sum()) if self.lift.size else 0,
+            "max_lift_m": float(self.lift.max()) if self.lift.size else 0.0,
             "params": self.params.__dict__,
         }
 
@@ -262,6 +289,66 @@ def _hann_smooth_max(x: np.ndarray, n: int) -> np.ndarray:
     return np.stack([np.convolve(x[:, i], k, mode="full")[n : n + len(x)] for i in range(x.shape[1])], axis=1)
 
 
+def ease_releases(path: np.ndarray, planted: np.ndarray, n: int) -> np.ndarray:
+    """One foot's ankle path ``(T, D)`` eased into and out of its plants (``planted: (T,)``).
+
+    The pinning offset fades with a flat smoothstep, but the captured foot it fades to is already
+    moving when a plant ends: left alone, the foot would go from still to full speed in one frame.
+    Within ``n`` frames of a plant the path is blended towards the plant's end position by a
+    smoothstep weight (1 at the plant, 0 after ``n`` frames), so the foot leaves and arrives at
+    zero velocity (Kovar et al. 2002 blend positions, not offsets). Between two plants the
+    easing takes at most a quarter of the gap on each side. Returns a new ``(T, D)`` path.
+    """
+    out = path.copy()
+    if n < 1 or not planted.any():
+        return out
+    t_count = len(path)
+    for a, b in _runs(~planted):
+        left, right = a > 0, b < t_count
+        # Between plants, easing a quarter of the gap from each side at most: the swing keeps at
+        # least half its frames, so the foot travels no more than ~4/3 as fast as captured.
+        m = n if not (left and right) else min(n, (b - a) // 4)
+        if m < 1:
+            continue
+        d = np.arange(1, b - a + 1, dtype=float)
+        s_l = _smoothstep(1.0 - d / (m + 1)) if left else np.zeros(b - a)
+        s_r = _smoothstep(1.0 - d[::-1] / (m + 1)) if right else np.zeros(b - a)
+        seg = path[a:b]
+        out[a:b] = (1.0 - s_l - s_r)[:, None] * seg
+        if left:
+            out[a:b] += s_l[:, None] * path[a - 1]
+        if right:
+            out[a:b] += s_r[:, None] * path[b]
+    return out
+
+
+def swing_lift(
+    heights: np.ndarray, speeds: np.ndarray, planted: np.ndarray, fps: float, clearance: float, v_c: float, ramp: float
+) -> np.ndarray:
+    """How far to raise one foot at each frame so that it does not move over the floor.
+
+    ``heights, speeds: (T,)`` the foot's lowest point above the floor (m) and its horizontal
+    speed (m/s); ``planted: (T,)`` its plant frames. Outside plants a foot faster than ``v_c``
+    with its lowest point under ``clearance`` scuffs the floor (METRICS counts it as footskate):
+    it must rise to ``clearance`` (+1 mm). The need is spread with a max filter and a Hann window
+    of ``ramp`` seconds either side, so the lift is smooth and covers it, then faded to zero
+    over ``ramp`` seconds into every plant (a planted foot stays on the floor). Returns ``(T,)`` ≥ 0.
+    """
+    from scipy.ndimage import distance_transform_edt, maximum_filter1d
+
+    need = np.where((speeds > v_c) & ~planted, np.maximum(clearance + 1e-3 - heights, 0.0), 0.0)
+    if not need.any():
+        return need
+    n = max(1, round(ramp * fps))
+    # Hann(2n+1) of a (2n+1) max filter is ≥ the need at every frame (each tap sees that frame);
+    # edge padding keeps that true at the clip's ends.
+    padded = np.pad(maximum_filter1d(need, size=2 * n + 1, mode="nearest"), n, mode="edge")
+    lift = _hann_smooth_max(padded[:, None], n)[n:-n, 0]
+    if planted.any():
+        lift *= _smoothstep(distance_transform_edt(~planted) / (n + 1))
+    return np.where(lift > 1e-9, lift, 0.0)
+
+
 def contact_paths(plants: list[Plant], ankles_xy: np.ndarray, reach: np.ndarray) -> np.ndarray:
     """Ankle floor-plane paths that keep the touching point of one foot still through its plants.
 
@@ -335,7 +422,7 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupR
     sole_geoms = [_subtree_geoms(compiled, a) for _, _, a in legs]
     old_low = np.minimum(_soles(compiled, pose, sole_geoms), 0.0)
     for it in range(params.refine + 1):
-        out, shift, unreached = _pin(compiled, motion, pose, legs, track.sides, ankles, local, plants, sole_geoms, old_low, params)
+        out, shift, unreached, lift = _pin(compiled, motion, pose, legs, track.sides, ankles, local, plants, sole_geoms, old_low, params)
         if it == params.refine:
             break
         # Plants as the metric sees the result: any contact frame not held still grows or starts a plant.
@@ -363,6 +450,7 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupR
         max_root_shift_m=float(np.linalg.norm(shift, axis=1).max()),
         unreached_frames=unreached,
         params=params,
+        lift=lift,
     )
 
 
@@ -378,10 +466,12 @@ def _pin(
     sole_geoms: list[np.ndarray],
     old_low: np.ndarray,
     params: CleanupParams,
-) -> tuple[Motion, np.ndarray, int]:
-    """One pass of steps 2–5 for the given plants: the cleaned motion, root shift ``(T, 3)``, unreached frames."""
+) -> tuple[Motion, np.ndarray, int, np.ndarray]:
+    """One pass of steps 2–6 for the given plants: the cleaned motion, root shift ``(T, 3)``,
+    unreached frames and the swing lift ``(T, F)`` (m)."""
     t_count = motion.n_frames
     targets = ankles.copy()
+    lifts = np.zeros((t_count, len(legs)))
     support = np.zeros((t_count, len(legs)), dtype=bool)
     foot_rot = pose.joint_rotations[:, [a for _, _, a in legs]].copy()  # (T, F, 4) world
     for f, side in enumerate(sides):
@@ -396,6 +486,18 @@ def _pin(
         paths = contact_paths(mine, ankles[:, f, :2], reach)
         off, _, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend, paths)
         targets[:, f, :2] += off
+        planted = np.zeros(t_count, dtype=bool)
+        for p in mine:
+            planted[p.start : p.stop] = True
+        targets[:, f, :2] = ease_releases(targets[:, f, :2], planted, round(params.ease * motion.fps))
+        if params.swing_clearance > 0:
+            # A foot moving over the floor within h_c of it is what METRICS' footskate counts: lift it.
+            pts = targets[:, f, None, :] + reach
+            tr = ev.foot_track((side,), pts[:, None], motion.fps)
+            lift = swing_lift(tr.heights[:, 0], tr.speeds[:, 0], planted, motion.fps, params.swing_clearance, params.v_c, params.lift_ramp)
+            targets[:, f, 2] += lift
+            support[:, f] |= lift > 0
+            lifts[:, f] = lift
     # Root: move towards targets the legs cannot reach, smoothed so it does not pop.
     shift = np.zeros((t_count, 3))
     for f, (h, k, a) in enumerate(legs):
@@ -443,7 +545,7 @@ def _pin(
         moved = motion.replace(root_positions=motion.root_positions + shift)
         pose2 = kinematics.forward(compiled, moved)
         out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
-    return out, shift, unreached
+    return out, shift, unreached, lifts
 
 
 def _solve_legs(

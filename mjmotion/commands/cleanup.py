@@ -16,12 +16,16 @@ HELP = "remove footskate: pin foot plants, two-bone leg IK, root adjustment, smo
 DESCRIPTION = """Find foot plants (METRICS contact: foot within --h-c of the floor at two adjacent frames and
 slower than --v-c), pin each plant's ankle and foot orientation, solve the legs with analytic
 two-bone IK (bone lengths unchanged), lower/move the root where a leg cannot reach, and blend
-every adjustment in and out over --blend seconds. Frames away from plants are left untouched.
-Prints footskate and penetration before and after.
+every adjustment in and out over --blend seconds, and ease each foot into and out of its plants
+(--ease). METRICS' skate_mm_per_s counts any foot moving within --h-c of the floor, so a foot
+that moves faster than --v-c that low outside a plant is lifted to --clearance (default --h-c;
+--clearance 0 keeps swings as captured). Only hips, knees, ankles and the root change, and only
+near plants or where a foot is lifted. Prints footskate and penetration before and after.
 
 examples:
   mjmotion cleanup blend.bvh -o blend_clean.bvh
   mjmotion cleanup blend.bvh -o blend_clean.bvh --json cleanup_report.json --force
+  mjmotion cleanup walk.bvh -o walk_clean.bvh --clearance 0     # pin plants only; swings as captured
 """
 
 
@@ -33,6 +37,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--h-c", type=float, default=0.05, metavar="M", help="contact height (default 0.05 m)")
     p.add_argument("--v-c", type=float, default=0.5, metavar="M/S", help="contact speed (default 0.5 m/s)")
     p.add_argument("--blend", type=float, default=0.2, metavar="S", help="blend-in/out time (default 0.2 s)")
+    p.add_argument(
+        "--clearance",
+        type=float,
+        default=None,
+        metavar="M",
+        help="lift a foot moving faster than --v-c to this height outside plants (default: --h-c; 0 keeps swings as captured)",
+    )
+    p.add_argument("--ease", type=float, default=0.1, metavar="S", help="time a foot takes to leave or reach a plant from rest (default 0.1 s)")
     add_input_options(p)
 
 
@@ -61,10 +73,13 @@ def run(args: argparse.Namespace) -> int:
     _finite(args.h_c, "--h-c", "a contact height in metres")
     _finite(args.v_c, "--v-c", "a contact speed in m/s")
     _finite(args.blend, "--blend", "a blend time in seconds", strict=False)
+    if args.clearance is not None:
+        _finite(args.clearance, "--clearance", "a height in metres", strict=False)
+    _finite(args.ease, "--ease", "an easing time in seconds", strict=False)
     out = output_path(args, args.file)
     rep_path = check_output(args.json, force=args.force, inputs=(args.file, str(out))) if args.json else None
     m = load(args.file, args)
-    params = cl.CleanupParams(h_c=args.h_c, v_c=args.v_c, blend=args.blend)
+    params = cl.CleanupParams(h_c=args.h_c, v_c=args.v_c, blend=args.blend, clearance=args.clearance, ease=args.ease)
     res = cl.cleanup(m, params)
     # The cleaned clip keeps the source's skeleton (cleanup changes rotations and the root): one model for both.
     c = mjcf.compile(m.skeleton)
@@ -72,13 +87,20 @@ def run(args: argparse.Namespace) -> int:
     before, after = _metrics(c, m, params), _metrics(c_after, res.motion, params)
     speed_ratio = ev.max_joint_speed_ratio(res.motion, m)
     bvh.write(res.motion, out)
-    print(f"wrote {out}: {len(res.plants)} plants, {int(res.changed_frames.sum())}/{m.n_frames} frames changed, root moved ≤ {res.max_root_shift_m * 1000:.1f} mm")
+    lifted = res.to_dict()
+    print(
+        f"wrote {out}: {len(res.plants)} plants, {int(res.changed_frames.sum())}/{m.n_frames} frames changed, "
+        f"root moved ≤ {res.max_root_shift_m * 1000:.1f} mm, {lifted['lifted_frames']} swing frames lifted ≤ {lifted['max_lift_m'] * 1000:.1f} mm"
+    )
     print(f"{'metric':24s} {'before':>10s} {'after':>10s}")
     for k in before:
         b, a = before[k], after[k]
         print(f"{k:24s} {_f(b):>10s} {_f(a):>10s}")
     print(f"{'max_joint_speed_ratio':24s} {'':>10s} {speed_ratio:10.3f}")
-    print(f"parameters: h_c={params.h_c} m, v_c={params.v_c} m/s, blend={params.blend} s, min plant={params.min_plant} s, gap closed ≤ {params.max_gap} s")
+    print(
+        f"parameters: h_c={params.h_c} m, v_c={params.v_c} m/s, blend={params.blend} s, ease={params.ease} s, "
+        f"clearance={params.swing_clearance} m, min plant={params.min_plant} s, gap closed ≤ {params.max_gap} s"
+    )
     if rep_path is not None:
         doc = dict(input=args.file, output=str(out), before=before, after=after, max_joint_speed_ratio=speed_ratio, **res.to_dict())
         write_text_atomic(rep_path, json.dumps(_nan_to_none(doc), indent=1, default=float, allow_nan=False))

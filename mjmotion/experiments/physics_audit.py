@@ -85,9 +85,10 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
     for name, (motion, props) in synthesized(quick).items():
         rep = ev.evaluate(motion, props, params=params)  # type: ignore[arg-type]
         table.add(*_row("synthesized", name, rep.to_dict()))
-    skate = {row[1]: row[5] for row in table.rows}
-    lin, cle = skate.get("linear blend walk/run .5"), skate.get("cleanup of the linear blend")
-    if lin and cle is not None and np.isfinite(lin) and lin > 0:
-        table.notes.append(f"cleanup cut the linear blend's planted skate from {lin:.0f} to {cle:.0f} mm/s ({100 * (1 - cle / lin):.0f} %)")
+    for col, what in ((4, "skate_mm_per_s"), (5, "planted skate")):
+        skate = {row[1]: row[col] for row in table.rows}
+        lin, cle = skate.get("linear blend walk/run .5"), skate.get("cleanup of the linear blend")
+        if lin and cle is not None and np.isfinite(lin) and np.isfinite(cle) and lin > 0:
+            table.notes.append(f"cleanup cut the linear blend's {what} from {lin:.0f} to {cle:.0f} mm/s ({100 * (1 - cle / lin):.0f} %)")
     table.write(out_dir)
     return table
