@@ -12,14 +12,12 @@ planned and §4 left undone.
    what METRICS measures — stays where it is: the ankle rolls about it (:func:`contact_paths`;
    for a rigid foot that is a fixed ankle at the plant's mean). Heights stay as captured.
 3. **Blend**: outside plants the pinning offset fades with a smoothstep over ``blend`` seconds;
-   between two close plants it moves smoothly from one offset to the next — nothing pops. The
-   ankle path is also eased into and out of each plant over ``ease`` seconds
-   (:func:`ease_releases`): the foot leaves and arrives at zero speed instead of being released
-   at the captured foot's speed.
+   between two close plants it moves smoothly from one offset to the next — nothing pops.
 4. **Swing clearance** (:func:`swing_lift`): METRICS counts a foot as skating whenever it moves
    within ``h_c`` of the floor, swinging or not. Outside plants, a foot faster than ``v_c`` with
    its lowest point under ``clearance`` (default ``h_c``; 0 turns this off) is lifted to it, the
-   lift spread smoothly over ``lift_ramp`` seconds and faded to zero into every plant.
+   lift spread smoothly over ``lift_ramp`` seconds; a plant's foot rises in place over its last
+   frames (comes down over its first), so it leaves the floor before it moves.
 5. **Root**: where a target is beyond the leg's reach (``reach`` × thigh + shin), the root moves
    towards it by the shortfall, smoothed with a finite Hann window so it stays local.
 6. **Legs**: analytic two-bone IK per frame (vectorised): the knee bends in its current plane to
@@ -51,8 +49,7 @@ class CleanupParams:
     """Cleanup settings. ``h_c``/``v_c`` as METRICS contact; times in seconds.
 
     ``clearance`` (m): height a moving foot is lifted to outside plants (None: ``h_c``; 0: never
-    lift, swings stay as captured); ``lift_ramp``: how quickly a lift rises; ``ease``: how long
-    a foot takes to leave or reach a plant from rest.
+    lift, swings stay as captured); ``lift_ramp``: how quickly a lift rises.
     """
 
     h_c: float = ev.H_C
@@ -64,13 +61,11 @@ class CleanupParams:
     root_window: float = 0.3
     refine: int = 8
     clearance: float | None = None
-    lift_ramp: float = 0.03
-    ease: float = 0.1
+    lift_ramp: float = 0.05
 
     def __post_init__(self) -> None:
         for name, low, strict in (("h_c", 0.0, True), ("v_c", 0.0, True), ("min_plant", 0.0, False), ("max_gap", 0.0, False),
-                                  ("blend", 0.0, False), ("reach", 0.0, True), ("root_window", 0.0, False), ("lift_ramp", 0.0, False),
-                                  ("ease", 0.0, False)):  # fmt: skip
+                                  ("blend", 0.0, False), ("reach", 0.0, True), ("root_window", 0.0, False), ("lift_ramp", 0.0, False)):  # fmt: skip
             require_number(f"CleanupParams.{name} =", getattr(self, name), low, strict, 1.0 if name == "reach" else None)
         if self.clearance is not None:
             require_number("CleanupParams.clearance =", self.clearance, 0.0, False, None)
@@ -289,39 +284,6 @@ def _hann_smooth_max(x: np.ndarray, n: int) -> np.ndarray:
     return np.stack([np.convolve(x[:, i], k, mode="full")[n : n + len(x)] for i in range(x.shape[1])], axis=1)
 
 
-def ease_releases(path: np.ndarray, planted: np.ndarray, n: int) -> np.ndarray:
-    """One foot's ankle path ``(T, D)`` eased into and out of its plants (``planted: (T,)``).
-
-    The pinning offset fades with a flat smoothstep, but the captured foot it fades to is already
-    moving when a plant ends: left alone, the foot would go from still to full speed in one frame.
-    Within ``n`` frames of a plant the path is blended towards the plant's end position by a
-    smoothstep weight (1 at the plant, 0 after ``n`` frames), so the foot leaves and arrives at
-    zero velocity (Kovar et al. 2002 blend positions, not offsets). Between two plants the
-    easing takes at most a quarter of the gap on each side. Returns a new ``(T, D)`` path.
-    """
-    out = path.copy()
-    if n < 1 or not planted.any():
-        return out
-    t_count = len(path)
-    for a, b in _runs(~planted):
-        left, right = a > 0, b < t_count
-        # Between plants, easing a quarter of the gap from each side at most: the swing keeps at
-        # least half its frames, so the foot travels no more than ~4/3 as fast as captured.
-        m = n if not (left and right) else min(n, (b - a) // 4)
-        if m < 1:
-            continue
-        d = np.arange(1, b - a + 1, dtype=float)
-        s_l = _smoothstep(1.0 - d / (m + 1)) if left else np.zeros(b - a)
-        s_r = _smoothstep(1.0 - d[::-1] / (m + 1)) if right else np.zeros(b - a)
-        seg = path[a:b]
-        out[a:b] = (1.0 - s_l - s_r)[:, None] * seg
-        if left:
-            out[a:b] += s_l[:, None] * path[a - 1]
-        if right:
-            out[a:b] += s_r[:, None] * path[b]
-    return out
-
-
 def swing_lift(
     heights: np.ndarray, speeds: np.ndarray, planted: np.ndarray, fps: float, clearance: float, v_c: float, ramp: float
 ) -> np.ndarray:
@@ -331,8 +293,10 @@ def swing_lift(
     speed (m/s); ``planted: (T,)`` its plant frames. Outside plants a foot faster than ``v_c``
     with its lowest point under ``clearance`` scuffs the floor (METRICS counts it as footskate):
     it must rise to ``clearance`` (+1 mm). The need is spread with a max filter and a Hann window
-    of ``ramp`` seconds either side, so the lift is smooth and covers it, then faded to zero
-    over ``ramp`` seconds into every plant (a planted foot stays on the floor). Returns ``(T,)`` ≥ 0.
+    of ``ramp`` seconds either side, so the lift is smooth and covers it. A plant's foot rises
+    (or comes down) in place over its last (first) ``ramp`` seconds, at most a quarter of the
+    plant: it leaves the floor before it moves, and the rest of the plant stays on the floor.
+    Returns ``(T,)`` ≥ 0.
     """
     from scipy.ndimage import distance_transform_edt, maximum_filter1d
 
@@ -344,8 +308,14 @@ def swing_lift(
     # edge padding keeps that true at the clip's ends.
     padded = np.pad(maximum_filter1d(need, size=2 * n + 1, mode="nearest"), n, mode="edge")
     lift = _hann_smooth_max(padded[:, None], n)[n:-n, 0]
-    if planted.any():
-        lift *= _smoothstep(distance_transform_edt(~planted) / (n + 1))
+    # Zero on each plant's core (all but its first and last quarter, at most n frames each), rising
+    # smoothly over n frames away from it: inside the plant when it is long enough, else beyond it.
+    core = np.zeros_like(planted)
+    for a, b in _runs(planted):
+        m = min(n, (b - a) // 4)
+        core[a + m * (a > 0) : b - m * (b < len(need))] = True
+    if core.any():
+        lift *= _smoothstep(distance_transform_edt(~core) / (n + 1))
     return np.where(lift > 1e-9, lift, 0.0)
 
 
@@ -489,7 +459,6 @@ def _pin(
         planted = np.zeros(t_count, dtype=bool)
         for p in mine:
             planted[p.start : p.stop] = True
-        targets[:, f, :2] = ease_releases(targets[:, f, :2], planted, round(params.ease * motion.fps))
         if params.swing_clearance > 0:
             # A foot moving over the floor within h_c of it is what METRICS' footskate counts: lift it.
             pts = targets[:, f, None, :] + reach

@@ -16,8 +16,7 @@ HELP = "remove footskate: pin foot plants, two-bone leg IK, root adjustment, smo
 DESCRIPTION = """Find foot plants (METRICS contact: foot within --h-c of the floor at two adjacent frames and
 slower than --v-c), pin each plant's ankle and foot orientation, solve the legs with analytic
 two-bone IK (bone lengths unchanged), lower/move the root where a leg cannot reach, and blend
-every adjustment in and out over --blend seconds, and ease each foot into and out of its plants
-(--ease). METRICS' skate_mm_per_s counts any foot moving within --h-c of the floor, so a foot
+every adjustment in and out over --blend seconds. METRICS' skate_mm_per_s counts any foot moving within --h-c of the floor, so a foot
 that moves faster than --v-c that low outside a plant is lifted to --clearance (default --h-c;
 --clearance 0 keeps swings as captured). Only hips, knees, ankles and the root change, and only
 near plants or where a foot is lifted. Prints footskate and penetration before and after.
@@ -44,7 +43,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="M",
         help="lift a foot moving faster than --v-c to this height outside plants (default: --h-c; 0 keeps swings as captured)",
     )
-    p.add_argument("--ease", type=float, default=0.1, metavar="S", help="time a foot takes to leave or reach a plant from rest (default 0.1 s)")
     add_input_options(p)
 
 
@@ -75,11 +73,10 @@ def run(args: argparse.Namespace) -> int:
     _finite(args.blend, "--blend", "a blend time in seconds", strict=False)
     if args.clearance is not None:
         _finite(args.clearance, "--clearance", "a height in metres", strict=False)
-    _finite(args.ease, "--ease", "an easing time in seconds", strict=False)
     out = output_path(args, args.file)
     rep_path = check_output(args.json, force=args.force, inputs=(args.file, str(out))) if args.json else None
     m = load(args.file, args)
-    params = cl.CleanupParams(h_c=args.h_c, v_c=args.v_c, blend=args.blend, clearance=args.clearance, ease=args.ease)
+    params = cl.CleanupParams(h_c=args.h_c, v_c=args.v_c, blend=args.blend, clearance=args.clearance)
     res = cl.cleanup(m, params)
     # The cleaned clip keeps the source's skeleton (cleanup changes rotations and the root): one model for both.
     c = mjcf.compile(m.skeleton)
@@ -98,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{k:24s} {_f(b):>10s} {_f(a):>10s}")
     print(f"{'max_joint_speed_ratio':24s} {'':>10s} {speed_ratio:10.3f}")
     print(
-        f"parameters: h_c={params.h_c} m, v_c={params.v_c} m/s, blend={params.blend} s, ease={params.ease} s, "
+        f"parameters: h_c={params.h_c} m, v_c={params.v_c} m/s, blend={params.blend} s, "
         f"clearance={params.swing_clearance} m, min plant={params.min_plant} s, gap closed ≤ {params.max_gap} s"
     )
     if rep_path is not None:
