@@ -20,6 +20,8 @@ ball position at the hit frame, blending IK in and out by the effector's distanc
 point (seed 003 §2.2.5). Coordinates are metres in the model's world frame (Z up).
 An unreachable target is solved best-effort: the clip and report are written (with
 "reachable": false), one error line says so, and the exit status is 2.
+The report's hit_error_m is the effector's distance to the target point at the hit frame
+(`mjmotion evaluate --ball` measures METRICS' hit_error_m, to a ball's surface).
 
 examples:
   mjmotion hit 64_01.bvh --offset 0 0.1 0.1 -o swing_hit.bvh --json report.json
