@@ -10,7 +10,7 @@ planned and §4 left undone.
 2. **Fix each plant**: the foot holds one world orientation (its middle frame's) and the point
    that touches the floor — the lowest foot point, a heel or toe box corner or the toe, which is
    what METRICS measures — stays where it is: the ankle rolls about it (:func:`contact_paths`;
-   for a rigid foot that is a fixed ankle at the plant's mean). Heights stay as captured.
+   for a rigid foot that is a fixed ankle at the plant's mean). Plant heights stay as captured.
 3. **Blend**: outside plants the pinning offset fades with a smoothstep over ``blend`` seconds;
    between two close plants it moves smoothly from one offset to the next — nothing pops.
 4. **Swing clearance** (:func:`swing_lift`): METRICS counts a foot as skating whenever it moves
@@ -456,11 +456,11 @@ def _pin(
         paths = contact_paths(mine, ankles[:, f, :2], reach)
         off, _, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend, paths)
         targets[:, f, :2] += off
-        planted = np.zeros(t_count, dtype=bool)
-        for p in mine:
-            planted[p.start : p.stop] = True
         if params.swing_clearance > 0:
             # A foot moving over the floor within h_c of it is what METRICS' footskate counts: lift it.
+            planted = np.zeros(t_count, dtype=bool)
+            for p in mine:
+                planted[p.start : p.stop] = True
             pts = targets[:, f, None, :] + reach
             tr = ev.foot_track((side,), pts[:, None], motion.fps)
             lift = swing_lift(tr.heights[:, 0], tr.speeds[:, 0], planted, motion.fps, params.swing_clearance, params.v_c, params.lift_ramp)

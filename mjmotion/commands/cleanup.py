@@ -16,10 +16,12 @@ HELP = "remove footskate: pin foot plants, two-bone leg IK, root adjustment, smo
 DESCRIPTION = """Find foot plants (METRICS contact: foot within --h-c of the floor at two adjacent frames and
 slower than --v-c), pin each plant's ankle and foot orientation, solve the legs with analytic
 two-bone IK (bone lengths unchanged), lower/move the root where a leg cannot reach, and blend
-every adjustment in and out over --blend seconds. METRICS' skate_mm_per_s counts any foot moving within --h-c of the floor, so a foot
-that moves faster than --v-c that low outside a plant is lifted to --clearance (default --h-c;
---clearance 0 keeps swings as captured). Only hips, knees, ankles and the root change, and only
-near plants or where a foot is lifted. Prints footskate and penetration before and after.
+every adjustment in and out over --blend seconds. METRICS' skate_mm_per_s counts any foot
+moving within --h-c of the floor, planted or swinging, so a foot that moves faster than --v-c
+that low outside a plant is lifted to --clearance (default --h-c; --clearance 0 keeps swings as
+captured); a plant's foot rises in place over its last frames before it swings. Only hips,
+knees, ankles and the root change, and only near plants or where a foot is lifted. Prints
+footskate and penetration before and after.
 
 examples:
   mjmotion cleanup blend.bvh -o blend_clean.bvh
