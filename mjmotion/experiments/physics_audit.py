@@ -103,6 +103,7 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
     if out_dir is not None and lin is not None and res is not None:
         from .. import plots
 
+        out_dir.mkdir(parents=True, exist_ok=True)
         for tag, m in (("before", lin), ("after", res.motion)):
             tr = ev.foot_heights_speeds(None, m)
             f = plots.foot_contacts(
