@@ -3,6 +3,8 @@
 Captured clips (with ``data_dir``) are evaluated in parallel processes; the synthesized
 results are the bundled procedural clips and what the lab makes from them: a linear and a
 registered blend of the bundled walk and run, and the footskate cleanup of the linear blend.
+The notes add what cleanup does to linear walk/run blends of the shared skeletons and to a clean
+walk (:func:`cleanup_of_blends`), with foot height and speed drawn before and after.
 Metric definitions: ``shared/docs/METRICS.md`` (thresholds in the table's notes).
 """
 
