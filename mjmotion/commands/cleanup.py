@@ -86,10 +86,10 @@ def run(args: argparse.Namespace) -> int:
     before, after = _metrics(c, m, params), _metrics(c_after, res.motion, params)
     speed_ratio = ev.max_joint_speed_ratio(res.motion, m)
     bvh.write(res.motion, out)
-    lifted = res.to_dict()
+    info = res.to_dict()
     print(
         f"wrote {out}: {len(res.plants)} plants, {int(res.changed_frames.sum())}/{m.n_frames} frames changed, "
-        f"root moved ≤ {res.max_root_shift_m * 1000:.1f} mm, {lifted['lifted_frames']} swing frames lifted ≤ {lifted['max_lift_m'] * 1000:.1f} mm"
+        f"root moved ≤ {res.max_root_shift_m * 1000:.1f} mm, {info['lifted_frames']} swing frames lifted ≤ {info['max_lift_m'] * 1000:.1f} mm"
     )
     print(f"{'metric':24s} {'before':>10s} {'after':>10s}")
     for k in before:
@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         f"clearance={params.swing_clearance} m, min plant={params.min_plant} s, gap closed ≤ {params.max_gap} s"
     )
     if rep_path is not None:
-        doc = dict(input=args.file, output=str(out), before=before, after=after, max_joint_speed_ratio=speed_ratio, **res.to_dict())
+        doc = dict(input=args.file, output=str(out), before=before, after=after, max_joint_speed_ratio=speed_ratio, **info)
         write_text_atomic(rep_path, json.dumps(_nan_to_none(doc), indent=1, default=float, allow_nan=False))
         print(f"wrote {rep_path}")
     return 0

@@ -10,11 +10,14 @@ Metric definitions: ``shared/docs/METRICS.md`` (thresholds in the table's notes)
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import numpy as np
 
 from .. import evaluate as ev
+from ..cleanup import CleanupResult
+from ..skeleton import Motion
 from . import Table
 
 COLUMNS = (
@@ -33,7 +36,7 @@ def _row(source: str, name: str, r: dict) -> tuple:
 
 def synthesized(quick: bool = False) -> dict[str, tuple[object, tuple]]:
     """Bundled clips and results made from them: ``{name: (motion, props)}``."""
-    from .. import blend, cleanup, synth
+    from .. import blend, synth
 
     clips = synth.library()
     if quick:
@@ -41,13 +44,23 @@ def synthesized(quick: bool = False) -> dict[str, tuple[object, tuple]]:
     out: dict[str, tuple[object, tuple]] = {
         name: (c.motion, (c.prop,) if c.prop is not None else ()) for name, c in clips.items()
     }
-    walk, run = synth.walk(seconds=3.0).motion, synth.run(seconds=3.0).motion
-    lin = blend.blend([walk, run], [0.5, 0.5], method="linear", name="linear_blend")
+    (walk, run), lin, cleaned = _bundled_linear_blend()
     reg = blend.blend([walk, run], [0.5, 0.5], method="registered", name="registered_blend")
     out["linear blend walk/run .5"] = (lin, ())
     out["registered blend walk/run .5"] = (reg, ())
-    out["cleanup of the linear blend"] = (cleanup.cleanup(lin).motion, ())
+    out["cleanup of the linear blend"] = (cleaned.motion, ())
     return out
+
+
+@functools.lru_cache(maxsize=1)
+def _bundled_linear_blend() -> tuple[tuple[Motion, Motion], Motion, CleanupResult]:
+    """The bundled walk and run (3 s each), their linear .5 blend and its cleanup: built once for
+    the synthesized rows and the cleanup notes."""
+    from .. import blend, cleanup, synth
+
+    clips = (synth.walk(seconds=3.0).motion, synth.run(seconds=3.0).motion)
+    lin = blend.blend(list(clips), [0.5, 0.5], method="linear", name="linear_blend")
+    return clips, lin, cleanup.cleanup(lin)
 
 
 #: Walk and run of one skeleton each, blended linearly (frame by frame, no timewarp) for the cleanup check.
@@ -67,13 +80,15 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
     ``data_dir`` (issue 7's bar: ≥ 80 % less ``skate_mm_per_s``, no penetration added beyond
     2 mm, ``max_joint_speed_ratio`` ≤ 1.5). With ``out_dir``, foot height and speed before and
     after cleanup of the last pair are drawn there. Returns the lines and the figure files."""
-    from .. import blend, bvh, cleanup, kinematics, mjcf, synth
+    from .. import blend, bvh, cleanup, kinematics, mjcf
 
-    pairs = [("bundled walk+run", [synth.walk(seconds=3.0).motion, synth.run(seconds=3.0).motion])]
+    pairs = [("bundled walk+run", *_bundled_linear_blend())]
     for a, b in BLEND_PAIRS if data_dir is not None else ():
         if (data_dir / a).is_file() and (data_dir / b).is_file():
             clips = [bvh.read(data_dir / x) for x in (a, b)]
-            pairs.append((f"{a.split('/')[0]} {Path(a).stem}+{Path(b).stem}", [m[ev.leading_transient(m) :] for m in clips]))
+            clips = [m[ev.leading_transient(m) :] for m in clips]
+            lin = blend.blend(clips, [0.5, 0.5], method="linear")
+            pairs.append((f"{a.split('/')[0]} {Path(a).stem}+{Path(b).stem}", clips, lin, cleanup.cleanup(lin)))
     lines = []
     for rel in CLEAN_WALKS if data_dir is not None else ():
         if (data_dir / rel).is_file():
@@ -84,10 +99,7 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
                 f"planted skate {ev.planted_skate_mm_per_s(m):.0f} → {ev.planted_skate_mm_per_s(done):.1f}, "
                 f"max_joint_speed_ratio {ev.max_joint_speed_ratio(done, m):.2f}"
             )
-    lin = res = None
-    for label, clips in pairs:
-        lin = blend.blend(clips, [0.5, 0.5], method="linear")
-        res = cleanup.cleanup(lin)
+    for label, clips, lin, res in pairs:
         c = mjcf.compile(lin.skeleton)
         low0 = ev.lowest_body_point(c, kinematics.forward(c, lin))
         low1 = ev.lowest_body_point(c, kinematics.forward(c, res.motion))
@@ -102,9 +114,10 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
             f"{info['lifted_frames']}/{lin.n_frames} frames with a foot lifted (≤ {100 * info['max_lift_m']:.1f} cm)"
         )
     files = []
-    if out_dir is not None and lin is not None and res is not None:
+    if out_dir is not None:
         from .. import plots
 
+        label, _, lin, res = pairs[-1]
         out_dir.mkdir(parents=True, exist_ok=True)
         for tag, m in (("before", lin), ("after", res.motion)):
             tr = ev.foot_heights_speeds(None, m)
