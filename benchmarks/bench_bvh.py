@@ -42,7 +42,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from mjmotion import bvh, kinematics  # noqa: E402
+from mjmotion import bvh, kinematics
 
 CLIP = Path("cmu_iclone_ccrig") / "002_07.bvh"
 

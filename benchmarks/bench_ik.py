@@ -91,7 +91,9 @@ def per_frame(problem: hitpoint.HitProblem, with_ccd: bool) -> None:
     mink_fn, why = mink_solver(problem)
     if mink_fn is not None:
         run("mink", mink_fn)
-    print(f"\nper-frame lead-chain IK over {len(frames)} frames ({lead.n_dof} DOF: {', '.join(f'{n}:{j.dof}' for n, j in zip(lead.names, lead.joints))})")
+    print(
+        f"\nper-frame lead-chain IK over {len(frames)} frames ({lead.n_dof} DOF: {', '.join(f'{n}:{j.dof}' for n, j in zip(lead.names, lead.joints))})"
+    )
     print(f"{'solver':8s} {'ms median':>9s} {'ms p90':>9s} {'err mm med':>12s} {'err mm max':>12s}")
     for name, (ts, es) in rows.items():
         print(f"{name:8s} {stats(ts, es)}")
@@ -160,10 +162,14 @@ def whole_shot_and_style(m, prop, offset: np.ndarray, with_ccd: bool) -> None:
         wall = time.perf_counter() - s
         r = a.report
         results[solver] = r["style_rmse"]
-        print(f"{solver:9s} {wall:8.2f} {r['solve_s_per_frame']:14.5f} {r['hit_error_m'] * 1000:11.2e} {r['grip_error_m'] * 1000:12.2e} {r['style_rmse']:11.4f} {deviation_acceleration(m, a.motion):14.1f}")
+        print(
+            f"{solver:9s} {wall:8.2f} {r['solve_s_per_frame']:14.5f} {r['hit_error_m'] * 1000:11.2e} {r['grip_error_m'] * 1000:12.2e} {r['style_rmse']:11.4f} {deviation_acceleration(m, a.motion):14.1f}"
+        )
         if solver == "nlp-shot":
             n = int((a.problem.blend > 0).sum())
-            print(f"          whole-shot NLP: {r['solve_s_per_frame'] * n:.2f} s for {n} solved frames of a {m.n_frames}-frame swing (build + solve; goal < 2 s)")
+            print(
+                f"          whole-shot NLP: {r['solve_s_per_frame'] * n:.2f} s for {n} solved frames of a {m.n_frames}-frame swing (build + solve; goal < 2 s)"
+            )
     order = " ≤ ".join(sorted(results, key=results.get))
     print(f"style order (best first): {order}   goal: nlp ≤ dls ≤ ccd")
 
@@ -171,7 +177,9 @@ def whole_shot_and_style(m, prop, offset: np.ndarray, with_ccd: bool) -> None:
 def grid(with_solvers: tuple[str, ...] = ("nlp", "dls")) -> None:
     d = data_dir()
     print("\n5 swings × 3×3 targets at ±10 and ±20 cm across the swing (done-when experiment)")
-    print(f"{'clip':6s} {'solver':8s} {'n':>3s} {'max hit mm':>10s} {'max goal mm':>11s} {'max grip mm':>11s} {'ends==src':>9s} {'legs==src':>9s} {'mean style':>10s} {'s/frame':>8s}")
+    print(
+        f"{'clip':6s} {'solver':8s} {'n':>3s} {'max hit mm':>10s} {'max goal mm':>11s} {'max grip mm':>11s} {'ends==src':>9s} {'legs==src':>9s} {'mean style':>10s} {'s/frame':>8s}"
+    )
     for clip in SWINGS:
         m = bvh.read(d / "cmu_asfamc_converted" / f"{clip}.bvh")
         prop = hitpoint.fit_club(m)

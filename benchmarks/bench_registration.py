@@ -96,8 +96,11 @@ def timed(fn, repeats: int, clock=time.perf_counter):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=7)
-    ap.add_argument("--threads", default="1", help="BLAS threads, as --threads=N (default 1: on a shared 2-core machine "
-                    "OpenBLAS threads contend and a 600×105 product slows ~10×)")
+    ap.add_argument(
+        "--threads",
+        default="1",
+        help="BLAS threads, as --threads=N (default 1: on a shared 2-core machine OpenBLAS threads contend and a 600×105 product slows ~10×)",
+    )
     ap.add_argument("--baseline-rows", type=int, default=N, help="rows of the per-cell baseline to time (scaled to the full grid)")
     args = ap.parse_args()
     a, b, w_true = clips()
@@ -132,8 +135,10 @@ def main() -> None:
     print(f"  grid  (vectorised, {N}×{N})           {t_grid * 1e3:8.1f} ms")
     print(f"  path  (DP, free end, slope limit 2)    {t_path_np * 1e3:8.1f} ms  NumPy rows ({len(path.cells)} cells){numba_row}")
     print(f"  curve (monotone B-spline) + alignment  {(t_curve + t_align) * 1e3:8.1f} ms  ({t_curve * 1e3:.1f} + {t_align * 1e3:.1f})")
-    print(f"  whole registration                     {t_all * 1e3:8.1f} ms  (goal < 50 ms); CPU time {t_all_cpu * 1e3:.1f} ms; "
-          f"with FK {t_all_fk * 1e3:.1f} ms")
+    print(
+        f"  whole registration                     {t_all * 1e3:8.1f} ms  (goal < 50 ms); CPU time {t_all_cpu * 1e3:.1f} ms; "
+        f"with FK {t_all_fk * 1e3:.1f} ms"
+    )
     theta = np.degrees(np.median(reg.alignment[:, 0]))
     print(f"  recovered timewarp RMS {rms:.2f} frames; alignment theta {theta:.2f}° (true {-np.degrees(0.9):.2f}°)")
 
@@ -164,8 +169,10 @@ def main() -> None:
             t_ours, _ = timed(lambda b=backend: R.dp_path(grid.cost, slope, False, backend=b), args.repeats)
         except R.MjmotionError:
             continue
-        print(f"  tslearn DTW (corners, no slope limit)  {t_ts * 1e3:8.1f} ms; ours (corners, slope limit 2, {backend}) "
-              f"{t_ours * 1e3:.1f} ms: tslearn/ours = {t_ts / t_ours:.2f}")
+        print(
+            f"  tslearn DTW (corners, no slope limit)  {t_ts * 1e3:8.1f} ms; ours (corners, slope limit 2, {backend}) "
+            f"{t_ours * 1e3:.1f} ms: tslearn/ours = {t_ts / t_ours:.2f}"
+        )
     # cross-check: with a slope limit as long as tslearn's longest straight run, the optima agree
     ts_cells = np.array(ts_path)
     ts_cost = float(grid.cost[ts_cells[:, 0], ts_cells[:, 1]].sum())

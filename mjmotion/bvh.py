@@ -383,9 +383,7 @@ def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
                     raise BvhError(path, ln, f"CHANNELS count {_q(toks[k + 1])} is not a whole number") from None
                 names_ = toks[k + 2 :]
                 if count < 0 or count > 6 or len(names_) != count:
-                    raise BvhError(
-                        path, ln, f"CHANNELS says {count} but lists {len(names_)} channel names; expected 0 to 6 matching names"
-                    )
+                    raise BvhError(path, ln, f"CHANNELS says {count} but lists {len(names_)} channel names; expected 0 to 6 matching names")
                 chans = []
                 for c in names_:
                     canon = _CHANNEL_CASE.get(c.lower())

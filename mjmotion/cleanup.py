@@ -284,9 +284,7 @@ def _hann_smooth_max(x: np.ndarray, n: int) -> np.ndarray:
     return np.stack([np.convolve(x[:, i], k, mode="full")[n : n + len(x)] for i in range(x.shape[1])], axis=1)
 
 
-def swing_lift(
-    heights: np.ndarray, speeds: np.ndarray, planted: np.ndarray, fps: float, clearance: float, v_c: float, ramp: float
-) -> np.ndarray:
+def swing_lift(heights: np.ndarray, speeds: np.ndarray, planted: np.ndarray, fps: float, clearance: float, v_c: float, ramp: float) -> np.ndarray:
     """How far to raise one foot at each frame so that it does not move over the floor.
 
     ``heights, speeds: (T,)`` the foot's lowest point above the floor (m) and its horizontal
@@ -404,9 +402,7 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupR
             held[p.start + (p.start > 0) : p.stop - (p.stop < t_count), track.sides.index(p.side)] = True
         residual = ev.contacts(tr, params.h_c, params.v_c) & ~held
         grown = [
-            q
-            for f, side in enumerate(track.sides)
-            for q in grow_plants([p for p in plants if p.side == side], residual[:, f], ankles[:, f, :2], gap)
+            q for f, side in enumerate(track.sides) for q in grow_plants([p for p in plants if p.side == side], residual[:, f], ankles[:, f, :2], gap)
         ]
         if sorted(grown, key=lambda p: (p.side, p.start)) == sorted(plants, key=lambda p: (p.side, p.start)):
             break
@@ -545,7 +541,11 @@ def _solve_legs(
         w_hip = rot.multiply(r_hip, wr[act, h])
         w_knee = rot.multiply(r_hip, rot.multiply(r_knee, wr[act, k]))
         w_parent = wr[act, int(skel.parents[h])]
-        for j, q in ((h, rot.multiply(rot.conjugate(w_parent), w_hip)), (k, rot.multiply(rot.conjugate(w_hip), w_knee)), (a, rot.multiply(rot.conjugate(w_knee), foot_rot[act, f]))):
+        for j, q in (
+            (h, rot.multiply(rot.conjugate(w_parent), w_hip)),
+            (k, rot.multiply(rot.conjugate(w_hip), w_knee)),
+            (a, rot.multiply(rot.conjugate(w_knee), foot_rot[act, f])),
+        ):
             q = rot.normalize(q)
             # Keep each quaternion in the captured one's hemisphere (same rotation, continuous signs).
             rots[act, j] = q * np.where(np.sum(q * moved.rotations[act, j], axis=-1) < 0, -1.0, 1.0)[:, None]

@@ -182,9 +182,7 @@ def resolve_effector(motion: Motion, name: str, prop: mjcf.Prop | None = None) -
 
 
 # --- stiffness learned from the style space ---------------------------------------------------
-def style_weights(
-    motion: Motion, chain: Chain, variance: float = 0.7, floor: float = 0.05, space: PoseSpace | None = None
-) -> np.ndarray:
+def style_weights(motion: Motion, chain: Chain, variance: float = 0.7, floor: float = 0.05, space: PoseSpace | None = None) -> np.ndarray:
     """Meredith & Maddock weights ``(n_dof,)`` learned from the clip's PCA style space (§1.10, §2.5.4).
 
     A coordinate's stiffness is how far a small turn of it moves the pose in the source's top-``k``
@@ -467,10 +465,7 @@ def source_kept(adaptation: Adaptation) -> tuple[bool, bool]:
     moved = set(p.lead.joint_indices) | (set(p.second.joint_indices) if p.second is not None else set())
     still = [j for j in range(src.skeleton.n_joints) if j not in moved]
     ends = bool(np.array_equal(out.rotations[[0, -1]], src.rotations[[0, -1]]))
-    kept = bool(
-        np.array_equal(out.rotations[:, still], src.rotations[:, still])
-        and np.array_equal(out.root_positions, src.root_positions)
-    )
+    kept = bool(np.array_equal(out.rotations[:, still], src.rotations[:, still]) and np.array_equal(out.root_positions, src.root_positions))
     return ends, kept
 
 

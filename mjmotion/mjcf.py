@@ -565,10 +565,7 @@ def _index(
     ball_adr = -1
     if ball is not None:
         ball_adr = int(model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, BALL)])
-    geoms = {
-        side: tuple(int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n)) for n in names)
-        for side, names in foot_geoms.items()
-    }
+    geoms = {side: tuple(int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n)) for n in names) for side, names in foot_geoms.items()}
     return CompiledModel(
         skeleton=skeleton,
         spec=spec,

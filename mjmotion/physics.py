@@ -314,7 +314,14 @@ def simulate_launch(
     ball0 = np.asarray(ball_position, dtype=float) - ball_v * t_hit
     bb = spec.worldbody.add_body(name="ball", pos=ball0.tolist())
     bb.add_freejoint(name="ball")
-    bb.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[ball_radius, 0, 0], mass=ball_mass, condim=1, solref=[max(4 * dt, 2e-4), zeta], solimp=[0.99, 0.99, 0.001, 0.5, 2.0])
+    bb.add_geom(
+        type=mujoco.mjtGeom.mjGEOM_SPHERE,
+        size=[ball_radius, 0, 0],
+        mass=ball_mass,
+        condim=1,
+        solref=[max(4 * dt, 2e-4), zeta],
+        solimp=[0.99, 0.99, 0.001, 0.5, 2.0],
+    )
     weld = spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, name1="target", name2="effector", objtype=mujoco.mjtObj.mjOBJ_BODY)
     weld.solref = [max(4 * dt, 2e-4), 1.0]
     m = spec.compile()
@@ -414,8 +421,17 @@ def hit_metrics(
     if launch:
         gquat = rot.make_continuous(gquat)
         ln = simulate_launch(
-            int(m.geom_type[geom]), m.geom_size[geom].tolist(), gpos, gquat, motion.fps, h,
-            bpos, ball.radius, ball.mass, ball_velocity, restitution,
+            int(m.geom_type[geom]),
+            m.geom_size[geom].tolist(),
+            gpos,
+            gquat,
+            motion.fps,
+            h,
+            bpos,
+            ball.radius,
+            ball.mass,
+            ball_velocity,
+            restitution,
         )
         out.update(
             launch_azimuth_deg=ln.azimuth_deg,
@@ -632,4 +648,6 @@ def hit_grid(
         paths.append((pos, quat))
     size = compiled.model.geom_size[geom].tolist()
     # The ball sits one radius off the club's axis, in front of the face along the club's motion.
-    return launch_predictability(int(compiled.model.geom_type[geom]), size, paths, motion.fps, h, points, ball_radius, ball_mass, ball_velocity, restitution)
+    return launch_predictability(
+        int(compiled.model.geom_type[geom]), size, paths, motion.fps, h, points, ball_radius, ball_mass, ball_velocity, restitution
+    )

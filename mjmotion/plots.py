@@ -170,8 +170,16 @@ def foot_contacts(
             ax.plot(t, values[:, k], color=color, lw=1.5, label=labels[k])
             # Shade whole frames: contact k covers [t_i - dt/2, t_i + dt/2], drawn as one filled step.
             ax.fill_between(
-                t, 0.5 * k, 0.5 * (k + 1), where=c[:, k], step="mid", color=color, alpha=0.25, lw=0,
-                transform=ax.get_xaxis_transform(), label=f"{labels[k]} contact" if ax is axes[0, 0] else None,
+                t,
+                0.5 * k,
+                0.5 * (k + 1),
+                where=c[:, k],
+                step="mid",
+                color=color,
+                alpha=0.25,
+                lw=0,
+                transform=ax.get_xaxis_transform(),
+                label=f"{labels[k]} contact" if ax is axes[0, 0] else None,
             )
         ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)
@@ -293,8 +301,16 @@ def hitpoint_grid(
     for ((i, j), xl, yl, name), ax in zip(views, axes[0]):
         ax.scatter(p[:, i], p[:, j], color="black", s=18, zorder=3, label="hit point")
         ax.quiver(
-            p[:, i], p[:, j], direction[:, i] * arrow_length, direction[:, j] * arrow_length,
-            color=cmap(norm(d[:, 1])), angles="xy", scale_units="xy", scale=1, width=0.006, zorder=2,
+            p[:, i],
+            p[:, j],
+            direction[:, i] * arrow_length,
+            direction[:, j] * arrow_length,
+            color=cmap(norm(d[:, 1])),
+            angles="xy",
+            scale_units="xy",
+            scale=1,
+            width=0.006,
+            zorder=2,
         )
         pts = np.concatenate([p[:, [i, j]], p[:, [i, j]] + direction[:, [i, j]] * arrow_length])
         lo, hi = pts.min(axis=0), pts.max(axis=0)

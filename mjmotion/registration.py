@@ -497,9 +497,7 @@ def _search(
     return Path(cells=np.array(best[1], dtype=int), cost=best[0])
 
 
-def _pruned_search(
-    cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[int, int], prune_above: float, max_nodes: int
-) -> Path:
+def _pruned_search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[int, int], prune_above: float, max_nodes: int) -> Path:
     """Sako's recursion with an area threshold, expanding partial paths in order of progress.
 
     Cells costlier than ``prune_above`` are never entered. Partial paths are expanded by
@@ -592,9 +590,7 @@ def greedy_path(cost: np.ndarray, slope: SlopeLimit, free_end: bool = True, star
         options = [
             (float(c[i + di, j + dj]), di, dj, nrh, nrv)
             for di, dj, nrh, nrv in _moves(rh, rv, slope)
-            if i + di < n_a
-            and j + dj < n_b
-            and (free_end or _reachable(n_a - 1 - i - di, n_b - 1 - j - dj, nrh, nrv, slope))
+            if i + di < n_a and j + dj < n_b and (free_end or _reachable(n_a - 1 - i - di, n_b - 1 - j - dj, nrh, nrv, slope))
         ]
         if not options:
             raise MjmotionError(f"greedy search is stuck at cell ({i}, {j}) by the slope limit; use --method dp")

@@ -20,20 +20,20 @@ import os
 # Before anything imports PyOpenGL: pick the headless backend unless the user chose one.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-import importlib  # noqa: E402
-import sys  # noqa: E402
-from collections.abc import Callable, Iterable, Iterator, Sequence  # noqa: E402
-from dataclasses import dataclass, field  # noqa: E402
-from pathlib import Path  # noqa: E402
+import importlib
+import sys
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
 
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
+import mujoco
+import numpy as np
 
-from . import kinematics, mjcf  # noqa: E402
-from . import rotations as rot  # noqa: E402
-from .errors import MjmotionError  # noqa: E402
-from .outputs import atomic_path  # noqa: E402
-from .skeleton import Motion  # noqa: E402
+from . import kinematics, mjcf
+from . import rotations as rot
+from .errors import MjmotionError
+from .outputs import atomic_path
+from .skeleton import Motion
 
 #: Character colours (RGB 0–1), in order: source, adapted, blend, … (no red: the ball is red).
 PALETTE: tuple[tuple[float, float, float], ...] = (
@@ -291,9 +291,7 @@ def build_scene(
     # A swung club rarely points straight up: 60% of its length above the head is enough room.
     reach = stature + 0.6 * max((p.length for a in actors for p in a.props), default=0.0)
     distance = view.distance if view.distance is not None else _auto_distance(roots, lookat, reach, view.fovy)
-    trails = tuple(
-        _trail_points(model, q, _prefix(i), a.trail, c) if a.trail else None for i, (a, c) in enumerate(zip(actors, compiled))
-    )
+    trails = tuple(_trail_points(model, q, _prefix(i), a.trail, c) if a.trail else None for i, (a, c) in enumerate(zip(actors, compiled)))
     return Scene(
         model=model,
         actors=tuple(actors),
@@ -387,7 +385,7 @@ def open_gl_context(width: int, height: int, backends: Sequence[str] | None = No
             ctx = module.GLContext(width, height)
             ctx.make_current()
             return ctx
-        except Exception as exc:  # noqa: BLE001 - each backend fails in its own way (ImportError, OSError, GLError…)
+        except Exception as exc:
             text = str(exc).splitlines()[0] if str(exc) else ""
             failures.append(f"{name}: {type(exc).__name__}: {text}")
             if "PYOPENGL_PLATFORM" in text:
@@ -399,8 +397,12 @@ def open_gl_context(width: int, height: int, backends: Sequence[str] | None = No
                     os.environ["PYOPENGL_PLATFORM"] = saved
     hint = next((f" {b} works in a fresh process: run with MUJOCO_GL={b}." for b in locked if _backend_works(b)), "")
     raise MjmotionError(
-        "no offscreen OpenGL backend works (" + "; ".join(failures) + ")." + hint
-        + (" Otherwise install" if hint else " Install") + " Mesa's EGL (libegl1, libegl-mesa0) or OSMesa (libosmesa6)."
+        "no offscreen OpenGL backend works ("
+        + "; ".join(failures)
+        + ")."
+        + hint
+        + (" Otherwise install" if hint else " Install")
+        + " Mesa's EGL (libegl1, libegl-mesa0) or OSMesa (libosmesa6)."
     )
 
 
@@ -583,8 +585,13 @@ class Renderer:
             rgb = np.asarray(actor.color or PALETTE[a % len(PALETTE)])
             fill = tuple(int(v) for v in np.clip(rgb * 255 * 1.1, 0, 255))
             draw.text(
-                (float(px[0, 0]), float(px[0, 1])), actor.label, fill=fill, font=self._font, anchor="mb",
-                stroke_width=2, stroke_fill=(20, 20, 20),
+                (float(px[0, 0]), float(px[0, 1])),
+                actor.label,
+                fill=fill,
+                font=self._font,
+                anchor="mb",
+                stroke_width=2,
+                stroke_fill=(20, 20, 20),
             )
         return np.asarray(pil)
 
@@ -652,9 +659,7 @@ def _write_gif(frames: Iterable[np.ndarray], path: Path, fps: float, progress) -
             progress(1)
     if not images:
         raise MjmotionError(f"{path}: no frames to write")
-    images[0].save(
-        path, format="GIF", save_all=True, append_images=images[1:], duration=int(round(1000 / fps)), loop=0
-    )
+    images[0].save(path, format="GIF", save_all=True, append_images=images[1:], duration=int(round(1000 / fps)), loop=0)
 
 
 def render(

@@ -321,8 +321,7 @@ class Motion:
         t = q.shape[0] if q.ndim == 3 else -1
         if rp.shape != (t, 3) or q.shape != (t, self.skeleton.n_joints, 4):
             raise MjmotionError(
-                f"motion arrays have shapes root {rp.shape}, rotations {q.shape}; expected "
-                f"(T, 3) and (T, {self.skeleton.n_joints}, 4)"
+                f"motion arrays have shapes root {rp.shape}, rotations {q.shape}; expected (T, 3) and (T, {self.skeleton.n_joints}, 4)"
             )
         if self.translations is not None:
             tr = np.asarray(self.translations, dtype=float)

@@ -108,11 +108,11 @@ def parse_script(data: dict, base: Path, load) -> Script:
     if unknown:
         raise MjmotionError(f"script: unknown field(s) {', '.join(sorted(unknown))}")
     if not isinstance(data["clips"], dict) or not data["clips"]:
-        raise MjmotionError("script.clips: expected an object of name → {\"file\": …, \"frames\": \"A:B\"}")
+        raise MjmotionError('script.clips: expected an object of name → {"file": …, "frames": "A:B"}')
     clips: dict[str, Motion] = {}
     for name, spec in data["clips"].items():
         if not isinstance(spec, dict) or not isinstance(spec.get("file"), str):
-            raise MjmotionError(f"script.clips.{name}: expected {{\"file\": PATH, \"frames\": \"A:B\" (optional)}}")
+            raise MjmotionError(f'script.clips.{name}: expected {{"file": PATH, "frames": "A:B" (optional)}}')
         path = Path(spec["file"])
         path = path if path.is_absolute() else base / path
         clips[name] = load(str(path), spec.get("frames")).replace(name=name)

@@ -34,16 +34,12 @@ def pose_parameters(motion: Motion, translations: bool = False) -> np.ndarray:
     if translations:
         moving = _moving_joints(motion.skeleton)
         if moving.size:
-            parts.append(
-                motion.local_translations()[:, moving].reshape(motion.n_frames, -1)
-            )
+            parts.append(motion.local_translations()[:, moving].reshape(motion.n_frames, -1))
     return np.concatenate(parts, axis=1)
 
 
 def _moving_joints(skeleton: Skeleton) -> np.ndarray:
-    return np.array(
-        [j for j in range(1, skeleton.n_joints) if skeleton.has_positions(j)], dtype=int
-    )
+    return np.array([j for j in range(1, skeleton.n_joints) if skeleton.has_positions(j)], dtype=int)
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,21 +76,15 @@ class PoseSpace:
     def fit(cls, source: Motion, translations: bool = False) -> PoseSpace:
         """PCA of ``source`` (seed 003 §2.5.4): standardise, then an SVD of the data matrix."""
         if source.n_frames < 2:
-            raise MjmotionError(
-                f"{source.name or 'clip'}: PCA needs at least 2 frames, got {source.n_frames}"
-            )
+            raise MjmotionError(f"{source.name or 'clip'}: PCA needs at least 2 frames, got {source.n_frames}")
         x = pose_parameters(source, translations)
         if not np.all(np.isfinite(x)):
-            raise MjmotionError(
-                f"{source.name or 'clip'}: pose parameters contain NaN or infinity"
-            )
+            raise MjmotionError(f"{source.name or 'clip'}: pose parameters contain NaN or infinity")
         means = x.mean(axis=0)
         dev = x.std(axis=0, ddof=1)
         kept = dev > ZERO_DEVIATION * np.maximum(1.0, np.abs(means))
         if not kept.any():
-            raise MjmotionError(
-                f"{source.name or 'clip'}: every pose parameter is constant; nothing to analyse"
-            )
+            raise MjmotionError(f"{source.name or 'clip'}: every pose parameter is constant; nothing to analyse")
         dev = np.where(kept, dev, 0.0)
         z = (x[:, kept] - means[kept]) / dev[kept]
         _, sing, vt = np.linalg.svd(z, full_matrices=False)
@@ -143,9 +133,7 @@ class PoseSpace:
         if k is None:
             return self.n_components
         if not (1 <= k <= self.n_components):
-            raise MjmotionError(
-                f"number of components must be 1…{self.n_components}, got {k}"
-            )
+            raise MjmotionError(f"number of components must be 1…{self.n_components}, got {k}")
         return int(k)
 
     # --- projection and reconstruction -------------------------------------------------------
@@ -155,9 +143,7 @@ class PoseSpace:
         Each joint's sequence is made continuous, then flipped as a whole if that brings it
         closer to the source's mean quaternion (so a clip's sign choice does not change its scores).
         """
-        self.skeleton.require_same_topology(
-            motion.skeleton, "the clip and the PCA source"
-        )
+        self.skeleton.require_same_topology(motion.skeleton, "the clip and the PCA source")
         x = pose_parameters(motion, self.translations)
         j = self.skeleton.n_joints
         q = x[:, 3 : 3 + 4 * j].reshape(-1, j, 4)
@@ -216,9 +202,7 @@ class PoseSpace:
         return self.motion(self.scores(motion, k), name=motion.name)
 
 
-def reconstruction_errors(
-    source: Motion, ks: list[int] | np.ndarray | None = None
-) -> dict[int, float]:
+def reconstruction_errors(source: Motion, ks: list[int] | np.ndarray | None = None) -> dict[int, float]:
     """RMS joint-position error (metres, over frames and joints) of ``k``-component reconstructions.
 
     ``ks`` defaults to 1…C. Joint positions by MuJoCo forward kinematics.
@@ -236,9 +220,7 @@ def reconstruction_errors(
     return out
 
 
-def style_rmse(
-    source: Motion, adapted: Motion, variance: float = 0.7, space: PoseSpace | None = None
-) -> tuple[float, int]:
+def style_rmse(source: Motion, adapted: Motion, variance: float = 0.7, space: PoseSpace | None = None) -> tuple[float, int]:
     """Style error of ``adapted`` against ``source`` (seed 003 §2.5.5; docs/METRICS.md "Style").
 
     PCA of ``source``; ``k`` = smallest number of components explaining ≥ ``variance``; both

@@ -96,9 +96,7 @@ def source_path(space: PoseSpace, k: int, detail: bool = True) -> ScorePath:
     return ScorePath(s, k, t, t, np.zeros(len(t)), "source")
 
 
-def segment_weights(
-    n_frames: int, segment: tuple[int, int] | None, taper: float = SEGMENT_TAPER
-) -> np.ndarray:
+def segment_weights(n_frames: int, segment: tuple[int, int] | None, taper: float = SEGMENT_TAPER) -> np.ndarray:
     """``(T,)`` 1 inside ``segment = (a, b)`` (half-open), cosine tapers of ``taper·(b−a)`` frames at its ends, 0 outside.
 
     ``None`` → 1 everywhere (the whole path is scaled, §3.2.3).
@@ -123,15 +121,11 @@ def _check_segment(segment: tuple[int, int], n_frames: int) -> tuple[int, int]:
     if b < 0:
         b += n_frames
     if not (0 <= a < b <= n_frames) or b - a < 3:
-        raise MjmotionError(
-            f"segment {segment[0]}:{segment[1]} must select at least 3 of the clip's {n_frames} frames"
-        )
+        raise MjmotionError(f"segment {segment[0]}:{segment[1]} must select at least 3 of the clip's {n_frames} frames")
     return a, b
 
 
-def scaled_path(
-    path: ScorePath, factor: float, segment: tuple[int, int] | None = None
-) -> ScorePath:
+def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None = None) -> ScorePath:
     """Exaggerate (``factor`` > 1) or mute (< 1) ``path`` (§3.2.3, Figure 3.7).
 
     The controlled scores move away from (or toward) the centre ``c`` (mean over the segment,
@@ -142,16 +136,12 @@ def scaled_path(
     w = segment_weights(path.n_frames, segment)
     s = path.scores.copy()
     ctrl = s[:, : path.k]
-    centre = ctrl[w > 0].mean(
-        axis=0
-    )  # the segment's centre (every frame of the segment has w > 0)
+    centre = ctrl[w > 0].mean(axis=0)  # the segment's centre (every frame of the segment has w > 0)
     s[:, : path.k] = ctrl + (w * (factor - 1.0))[:, None] * (ctrl - centre)
     return replace(path, scores=s, label=f"scale {factor:g}")
 
 
-def default_abort_frames(
-    path: ScorePath, frame: int, rest_frame: int, fps: float
-) -> int:
+def default_abort_frames(path: ScorePath, frame: int, rest_frame: int, fps: float) -> int:
     """Frames to reach the rest pose: the source's mean speed through the space, at least 0.25 s.
 
     The return leg covers the distance ``|S_rest − S_f|`` at the average speed of the source's
@@ -165,9 +155,7 @@ def default_abort_frames(
     return max(need, round(0.25 * fps), 2)
 
 
-def rest_in_place(
-    space: PoseSpace, path: ScorePath, frame: int, rest_frame: int
-) -> tuple[np.ndarray, np.ndarray]:
+def rest_in_place(space: PoseSpace, path: ScorePath, frame: int, rest_frame: int) -> tuple[np.ndarray, np.ndarray]:
     """Scores ``(C,)`` of the rest pose moved over the floor to where the character stands at ``frame``, and that move ``(3,)``.
 
     "Where it stands" is its feet: the rest pose is shifted so that the foot that moves least
@@ -180,9 +168,7 @@ def rest_in_place(
     two = space.motion_of_parameters(x)
     feet = [a for a, _ in space.skeleton.feet().values()]
     if feet:
-        p = kinematics.forward(mjcf.compile(space.skeleton), two).joint_positions[
-            :, feet
-        ]
+        p = kinematics.forward(mjcf.compile(space.skeleton), two).joint_positions[:, feet]
         moves = (p[0] - p[1])[:, :2]
         delta = moves[int(np.argmin(np.linalg.norm(moves, axis=-1)))]
     else:
@@ -211,9 +197,7 @@ def aborted_path(
     """
     t = path.n_frames
     if not (0 < frame < t - 1):
-        raise MjmotionError(
-            f"abort frame must be between 1 and {t - 2} for a {t}-frame clip, got {frame}"
-        )
+        raise MjmotionError(f"abort frame must be between 1 and {t - 2} for a {t}-frame clip, got {frame}")
     rest = rest_frame + t if rest_frame < 0 else rest_frame
     if not (0 <= rest < t):
         raise MjmotionError(f"rest frame {rest_frame} is outside the clip's {t} frames")
@@ -222,9 +206,7 @@ def aborted_path(
     if space is not None:
         p1, move = rest_in_place(space, path, frame, rest)
     v0 = np.zeros_like(p0)
-    v0[: path.k] = (
-        path.scores[frame, : path.k] - path.scores[frame - 1, : path.k]
-    )  # score velocity per frame
+    v0[: path.k] = path.scores[frame, : path.k] - path.scores[frame - 1, : path.k]  # score velocity per frame
 
     def leg_of(n: int) -> tuple[np.ndarray, np.ndarray]:
         u = (np.arange(1, n + 1) / n)[:, None]
@@ -243,17 +225,13 @@ def aborted_path(
     else:
         n = int(n_frames)
     if n < 1:
-        raise MjmotionError(
-            f"abort needs at least 1 frame to reach the rest pose, got {n_frames}"
-        )
+        raise MjmotionError(f"abort needs at least 1 frame to reach the rest pose, got {n_frames}")
     leg, h01 = leg_of(n)
     scores = np.vstack([path.scores[: frame + 1], leg])
     w = np.concatenate([np.zeros(frame + 1), h01[:, 0]])
     fa = np.concatenate([path.frame_a[: frame + 1], np.full(n, path.frame_a[frame])])
     fb = np.concatenate([path.frame_b[: frame + 1], np.full(n, path.frame_b[rest])])
-    return ScorePath(
-        scores, path.k, fa, fb, w, f"abort at {frame}", path.shift_b + move
-    )
+    return ScorePath(scores, path.k, fa, fb, w, f"abort at {frame}", path.shift_b + move)
 
 
 def _local_speeds(q: np.ndarray) -> np.ndarray:
@@ -262,9 +240,7 @@ def _local_speeds(q: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
 
 
-def _abort_frames_within_speed(
-    space: PoseSpace, path: ScorePath, frame: int, n: int, leg_of
-) -> int:
+def _abort_frames_within_speed(space: PoseSpace, path: ScorePath, frame: int, n: int, leg_of) -> int:
     """Frames for the return leg so its peak joint speed stays within the source path's (a few refinements)."""
     limit = _local_speeds(space.motion(path.scores).rotations).max()
     for _ in range(6):
@@ -277,9 +253,7 @@ def _abort_frames_within_speed(
     return n
 
 
-def explicit_path(
-    space: PoseSpace, scores: np.ndarray, detail: bool = True
-) -> ScorePath:
+def explicit_path(space: PoseSpace, scores: np.ndarray, detail: bool = True) -> ScorePath:
     """A user's path ``scores: (T', k)``; ``k`` = its number of columns.
 
     The source frames it stands for are spread proportionally over the source; when it has the
@@ -289,9 +263,7 @@ def explicit_path(
     if s.ndim == 1:
         s = s[:, None]
     if s.ndim != 2 or s.shape[0] < 2:
-        raise MjmotionError(
-            f"a score path must be a (frames, components) array with at least 2 frames, got shape {s.shape}"
-        )
+        raise MjmotionError(f"a score path must be a (frames, components) array with at least 2 frames, got shape {s.shape}")
     if not np.all(np.isfinite(s)):
         raise MjmotionError("the score path contains NaN or infinity")
     k = space._check_k(s.shape[1])
@@ -326,24 +298,18 @@ def read_scores(path: str | Path) -> np.ndarray:
         else:
             raise MjmotionError(f"{p}: expected a .npy or .csv score path")
     except ValueError as exc:
-        raise MjmotionError(
-            f"{p}: cannot read scores ({exc}); expected rows of numbers, one column per component"
-        ) from None
+        raise MjmotionError(f"{p}: cannot read scores ({exc}); expected rows of numbers, one column per component") from None
     arr = np.asarray(arr, dtype=float)
     if arr.ndim == 1:
         arr = arr[:, None]
     if arr.ndim != 2 or arr.shape[0] < 2:
-        raise MjmotionError(
-            f"{p}: expected a (frames, components) table with at least 2 rows, got shape {arr.shape}"
-        )
+        raise MjmotionError(f"{p}: expected a (frames, components) table with at least 2 rows, got shape {arr.shape}")
     return arr
 
 
 def synthesise(space: PoseSpace, path: ScorePath, name: str = "") -> Motion:
     """The motion of ``path``: frame ``t`` is the pose ``P = (L S_t)ᵀ ⊙ D + M`` (§3.2.1)."""
-    return space.motion(
-        path.scores, name=name or f"{space.template.name} {path.label}".strip()
-    )
+    return space.motion(path.scores, name=name or f"{space.template.name} {path.label}".strip())
 
 
 # --- cleanup (§3.3) ----------------------------------------------------------------------------
@@ -356,9 +322,7 @@ def _source_at(source_values: np.ndarray, path: ScorePath) -> np.ndarray:
 def _source_positions_at(source_positions: np.ndarray, path: ScorePath) -> np.ndarray:
     """Like :func:`_source_at` for world positions ``(T, ..., 3)``: frame_b's are moved by ``path.shift_b``."""
     w = path.weight.reshape(-1, *([1] * (source_positions.ndim - 1)))
-    return (1.0 - w) * source_positions[path.frame_a] + w * (
-        source_positions[path.frame_b] + path.shift_b
-    )
+    return (1.0 - w) * source_positions[path.frame_a] + w * (source_positions[path.frame_b] + path.shift_b)
 
 
 def _quat_source_at(source_q: np.ndarray, path: ScorePath) -> np.ndarray:
@@ -424,18 +388,12 @@ def two_bone_ik(
     else:
         ref = np.array([1.0, 0.0, 0.0])
     ref = ref / max(np.linalg.norm(ref), 1e-12)
-    n_unit = np.where(
-        good[:, None], n / np.maximum(nn, 1e-12)[:, None], rot.rotate(q_top, ref)
-    )
+    n_unit = np.where(good[:, None], n / np.maximum(nn, 1e-12)[:, None], rot.rotate(q_top, ref))
     r_hip, r_knee, reach_error = analytic.two_bone(h, k, a, target_pos, n_unit)
     q_top_new = rot.multiply(r_hip, q_top)
     q_mid_new = rot.multiply(r_hip, rot.multiply(r_knee, world_rot[:, mid]))
     out = local_rot.copy()
-    q_above = (
-        world_rot[:, above]
-        if above >= 0
-        else np.broadcast_to(rot.IDENTITY, q_top.shape)
-    )
+    q_above = world_rot[:, above] if above >= 0 else np.broadcast_to(rot.IDENTITY, q_top.shape)
     out[:, top] = rot.multiply(rot.conjugate(q_above), q_top_new)
     out[:, mid] = rot.multiply(rot.conjugate(q_top_new), q_mid_new)
     out[:, end] = rot.multiply(rot.conjugate(q_mid_new), target_rot)
@@ -462,9 +420,7 @@ class CleanupReport:
     grip_reach_error_m: float
 
 
-def hold_source_feet(
-    source: Motion, motion: Motion, path: ScorePath, plant_height: float = PLANT_HEIGHT
-) -> tuple[Motion, dict[str, int], float]:
+def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_height: float = PLANT_HEIGHT) -> tuple[Motion, dict[str, int], float]:
     """Feet that slide or float (§3.3) put back on the source's footprints with two-bone leg IK.
 
     Where the source's foot (its lowest point, METRICS.md) is within ``plant_height`` of the floor at the
@@ -495,9 +451,7 @@ def hold_source_feet(
         # between two source frames a foot down at either end stays held (released, it would
         # swing to wherever the blended pose puts it)
         low_a, low_b = low_src[path.frame_a], low_src[path.frame_b]
-        low = np.where(
-            path.weight <= 0, low_a, np.where(path.weight >= 1, low_b, low_a | low_b)
-        )
+        low = np.where(path.weight <= 0, low_a, np.where(path.weight >= 1, low_b, low_a | low_b))
         if not low.any() or skel.parents[skel.parents[ankle]] < 0:
             continue
         target = _source_positions_at(src.joint_positions[:, ankle], path)
@@ -516,9 +470,7 @@ def hold_source_feet(
                 rot.conjugate(src.joint_rotations[fb, ankle]),
                 low_pt[fb] - src.joint_positions[fb, ankle],
             )
-            p_a = src.joint_positions[fa, ankle] + rot.rotate(
-                src.joint_rotations[fa, ankle], c
-            )
+            p_a = src.joint_positions[fa, ankle] + rot.rotate(src.joint_rotations[fa, ankle], c)
             p_b = low_pt[fb] + path.shift_b
             pivot = (1.0 - w) * p_a + w * p_b
             # a foot whose footprint moves must step: lift, carry, put down (not slide)
@@ -536,9 +488,7 @@ def hold_source_feet(
                     src.joint_rotations[fb, ankle],
                 )
                 turned = rot.slerp(q_a, q_b, carry)
-                target_rot[between] = np.where(
-                    stepping[:, None], turned, target_rot[between]
-                )
+                target_rot[between] = np.where(stepping[:, None], turned, target_rot[between])
             target[between] = pivot - rot.rotate(target_rot[between], c)
         # one horizontal shift per plant, where the variant's foot touched down; frames between
         # plants (fading in and out) take the nearest plant's shift so the target does not jump
@@ -547,9 +497,7 @@ def hold_source_feet(
         shifts = var.joint_positions[starts, ankle, :2] - target[starts, :2]
         centres = np.array([0.5 * (a + b - 1) for a, b in runs])
         t = np.arange(len(low))
-        dist = np.array(
-            [np.where(t < a, a - t, np.where(t >= b, t - b + 1, 0)) for a, b in runs]
-        )
+        dist = np.array([np.where(t < a, a - t, np.where(t >= b, t - b + 1, 0)) for a, b in runs])
         nearest = np.argmin(dist + 1e-6 * np.abs(t[None] - centres[:, None]), axis=0)
         target[:, :2] += shifts[nearest]
         # frames that are the source's own poses (before an abort, outside a scaled segment) stay so
@@ -559,12 +507,8 @@ def hold_source_feet(
     if not plans:
         return motion, {}, 0.0
     # an exaggerated pose can lift the hips beyond the legs' reach: lower/move the root first
-    shift = _root_shift_for_reach(
-        skel, var, [(a, tg, w) for _, a, _, _, tg, _, w in plans], motion.fps
-    )
-    shift *= (
-        1.0 - _fade(copies, max(1, round(0.5 * ROOT_WINDOW_S * motion.fps)))[:, None]
-    )
+    shift = _root_shift_for_reach(skel, var, [(a, tg, w) for _, a, _, _, tg, _, w in plans], motion.fps)
+    shift *= 1.0 - _fade(copies, max(1, round(0.5 * ROOT_WINDOW_S * motion.fps)))[:, None]
     if np.any(shift):
         motion = motion.replace(root_positions=motion.root_positions + shift)
         var = kinematics.forward(compiled, motion)
@@ -588,18 +532,14 @@ def hold_source_feet(
             int(skel.parents[ankle]),
             ankle,
         ]
-        chain += [
-            j for j in ([toe, *skel.descendants(toe)] if toe is not None else [])
-        ]
+        chain += [j for j in ([toe, *skel.descendants(toe)] if toe is not None else [])]
         local[:, chain] = _blend_local(local[:, chain], solved[:, chain], w)
         held[side] = int(low.sum())
         worst = max(worst, float(np.max(err[low])))
     return motion.replace(rotations=local), held, worst
 
 
-def copied_frames(
-    source: Motion, motion: Motion, path: ScorePath, tol: float = 1e-9
-) -> np.ndarray:
+def copied_frames(source: Motion, motion: Motion, path: ScorePath, tol: float = 1e-9) -> np.ndarray:
     """``(T',) bool``: frames of ``motion`` that are exactly a source frame (moved by ``path.shift_b`` at frame_b)."""
     out = np.zeros(path.n_frames, dtype=bool)
     for sel, frames, move in (
@@ -608,16 +548,11 @@ def copied_frames(
     ):
         f = frames[sel]
         same_q = np.all(
-            np.abs(
-                np.abs(np.sum(motion.rotations[sel] * source.rotations[f], axis=-1))
-                - 1.0
-            )
-            < tol,
+            np.abs(np.abs(np.sum(motion.rotations[sel] * source.rotations[f], axis=-1)) - 1.0) < tol,
             axis=1,
         )
         same_r = np.all(
-            np.abs(motion.root_positions[sel] - (source.root_positions[f] + move))
-            < 1e-7,
+            np.abs(motion.root_positions[sel] - (source.root_positions[f] + move)) < 1e-7,
             axis=1,
         )
         out[sel] = same_q & same_r
@@ -647,9 +582,7 @@ def _root_shift_for_reach(
         knee = int(skel.parents[ankle])
         hip = int(skel.parents[knee])
         p = pose.joint_positions
-        length = np.linalg.norm(p[:, knee] - p[:, hip], axis=-1) + np.linalg.norm(
-            p[:, ankle] - p[:, knee], axis=-1
-        )
+        length = np.linalg.norm(p[:, knee] - p[:, hip], axis=-1) + np.linalg.norm(p[:, ankle] - p[:, knee], axis=-1)
         vec = target - p[:, hip]
         dist = np.linalg.norm(vec, axis=-1)
         # only targets truly out of reach move the root (a captured straight leg stays as it is)
@@ -660,14 +593,10 @@ def _root_shift_for_reach(
     peak = np.linalg.norm(need, axis=-1)
     if not peak.any():
         return need
-    half = max(
-        1, min(round(0.5 * ROOT_WINDOW_S * fps), (t - 1) // 2)
-    )  # np.convolve 'same' keeps the longer length
+    half = max(1, min(round(0.5 * ROOT_WINDOW_S * fps), (t - 1) // 2))  # np.convolve 'same' keeps the longer length
     kernel = np.hanning(2 * half + 3)[1:-1]
     kernel /= kernel.sum()
-    smooth = np.stack(
-        [np.convolve(need[:, i], kernel, mode="same") for i in range(3)], axis=1
-    )
+    smooth = np.stack([np.convolve(need[:, i], kernel, mode="same") for i in range(3)], axis=1)
     norm = np.linalg.norm(smooth, axis=-1)
     hit = peak > 0
     gain = float(np.max(peak[hit] / np.maximum(norm[hit], 1e-12)))
@@ -692,9 +621,7 @@ def grip_joints(skeleton: Skeleton) -> dict[str, int]:
     return hand_joints(skeleton)
 
 
-def restore_grip_minimal(
-    source: Motion, motion: Motion, path: ScorePath, first_hand: str = "left"
-) -> tuple[Motion, float]:
+def restore_grip_minimal(source: Motion, motion: Motion, path: ScorePath, first_hand: str = "left") -> tuple[Motion, float]:
     """The second hand back at its source placement relative to the first hand (§3.3), two-bone arm IK.
 
     For each path frame, the second hand's world pose is the first hand's (in the variant)
@@ -707,9 +634,7 @@ def restore_grip_minimal(
     skel = source.skeleton
     hands = grip_joints(skel)
     if set(hands) != {"left", "right"}:
-        raise MjmotionError(
-            "restoring the grip needs a left and a right hand in the skeleton"
-        )
+        raise MjmotionError("restoring the grip needs a left and a right hand in the skeleton")
     if first_hand not in hands:
         raise MjmotionError(f"first hand must be 'left' or 'right', got {first_hand!r}")
     h1, h2 = hands[first_hand], hands["right" if first_hand == "left" else "left"]
@@ -717,9 +642,7 @@ def restore_grip_minimal(
     src = kinematics.forward(compiled, source)
     var = kinematics.forward(compiled, motion)
     q1s, q2s = src.joint_rotations[:, h1], src.joint_rotations[:, h2]
-    rel_pos = rot.rotate(
-        rot.conjugate(q1s), src.joint_positions[:, h2] - src.joint_positions[:, h1]
-    )
+    rel_pos = rot.rotate(rot.conjugate(q1s), src.joint_positions[:, h2] - src.joint_positions[:, h1])
     rel_rot = rot.multiply(rot.conjugate(q1s), q2s)
     q1 = var.joint_rotations[:, h1]
     hand_pos = var.joint_positions[:, h1] + rot.rotate(q1, _source_at(rel_pos, path))
@@ -741,27 +664,19 @@ def restore_grip_minimal(
             target_rot = rot.multiply(target_rot, rot.conjugate(local_c))
             target = target - rot.rotate(target_rot, off)
     local = motion.rotations
-    for _ in range(
-        4
-    ):  # the shoulder moves on a sphere about the collarbone: a few passes close the gap
-        turned = _reach_with_shoulder(
-            skel, motion.replace(rotations=local), var, end, target
-        )
+    for _ in range(4):  # the shoulder moves on a sphere about the collarbone: a few passes close the gap
+        turned = _reach_with_shoulder(skel, motion.replace(rotations=local), var, end, target)
         if turned is local:
             break
         local = turned
         var = kinematics.forward(compiled, motion.replace(rotations=local))
-    local, err = two_bone_ik(
-        skel, var.joint_positions, var.joint_rotations, local, end, target, target_rot
-    )
+    local, err = two_bone_ik(skel, var.joint_positions, var.joint_rotations, local, end, target, target_rot)
     for j in keep[1:]:
         local[:, j] = src_local[j]
     return motion.replace(rotations=local), float(np.max(err))
 
 
-def _reach_with_shoulder(
-    skel: Skeleton, motion: Motion, pose: kinematics.Pose, end: int, target: np.ndarray
-) -> np.ndarray:
+def _reach_with_shoulder(skel: Skeleton, motion: Motion, pose: kinematics.Pose, end: int, target: np.ndarray) -> np.ndarray:
     """Local rotations with the collarbone turned so a too-distant ``target`` comes within the arm's reach.
 
     Where the wrist target lies beyond upper arm + forearm, the joint above the shoulder
@@ -775,27 +690,18 @@ def _reach_with_shoulder(
     if clav <= 0:
         return motion.rotations
     p = pose.joint_positions
-    reach = np.linalg.norm(p[:, mid] - p[:, top], axis=-1) + np.linalg.norm(
-        p[:, end] - p[:, mid], axis=-1
-    )
+    reach = np.linalg.norm(p[:, mid] - p[:, top], axis=-1) + np.linalg.norm(p[:, end] - p[:, mid], axis=-1)
     to_target = target - p[:, top]
     dist = np.linalg.norm(to_target, axis=-1)
     short = dist > reach * (1.0 - 1e-9)
     if not short.any():
         return motion.rotations
     # move the shoulder by the missing length plus 1 % so the elbow keeps a little bend
-    wanted = (
-        p[:, top]
-        + to_target * ((dist - 0.99 * reach) / np.maximum(dist, 1e-12))[:, None]
-    )
+    wanted = p[:, top] + to_target * ((dist - 0.99 * reach) / np.maximum(dist, 1e-12))[:, None]
     r = analytic.shortest_arc(p[:, top] - p[:, clav], wanted - p[:, clav])
     r[~short] = rot.IDENTITY
     q_clav = rot.multiply(r, pose.joint_rotations[:, clav])
-    q_above = (
-        pose.joint_rotations[:, above]
-        if above >= 0
-        else np.broadcast_to(rot.IDENTITY, q_clav.shape)
-    )
+    q_above = pose.joint_rotations[:, above] if above >= 0 else np.broadcast_to(rot.IDENTITY, q_clav.shape)
     out = motion.rotations.copy()
     out[:, clav] = rot.multiply(rot.conjugate(q_above), q_clav)
     return out
@@ -822,9 +728,7 @@ def clean_up(
     ``first_hand=None`` leaves the hands alone (a one-handed shot, a kick).
     """
     if feet not in FEET_METHODS:
-        raise MjmotionError(
-            f"feet cleanup must be one of {', '.join(FEET_METHODS)}, got {feet!r}"
-        )
+        raise MjmotionError(f"feet cleanup must be one of {', '.join(FEET_METHODS)}, got {feet!r}")
     out, foot_err = motion, 0.0
     held: dict[str, int] = {}
     if feet in ("source", "both"):
@@ -835,9 +739,7 @@ def clean_up(
         res = cleanup(out)
         out = res.motion
         for plant in res.plants:
-            held[f"{plant.side} (plants)"] = (
-                held.get(f"{plant.side} (plants)", 0) + plant.stop - plant.start
-            )
+            held[f"{plant.side} (plants)"] = held.get(f"{plant.side} (plants)", 0) + plant.stop - plant.start
     grip_err = 0.0
     pair = None
     if first_hand is not None:
@@ -847,25 +749,19 @@ def clean_up(
 
 
 # --- plots (Figures 3.1, 3.4, 3.7) -------------------------------------------------------------
-def plot_score_paths(
-    paths: dict[str, np.ndarray], out_png: str | Path, dims: int = 2
-) -> None:
+def plot_score_paths(paths: dict[str, np.ndarray], out_png: str | Path, dims: int = 2) -> None:
     """Score paths ``{label: (T, ≥dims)}`` drawn in the first ``dims`` (2 or 3) components, saved as PNG.
 
     The first path is drawn as the reference (thicker); each path's start is marked with a
     circle and its end with a square.
     """
     if dims not in (2, 3):
-        raise MjmotionError(
-            f"score paths can be drawn in 2 or 3 dimensions, not {dims}"
-        )
+        raise MjmotionError(f"score paths can be drawn in 2 or 3 dimensions, not {dims}")
     if not paths:
         raise MjmotionError("no score paths to plot")
     for label, s in paths.items():
         if np.asarray(s).ndim != 2 or np.asarray(s).shape[1] < dims:
-            raise MjmotionError(
-                f"path {label!r} needs at least {dims} score columns, has shape {np.shape(s)}"
-            )
+            raise MjmotionError(f"path {label!r} needs at least {dims} score columns, has shape {np.shape(s)}")
     import matplotlib
 
     matplotlib.use("Agg")
@@ -907,10 +803,7 @@ def first_hand_for(source: Motion) -> str | None:
     if set(hands) != {"left", "right"}:
         return None
     p = kinematics.forward(mjcf.compile(source.skeleton), source).joint_positions
-    if (
-        np.median(np.linalg.norm(p[:, hands["left"]] - p[:, hands["right"]], axis=-1))
-        > TWO_HANDED_M
-    ):
+    if np.median(np.linalg.norm(p[:, hands["left"]] - p[:, hands["right"]], axis=-1)) > TWO_HANDED_M:
         return None  # the hands are not holding one thing
     from .skeleton import side_of
 
@@ -918,9 +811,7 @@ def first_hand_for(source: Motion) -> str | None:
     return (side_of(prop.joint) if prop is not None else None) or "left"
 
 
-def grip_error_m(
-    source: Motion, motion: Motion, path: ScorePath, first_hand: str = "left"
-) -> float:
+def grip_error_m(source: Motion, motion: Motion, path: ScorePath, first_hand: str = "left") -> float:
     """METRICS.md ``grip_error_m``: distance of the second hand from where the source holds it
     relative to the first hand (at the source frames each frame stands for), max over frames."""
     skel = source.skeleton
@@ -933,9 +824,7 @@ def grip_error_m(
         rot.conjugate(src.joint_rotations[:, h1]),
         src.joint_positions[:, h2] - src.joint_positions[:, h1],
     )
-    want = var.joint_positions[:, h1] + rot.rotate(
-        var.joint_rotations[:, h1], _source_at(rel, path)
-    )
+    want = var.joint_positions[:, h1] + rot.rotate(var.joint_rotations[:, h1], _source_at(rel, path))
     return float(np.max(np.linalg.norm(want - var.joint_positions[:, h2], axis=-1)))
 
 
@@ -950,9 +839,7 @@ def effector_path_length(
         pose = kinematics.forward(mjcf.compile(motion.skeleton, (prop,)), motion)
         p = pose.site(f"{prop.name}/sweet_spot")
     elif joint is not None:
-        p = kinematics.forward(mjcf.compile(motion.skeleton), motion).joint_positions[
-            :, joint
-        ]
+        p = kinematics.forward(mjcf.compile(motion.skeleton), motion).joint_positions[:, joint]
     else:
         raise MjmotionError("effector_path_length needs a joint or a prop")
     if frames is not None:
@@ -993,9 +880,7 @@ def report(
         "n_frames": result.n_frames,
         "k": path.k,
         "variance_explained": float(space.cumulative[path.k - 1]),
-        "explained_per_component": [
-            float(x) for x in space.explained[: max(path.k, 5)]
-        ],
+        "explained_per_component": [float(x) for x in space.explained[: max(path.k, 5)]],
     }
     flips = rotation_flips(source)
     if flips:

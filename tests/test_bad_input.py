@@ -277,7 +277,9 @@ def _feed(fifo: Path, data: bytes) -> None:
 @pytest.mark.parametrize(
     "edit",
     [
-        lambda name: corpus.BASE.replace("JOINT LeftLeg", "JOINT Head").replace("JOINT Head\n", f"JOINT {name}\n", 1).replace("JOINT Head", f"JOINT {name}"),
+        lambda name: (
+            corpus.BASE.replace("JOINT LeftLeg", "JOINT Head").replace("JOINT Head\n", f"JOINT {name}\n", 1).replace("JOINT Head", f"JOINT {name}")
+        ),
         lambda name: corpus.BASE.replace("Zrotation Xrotation Yrotation\n\t\tJOINT Head", f"Zrotation {name} Yrotation\n\t\tJOINT Head"),
         lambda name: corpus.BASE.replace("OFFSET 0.00 60.00 0.00", f"OFFSET 0.00 {name} 0.00"),
         lambda name: corpus.BASE.replace("Frame Time: 0.0333333", f"Frame Time: -{'3' * 100_000}"),

@@ -43,9 +43,7 @@ def steps_per_s(m) -> float:
     """Cadence from swing peaks of both feet (each step lifts a foot once), steps/s."""
     track = evaluate.foot_heights_speeds(None, m)
     peaks = np.sort(
-        np.concatenate(
-            [signal.find_peaks(track.heights[:, f], prominence=0.05, distance=int(0.2 * m.fps))[0] for f in range(track.heights.shape[1])]
-        )
+        np.concatenate([signal.find_peaks(track.heights[:, f], prominence=0.05, distance=int(0.2 * m.fps))[0] for f in range(track.heights.shape[1])])
     )
     if len(peaks) < 2:
         return float("nan")

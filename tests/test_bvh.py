@@ -235,7 +235,9 @@ MOTION_EDITS = {
     "signs-and-exponents": lambda h, rows: h + "\n".join(" ".join(f"{float(x):+.6e}" for x in r) for r in rows) + "\n",
     "short-forms": lambda h, rows: h + "\n".join(" ".join(("." + x.split(".")[1]) if x.startswith("0.") else x.rstrip("0") for x in r) for r in rows),
     "long-mantissas": lambda h, rows: h + "\n".join(" ".join(repr(float(x) / 3.0) + "1234" for x in r) for r in rows) + "\n",
-    "tiny-and-huge": lambda h, rows: h + "\n".join(" ".join(f"{float(x)}e-30" if i % 2 else f"{float(x)}E+25" for i, x in enumerate(r)) for r in rows) + "\n",
+    "tiny-and-huge": lambda h, rows: (
+        h + "\n".join(" ".join(f"{float(x)}e-30" if i % 2 else f"{float(x)}E+25" for i, x in enumerate(r)) for r in rows) + "\n"
+    ),
     "missing-value": lambda h, rows: h + "\n".join(" ".join(r[:-1] if i == 3 else r) for i, r in enumerate(rows)) + "\n",
     "extra-line": lambda h, rows: h + "\n".join(" ".join(r) for r in rows + [rows[0]]) + "\n",
     "missing-line": lambda h, rows: h + "\n".join(" ".join(r) for r in rows[:-1]) + "\n",

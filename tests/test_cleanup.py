@@ -67,7 +67,7 @@ def blends():
 
 
 def test_cleanup_removes_planted_skate_from_walk_run_blends(blends):
-    for w, r, b, res in blends:
+    for _w, _r, b, res in blends:
         before, after = ev.planted_skate_mm_per_s(b), ev.planted_skate_mm_per_s(res.motion)
         assert before > 200
         assert after <= 0.2 * before  # ≥ 80 % less sliding while a foot is planted
@@ -89,7 +89,7 @@ def test_cleanup_adds_no_penetration_and_no_pops(blends):
 
 
 def test_cleanup_changes_only_frames_around_plants(blends):
-    for w, r, b, res in blends:
+    for _w, _r, b, res in blends:
         p = res.params
         plant = np.zeros(b.n_frames, dtype=bool)
         for pl in res.plants:
@@ -101,7 +101,7 @@ def test_cleanup_changes_only_frames_around_plants(blends):
         assert np.array_equal(res.motion.rotations[same], b.rotations[same])
         # Only leg joints (hip, knee, ankle of each side) change their angles.
         legs = set()
-        for (ankle, _) in b.skeleton.feet().values():
+        for ankle, _ in b.skeleton.feet().values():
             knee = int(b.skeleton.parents[ankle])
             legs |= {ankle, knee, int(b.skeleton.parents[knee])}
         others = [j for j in range(b.skeleton.n_joints) if j not in legs]
@@ -172,8 +172,15 @@ def test_cleanup_of_clips_shorter_than_the_root_window():
 
 @pytest.mark.parametrize(
     ("option", "value", "field"),
-    [("--h-c", "-1", "h_c"), ("--h-c", "inf", "h_c"), ("--v-c", "nan", "v_c"), ("--v-c", "0", "v_c"), ("--blend", "-2", "blend"),
-     ("--clearance", "-0.01", "clearance"), ("--clearance", "nan", "clearance")],
+    [
+        ("--h-c", "-1", "h_c"),
+        ("--h-c", "inf", "h_c"),
+        ("--v-c", "nan", "v_c"),
+        ("--v-c", "0", "v_c"),
+        ("--blend", "-2", "blend"),
+        ("--clearance", "-0.01", "clearance"),
+        ("--clearance", "nan", "clearance"),
+    ],
 )
 def test_invalid_parameters_are_refused_by_name(option, value, field, tmp_path, capsys):
     with pytest.raises(cl.MjmotionError, match=f"CleanupParams.{field}"):

@@ -67,16 +67,31 @@ VERBS: dict[str, Verb] = {
     "convert": Verb(
         lambda i, o: [i, o],
         ".bvh",
-        bad=(("--frames", "500:600"), ("--frames", "2:1"), ("--frames", "a:b"), ("--frames", "7"),
-             ("--fps", "0"), ("--fps", "nan"), ("--scale", "-1"), ("--scale", "inf"), ("--units", "0")),
+        bad=(
+            ("--frames", "500:600"),
+            ("--frames", "2:1"),
+            ("--frames", "a:b"),
+            ("--frames", "7"),
+            ("--fps", "0"),
+            ("--fps", "nan"),
+            ("--scale", "-1"),
+            ("--scale", "inf"),
+            ("--units", "0"),
+        ),
     ),  # fmt: skip
     "compile": Verb(lambda i, o: [i, "-o", o], ".xml", bad=(("--prop", "club:NoSuchJoint"), ("--prop", "sword:Hips"))),
     "fk": Verb(lambda i, o: [i, "-o", o], ".npz", bad=(("--prop", "bat:NoSuchJoint"), ("--prop", "sword"))),
     "render": Verb(
         lambda i, o: [i, "-o", o, "--width", "64", "--height", "48", "--no-shadows"],
         ".mp4",
-        bad=(("--frames", "500:600"), ("--width", "0"), ("--fps", "-5"), ("--trail", "NoSuchJoint"),
-             ("--labels", "a", "b"), ("--prop", "club:NoSuchJoint")),
+        bad=(
+            ("--frames", "500:600"),
+            ("--width", "0"),
+            ("--fps", "-5"),
+            ("--trail", "NoSuchJoint"),
+            ("--labels", "a", "b"),
+            ("--prop", "club:NoSuchJoint"),
+        ),
     ),  # fmt: skip
     "vary": Verb(
         lambda i, o: [i, "--scale", "1.2", "-o", o],
@@ -101,8 +116,7 @@ VERBS: dict[str, Verb] = {
     "blend": Verb(
         lambda i, o: [i, i, "--weights", "0.5,0.5", "-o", o],
         ".bvh",
-        bad=(("--weights", "0.5"), ("--weights", "0.7,0.7"), ("--weights=-1,2",), ("--weights", "a,b"),
-             ("--frames", "500:600"), ("--fps", "0")),
+        bad=(("--weights", "0.5"), ("--weights", "0.7,0.7"), ("--weights=-1,2",), ("--weights", "a,b"), ("--frames", "500:600"), ("--fps", "0")),
         humanoid=True,
     ),  # fmt: skip
     "register": Verb(
@@ -377,9 +391,7 @@ def test_corpus_file_is_one_error_line_with_file_and_line(name, tmp_path, capsys
 #: Valid corpus files that load to the base motion exactly ("same") are equivalent for a verb;
 #: one stands for them all (UTF-16), with the files whose skeleton or motion differs (names with
 #: spaces or non-ASCII letters are covered by the XML-special ones).
-VALID_FOR_VERBS = [
-    c for c in VALID_CASES if c.name in ("utf16", "zero_length_end_site", "xml_special_names", "zero_channel_joint", "single_frame")
-]
+VALID_FOR_VERBS = [c for c in VALID_CASES if c.name in ("utf16", "zero_length_end_site", "xml_special_names", "zero_channel_joint", "single_frame")]
 
 
 @pytest.mark.parametrize("name", _verb_params("valid-corpus"))
@@ -506,8 +518,8 @@ def test_verbose_shows_the_traceback(name, tmp_path, capsys):
     missing = str(tmp_path / "missing.bvh")
     argv = spec.argv(missing, str(tmp_path / f"out{spec.ext}"))
     if spec.inputless:  # no input to miss: an output folder that does not exist, or a bad option
-        argv = [*spec.argv(missing, str(tmp_path / "out")), *spec.verbose_bad] if spec.verbose_bad else spec.argv(
-            missing, missing + f"/out{spec.ext}"
+        argv = (
+            [*spec.argv(missing, str(tmp_path / "out")), *spec.verbose_bad] if spec.verbose_bad else spec.argv(missing, missing + f"/out{spec.ext}")
         )
     for full in ([name, "--verbose", *argv], ["--verbose", name, *argv]):
         rc, _, err = run(full, capsys)
@@ -547,9 +559,7 @@ def test_outputs_are_written_atomically(name, tmp_path, clip, human, capsys, mon
 # --- through a real process --------------------------------------------------------------------
 def _mjmotion(*args: str, cwd: Path) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.run(
-        [sys.executable, "-m", "mjmotion.cli", *args], cwd=cwd, capture_output=True, text=True, timeout=120, env=env
-    )
+    return subprocess.run([sys.executable, "-m", "mjmotion.cli", *args], cwd=cwd, capture_output=True, text=True, timeout=120, env=env)
 
 
 def test_subprocess_missing_file_and_bad_file(tmp_path):

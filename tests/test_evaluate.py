@@ -281,8 +281,10 @@ def test_grip_error_zero_for_the_source_and_sees_a_moved_hand():
     assert ev.grip_error_m(m, m, "rwrist", "lwrist") == pytest.approx(0.0, abs=1e-12)
     # Rigidly turning and moving the whole clip keeps the grip.
     q = rot.exp(np.array([0.0, 0.0, 0.7]))
-    turned = m.replace(rotations=np.concatenate([rot.multiply(q, m.rotations[:, :1]), m.rotations[:, 1:]], axis=1),
-                       root_positions=rot.rotate(q, m.root_positions) + [1.0, 2.0, 0.0])
+    turned = m.replace(
+        rotations=np.concatenate([rot.multiply(q, m.rotations[:, :1]), m.rotations[:, 1:]], axis=1),
+        root_positions=rot.rotate(q, m.root_positions) + [1.0, 2.0, 0.0],
+    )
     assert ev.grip_error_m(turned, m, "rwrist", "lwrist") == pytest.approx(0.0, abs=1e-9)
     # Bending the left elbow moves the left hand away from the grip.
     j = m.skeleton.index("lradius")

@@ -13,8 +13,18 @@ from mjmotion.cli import main
 
 GRID = [(dy, dz) for dy in (-0.2, 0.0, 0.2) for dz in (-0.2, 0.0, 0.2)]
 REPORT_KEYS = {
-    "hit_frame", "source_effector", "target", "achieved_effector", "hit_error_m", "reachable", "max_goal_error_m",
-    "style_rmse", "k", "grip_error_m", "solve_s_per_frame", "solver",
+    "hit_frame",
+    "source_effector",
+    "target",
+    "achieved_effector",
+    "hit_error_m",
+    "reachable",
+    "max_goal_error_m",
+    "style_rmse",
+    "k",
+    "grip_error_m",
+    "solve_s_per_frame",
+    "solver",
 }
 
 

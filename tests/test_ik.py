@@ -111,8 +111,15 @@ def test_nlp_optimum_agrees_with_scipy_on_mujoco_fk_and_beats_dls(swing):
         kin.set_delta(d)
         return kin.effector() - goal
 
-    ref = minimize(cost, np.zeros(lead.n_dof), jac=lambda d: 2 * d / w, method="SLSQP", bounds=list(zip(lo[t], hi[t])),
-                   constraints={"type": "eq", "fun": eff}, options={"ftol": 1e-14, "maxiter": 500})
+    ref = minimize(
+        cost,
+        np.zeros(lead.n_dof),
+        jac=lambda d: 2 * d / w,
+        method="SLSQP",
+        bounds=list(zip(lo[t], hi[t])),
+        constraints={"type": "eq", "fun": eff},
+        options={"ftol": 1e-14, "maxiter": 500},
+    )
     assert r.error < 1e-9 and np.linalg.norm(eff(ref.x)) < 1e-6
     assert cost(r.delta) == pytest.approx(cost(ref.x), rel=1e-4)
     rd = dls.solve(kin, q[t], goal, lo[t], hi[t])

@@ -47,9 +47,7 @@ def test_reconstruction_error_falls_as_k_grows(swing):
     errs = reconstruction_errors(swing, [1, 2, 3, 5, 10, 20])
     values = list(errs.values())
     assert all(b <= a + 1e-9 for a, b in itertools.pairwise(values)), errs
-    assert (
-        values[0] > 0.05 and values[-1] < 0.02
-    )  # metres: 1 component is a caricature, 20 are close
+    assert values[0] > 0.05 and values[-1] < 0.02  # metres: 1 component is a caricature, 20 are close
 
 
 def test_scores_agree_with_an_eigendecomposition_of_the_correlation_matrix(swing):
@@ -78,9 +76,7 @@ def test_pose_from_scores_is_the_seed_formula(swing):
     p = space.parameters_of_scores(s)[0]
     lk = space.loadings[:, :3]
     expect = space.means.copy()
-    expect[space.kept] = (lk @ s[0]) * space.deviations[space.kept] + space.means[
-        space.kept
-    ]
+    expect[space.kept] = (lk @ s[0]) * space.deviations[space.kept] + space.means[space.kept]
     np.testing.assert_allclose(p, expect, atol=1e-12)
     m = space.motion(s)
     np.testing.assert_allclose(np.linalg.norm(m.rotations, axis=-1), 1.0, atol=1e-12)
@@ -96,9 +92,7 @@ def test_style_rmse_known_answer_for_a_root_shift(swing):
     assert k == space.components_for(0.7)
     d = np.zeros(space.means.size)
     d[:3] = c
-    expect = np.linalg.norm(
-        space.loadings[:, :k].T @ (d[space.kept] / space.deviations[space.kept])
-    )
+    expect = np.linalg.norm(space.loadings[:, :k].T @ (d[space.kept] / space.deviations[space.kept]))
     assert rmse == pytest.approx(expect, rel=1e-9)
     assert rmse > 0.01
 
@@ -148,13 +142,9 @@ def test_rotation_flips_finds_a_branch_jump(swing):
     from mjmotion.style import rotation_flips
 
     before = set(rotation_flips(swing))
-    assert all(
-        name == "lthumb" for _, name in before
-    )  # 64_01's raw thumb glitch near frame 160 only
+    assert all(name == "lthumb" for _, name in before)  # 64_01's raw thumb glitch near frame 160 only
     q = swing.rotations.copy()
     j = swing.skeleton.index("rradius")
-    q[50:, j] = rot.multiply(
-        q[50:, j], rot.exp(np.array([np.pi * 0.95, 0.0, 0.0]))
-    )  # a 171° turn from frame 50 on
+    q[50:, j] = rot.multiply(q[50:, j], rot.exp(np.array([np.pi * 0.95, 0.0, 0.0])))  # a 171° turn from frame 50 on
     after = set(rotation_flips(swing.replace(rotations=q)))
     assert after - before == {(50, "rradius")}

@@ -62,11 +62,7 @@ def test_pure_k_component_reconstruction_error_falls_with_k(swing01):
         np.sqrt(
             np.mean(
                 np.sum(
-                    (
-                        _fk(V.synthesise(space, V.source_path(space, k, detail=False)))
-                        - ref
-                    )
-                    ** 2,
+                    (_fk(V.synthesise(space, V.source_path(space, k, detail=False))) - ref) ** 2,
                     -1,
                 )
             )
@@ -82,12 +78,8 @@ def test_scaled_path_is_a_homothety_about_the_centre(swing01):
     base = V.source_path(space, 3)
     out = V.scaled_path(base, 1.3)
     c = base.controlled.mean(0)
-    np.testing.assert_allclose(
-        out.controlled - c, 1.3 * (base.controlled - c), atol=1e-12
-    )
-    np.testing.assert_array_equal(
-        out.scores[:, 3:], base.scores[:, 3:]
-    )  # detail untouched
+    np.testing.assert_allclose(out.controlled - c, 1.3 * (base.controlled - c), atol=1e-12)
+    np.testing.assert_array_equal(out.scores[:, 3:], base.scores[:, 3:])  # detail untouched
 
 
 def test_segment_scaling_leaves_the_rest_of_the_path_alone(swing01):
@@ -99,9 +91,7 @@ def test_segment_scaling_leaves_the_rest_of_the_path_alone(swing01):
     w = V.segment_weights(base.n_frames, (160, 440))
     full = w == 1.0
     c = base.controlled[160:440].mean(0)
-    np.testing.assert_allclose(
-        out.controlled[full] - c, 0.6 * (base.controlled[full] - c), atol=1e-12
-    )
+    np.testing.assert_allclose(out.controlled[full] - c, 0.6 * (base.controlled[full] - c), atol=1e-12)
     # the tapers are smooth: no step larger than the source's own steps allow
     step = np.abs(np.diff(w))
     assert step.max() < 0.05 and w[160] < 0.05 and w[439] < 0.05
@@ -120,9 +110,7 @@ def test_aborted_path_follows_then_reaches_the_rest_scores(swing01):
     v_out = p.controlled[281] - p.controlled[280]
     src_acc = np.linalg.norm(np.diff(base.controlled, 2, axis=0), axis=1).max()
     straight = (base.controlled[-1] - base.controlled[280]) / 60
-    assert (
-        np.linalg.norm(v_out - v_in) <= src_acc < np.linalg.norm(straight - v_in) * 10
-    )
+    assert np.linalg.norm(v_out - v_in) <= src_acc < np.linalg.norm(straight - v_in) * 10
     with pytest.raises(MjmotionError, match="abort frame"):
         V.aborted_path(base, src.n_frames + 5)
 
@@ -131,18 +119,14 @@ def test_explicit_paths_from_npy_and_csv(swing01, tmp_path):
     src, space = swing01
     s = space.source_scores[:, :3]
     np.save(tmp_path / "p.npy", s)
-    (tmp_path / "p.csv").write_text(
-        "pc1,pc2,pc3\n" + "\n".join(",".join(f"{v:.17g}" for v in row) for row in s)
-    )
+    (tmp_path / "p.csv").write_text("pc1,pc2,pc3\n" + "\n".join(",".join(f"{v:.17g}" for v in row) for row in s))
     for f in ("p.npy", "p.csv"):
         arr = V.read_scores(tmp_path / f)
         np.testing.assert_allclose(arr, s, atol=1e-12)
         p = V.explicit_path(space, arr)
         assert p.k == 3
         assert np.max(np.abs(_fk(V.synthesise(space, p)) - _fk(src))) < 1e-6
-    short = V.explicit_path(
-        space, s[::4], detail=True
-    )  # another length: a pure reconstruction
+    short = V.explicit_path(space, s[::4], detail=True)  # another length: a pure reconstruction
     assert np.all(short.scores[:, 3:] == 0) and short.frame_b.max() <= src.n_frames - 1
     (tmp_path / "bad.csv").write_text("1,2\n3,x\n")
     with pytest.raises(MjmotionError, match="bad.csv"):
@@ -161,19 +145,11 @@ def test_two_bone_ik_reaches_a_reachable_target(swing01):
     ankle = skel.feet()["left"][0]
     rng = np.random.default_rng(0)
     hip = pose.joint_positions[:, skel.parents[skel.parents[ankle]]]
-    reach = (
-        pose.joint_positions[:, ankle] - hip
-    )  # the stance leg is near straight: aim a little closer in
+    reach = pose.joint_positions[:, ankle] - hip  # the stance leg is near straight: aim a little closer in
     d = reach + rng.normal(0, 0.08, reach.shape)
-    d *= (
-        np.linalg.norm(reach, axis=1)
-        * rng.uniform(0.85, 0.97, m.n_frames)
-        / np.linalg.norm(d, axis=1)
-    )[:, None]
+    d *= (np.linalg.norm(reach, axis=1) * rng.uniform(0.85, 0.97, m.n_frames) / np.linalg.norm(d, axis=1))[:, None]
     target = hip + d
-    target_rot = rot.normalize(
-        pose.joint_rotations[:, ankle] + rng.normal(0, 0.1, (m.n_frames, 4))
-    )
+    target_rot = rot.normalize(pose.joint_rotations[:, ankle] + rng.normal(0, 0.1, (m.n_frames, 4)))
     local, err = V.two_bone_ik(
         skel,
         pose.joint_positions,
@@ -185,9 +161,7 @@ def test_two_bone_ik_reaches_a_reachable_target(swing01):
     )
     after = kinematics.forward(compiled, m.replace(rotations=local))
     assert np.max(err) == 0.0
-    assert (
-        np.max(np.linalg.norm(after.joint_positions[:, ankle] - target, axis=-1)) < 1e-6
-    )
+    assert np.max(np.linalg.norm(after.joint_positions[:, ankle] - target, axis=-1)) < 1e-6
     assert np.max(rot.angle_between(after.joint_rotations[:, ankle], target_rot)) < 1e-6
     # only the leg changed
     leg = {skel.parents[skel.parents[ankle]], skel.parents[ankle], ankle}
@@ -240,9 +214,7 @@ def test_cleanup_keeps_feet_planted_and_hands_on_the_grip(golf):
     skate_src = evaluate.skate_mm_per_s(src)
     for label, p in _variants(src, path).items():
         raw = V.synthesise(space, p)
-        assert (
-            V.grip_error_m(src, raw, p) > 0.01
-        )  # the raw variant does lose the grip (§3.3)
+        assert V.grip_error_m(src, raw, p) > 0.01  # the raw variant does lose the grip (§3.3)
         # the general footskate cleanup ("plants") is offered for the scaled variants; an abort's
         # return needs the source's footprints (steps), which only "source" knows
         for feet in ("source", "plants") if label.startswith("scale") else ("source",):
@@ -252,9 +224,7 @@ def test_cleanup_keeps_feet_planted_and_hands_on_the_grip(golf):
             assert V.grip_error_m(src, out, p) < 0.005, (name, label, feet)
             if feet == "source":
                 assert rep.held_frames["left"] > 0.5 * p.n_frames
-            if feet == "source" and label.startswith(
-                "scale"
-            ):  # (an abort's return may step: no height reference)
+            if feet == "source" and label.startswith("scale"):  # (an abort's return may step: no height reference)
                 # feet back at the source's height where it is down: floating repaired, not just sliding
                 before, after = (
                     _foot_height_error(src, raw, p),
@@ -279,9 +249,7 @@ def test_scaling_lengthens_and_shortens_the_club_path(swing01):
     got = {}
     for f in (1.3, 0.7):
         p = V.scaled_path(path, f)
-        out, _ = V.clean_up(
-            src, V.synthesise(space, p), p, first_hand=V.first_hand_for(src)
-        )
+        out, _ = V.clean_up(src, V.synthesise(space, p), p, first_hand=V.first_hand_for(src))
         got[f] = V.effector_path_length(out, frames=seg, prop=club)
     assert got[1.3] > base_len > got[0.7], (base_len, got)
 
@@ -301,11 +269,7 @@ def test_abort_follows_the_source_and_ends_at_the_rest_pose_smoothly(golf):
         # the rest pose, where the feet stand (a golfer's stance barely moves)
         assert np.linalg.norm(p.shift_b) < 0.1 and p.shift_b[2] == 0.0
         last = np.abs(got[-1] - p.shift_b - ref[-1])
-        legs = [
-            j
-            for side in src.skeleton.feet().values()
-            for j in _leg(src.skeleton, side[0])
-        ]
+        legs = [j for side in src.skeleton.feet().values() for j in _leg(src.skeleton, side[0])]
         upper = [j for j in range(src.skeleton.n_joints) if j not in legs]
         # the feet stay planted where they stood (their plant's shift): legs within 2 cm
         assert last[upper].max() < 1e-6 and last.max() < 0.02, (name, f, last.max())
@@ -320,9 +284,7 @@ def test_plot_score_paths_writes_png(swing01, tmp_path):
     for dims in (2, 3):
         out = tmp_path / f"p{dims}.png"
         V.plot_score_paths(paths, out, dims=dims)
-        assert (
-            out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000
-        )
+        assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000
     with pytest.raises(MjmotionError, match="2 or 3"):
         V.plot_score_paths(paths, tmp_path / "x.png", dims=4)
 
@@ -348,23 +310,13 @@ def test_vary_cli_report_and_errors(tmp_path, capsys):
         == 0
     )
     rep = json.loads(js.read_text())
-    assert rep["k"] == PoseSpace.fit(
-        bvh.read(src_file), translations=True
-    ).components_for(0.9)
-    assert (
-        rep["variance_explained"] >= 0.9
-        and rep["style_rmse"]["k"] == 2
-        and rep["style_rmse"]["rmse"] > 0
-    )
+    assert rep["k"] == PoseSpace.fit(bvh.read(src_file), translations=True).components_for(0.9)
+    assert rep["variance_explained"] >= 0.9 and rep["style_rmse"]["k"] == 2 and rep["style_rmse"]["rmse"] > 0
     assert rep["reconstruction_error_falls_with_k"] is True
-    assert (
-        rep["footskate_mm_per_s"]["result"] <= 2 * rep["footskate_mm_per_s"]["source"]
-    )
+    assert rep["footskate_mm_per_s"]["result"] <= 2 * rep["footskate_mm_per_s"]["source"]
     assert rep["grip_error_m"]["result"] < 0.005
     assert rep["effector_path_m"]["result"] > rep["effector_path_m"]["source"]
-    assert (
-        bvh.read(out).n_frames == bvh.read(src_file).n_frames and png.stat().st_size > 0
-    )
+    assert bvh.read(out).n_frames == bvh.read(src_file).n_frames and png.stat().st_size > 0
     # aborted, raw: the written clip is the synthesis with no cleanup
     ab = tmp_path / "a.bvh"
     assert (
@@ -385,9 +337,7 @@ def test_vary_cli_report_and_errors(tmp_path, capsys):
     )
     assert bvh.read(ab).n_frames == 251 + 50
     capsys.readouterr()
-    assert (
-        main(["vary", str(src_file), "--scale", "1.3", "-o", str(out)]) == 2
-    )  # exists, no --force
+    assert main(["vary", str(src_file), "--scale", "1.3", "-o", str(out)]) == 2  # exists, no --force
     assert (
         main(
             [
@@ -403,15 +353,9 @@ def test_vary_cli_report_and_errors(tmp_path, capsys):
         )
         == 2
     )
-    assert (
-        main(["vary", str(src_file), "--scale", "-1", "-o", str(tmp_path / "c.bvh")])
-        == 2
-    )
+    assert main(["vary", str(src_file), "--scale", "-1", "-o", str(tmp_path / "c.bvh")]) == 2
     d = str(tmp_path / "d.bvh")
-    assert (
-        main(["vary", str(src_file), "--scale", "1.2", "--rest-frame", "5", "-o", d])
-        == 2
-    )
+    assert main(["vary", str(src_file), "--scale", "1.2", "--rest-frame", "5", "-o", d]) == 2
     assert (
         main(
             [
@@ -430,16 +374,10 @@ def test_vary_cli_report_and_errors(tmp_path, capsys):
     # a clip shorter than the root-smoothing window (0.3 s) still works
     short = tmp_path / "short.bvh"
     bvh.write(bvh.read(src_file)[200:230], short)
-    assert (
-        main(["vary", str(short), "--scale", "1.5", "-o", str(tmp_path / "e.bvh")]) == 0
-    )
+    assert main(["vary", str(short), "--scale", "1.5", "-o", str(tmp_path / "e.bvh")]) == 0
     err = capsys.readouterr().err
     assert "--rest-frame goes with --abort-at" in err and "outside the clip" in err
-    assert (
-        "already exists" in err
-        and "--segment goes with --scale" in err
-        and "positive" in err
-    )
+    assert "already exists" in err and "--segment goes with --scale" in err and "positive" in err
     assert "Traceback" not in err
 
 

@@ -56,11 +56,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--prop", action="append", default=[], metavar="KIND[:JOINT]", help="attach a prop (club, bat); the first is the effector")
     p.add_argument("--ball", nargs=3, type=float, metavar=("X", "Y", "Z"), help="ball centre (m, world Z-up) for the hitting metrics")
     p.add_argument("--ball-radius", type=float, default=0.036, metavar="R", help="ball radius in m (default 0.036, cricket)")
-    p.add_argument("--ball-velocity", nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar=("VX", "VY", "VZ"), help="incoming ball velocity at impact, m/s")
+    p.add_argument(
+        "--ball-velocity", nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar=("VX", "VY", "VZ"), help="incoming ball velocity at impact, m/s"
+    )
     p.add_argument("--frame", type=int, metavar="H", help="hit frame (0-based, of the file) for --ball")
-    p.add_argument("--hit-grid", type=int, metavar="N", help="seed 003 Figure 2.6: adapt the shot to an N x N grid of hit points around "
-                   "the sweet spot at --frame (arm IK, wrist locked vs club orientation kept), launch a ball from each and print "
-                   "the rank correlation of launch direction with hit point (needs --prop and --frame)")
+    p.add_argument(
+        "--hit-grid",
+        type=int,
+        metavar="N",
+        help="seed 003 Figure 2.6: adapt the shot to an N x N grid of hit points around "
+        "the sweet spot at --frame (arm IK, wrist locked vs club orientation kept), launch a ball from each and print "
+        "the rank correlation of launch direction with hit point (needs --prop and --frame)",
+    )
     p.add_argument("--grid-step", type=float, default=0.05, metavar="M", help="hit-grid spacing in m (default 0.05)")
     p.add_argument("--frames", metavar="A:B", help="evaluate only these frames")
     p.add_argument("--keep-start", action="store_true", help="do not skip a leading T-pose/transition")
@@ -210,19 +217,42 @@ def run(args: argparse.Namespace) -> int:
             print("leading frames skipped: " + ", ".join(skipped))
         if len(ok) == 1:
             rep = ok[0]["report"]
-            print("h_c sensitivity: " + "; ".join(f"h_c={s['h_c']}: skate {s['skate_mm_per_s']:.0f} mm/s, ratio {s['skating_ratio']:.3f}" for s in rep["sensitivity"]))
+            print(
+                "h_c sensitivity: "
+                + "; ".join(f"h_c={s['h_c']}: skate {s['skate_mm_per_s']:.0f} mm/s, ratio {s['skating_ratio']:.3f}" for s in rep["sensitivity"])
+            )
             if rep.get("hit"):
                 print("hit: " + ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in rep["hit"].items()))
             for mode, g in (ok[0].get("hit_grid") or {}).items():
-                print(f"hit grid, wrist {mode}: Spearman rho(lateral, azimuth) = {g['rho_azimuth']:.3f}, "
-                      f"rho(vertical, elevation) = {g['rho_elevation']:.3f}, azimuth slope {g['slope_deg_per_m']:.1f} deg/m")
+                print(
+                    f"hit grid, wrist {mode}: Spearman rho(lateral, azimuth) = {g['rho_azimuth']:.3f}, "
+                    f"rho(vertical, elevation) = {g['rho_elevation']:.3f}, azimuth slope {g['slope_deg_per_m']:.1f} deg/m"
+                )
                 for row in g["rows"]:
                     print("   " + "  ".join(f"{k}={v:8.3f}" for k, v in row.items()))
     for r in results:
         if "error" in r:
             sys.stderr.write(f"error: {r['file']}: {r['error']}\n")
     if out is not None:
-        write_text_atomic(out, json.dumps(_nan_to_none([{"file": r["file"], "skipped_frames": r.get("skipped_frames"), **({"report": r["report"]} if "report" in r else {"error": r["error"]}), **({"hit_grid": r["hit_grid"]} if "hit_grid" in r else {})} for r in results]), indent=1, default=_json_default, allow_nan=False))
+        write_text_atomic(
+            out,
+            json.dumps(
+                _nan_to_none(
+                    [
+                        {
+                            "file": r["file"],
+                            "skipped_frames": r.get("skipped_frames"),
+                            **({"report": r["report"]} if "report" in r else {"error": r["error"]}),
+                            **({"hit_grid": r["hit_grid"]} if "hit_grid" in r else {}),
+                        }
+                        for r in results
+                    ]
+                ),
+                indent=1,
+                default=_json_default,
+                allow_nan=False,
+            ),
+        )
         print(f"wrote {out}")
     return 0 if len(ok) == len(results) else 2
 

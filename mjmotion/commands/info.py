@@ -41,8 +41,7 @@ def describe(path: str, args: argparse.Namespace) -> dict:
         "feet": {k: [s.names[a], None if t is None else s.names[t]] for k, (a, t) in s.feet().items()},
         "hands": {k: s.names[v] for k, v in s.hands().items()},
         "joint_list": [
-            {"name": n, "parent": None if p < 0 else s.names[p], "channels": list(c)}
-            for n, p, c in zip(s.names, s.parents.tolist(), s.channels)
+            {"name": n, "parent": None if p < 0 else s.names[p], "channels": list(c)} for n, p, c in zip(s.names, s.parents.tolist(), s.channels)
         ],
     }
 

@@ -37,8 +37,7 @@ def add_clip_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--frames",
         metavar="A:B[,A:B...]",
-        help="frame range of every clip, or one range per clip separated by commas (e.g. 4: for cgspeed "
-        "clips whose first frames are a T-pose)",
+        help="frame range of every clip, or one range per clip separated by commas (e.g. 4: for cgspeed clips whose first frames are a T-pose)",
     )
     p.add_argument("--fps", type=float, metavar="F", help="resample every clip to F frames per second first")
     add_input_options(p)
@@ -86,9 +85,7 @@ def run(args: argparse.Namespace) -> int:
     if args.window < 1 or args.window % 2 == 0:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
     a, b = load_clips([args.a, args.b], args)
-    pr = registration.register(
-        a, b, window=args.window // 2, slope_limit=args.slope_limit, loop=args.loop, method=args.method, curve=args.curve
-    )
+    pr = registration.register(a, b, window=args.window // 2, slope_limit=args.slope_limit, loop=args.loop, method=args.method, curve=args.curve)
     write_text_atomic(out, json.dumps(pr.to_json()))
     if plot:
         _plot(pr, plot, a.name, b.name)

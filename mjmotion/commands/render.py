@@ -7,10 +7,10 @@ import os
 # Before anything loads PyOpenGL: the headless backend, unless the user chose one.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-import argparse  # noqa: E402
+import argparse
 
-from ..errors import MjmotionError  # noqa: E402
-from ._common import add_input_options, load, output_path, parse_frames  # noqa: E402
+from ..errors import MjmotionError
+from ._common import add_input_options, load, output_path, parse_frames
 
 NAME = "render"
 HELP = "render BVH clips side by side to an MP4 or GIF (offscreen MuJoCo)"
@@ -32,12 +32,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="replace the output if it exists")
     p.add_argument("--labels", nargs="+", metavar="LABEL", help="one label per clip (default: file names)")
     p.add_argument(
-        "--prop", action="append", default=[], metavar="KIND[:JOINT]",
+        "--prop",
+        action="append",
+        default=[],
+        metavar="KIND[:JOINT]",
         help="give every character a prop: club or bat, held by JOINT (default: a club is fitted to both hands, a bat to the right hand)",
     )
     p.add_argument("--ball", nargs=3, type=float, metavar=("X", "Y", "Z"), help="a ball at X Y Z metres (Z up) beside each character")
     p.add_argument(
-        "--trail", nargs="?", const="auto", metavar="SITE|JOINT",
+        "--trail",
+        nargs="?",
+        const="auto",
+        metavar="SITE|JOINT",
         help="draw a ghost trail of an effector (default with no name: the prop's sweet spot, else the right hand)",
     )
     p.add_argument("--width", type=int, default=960, help="image width in pixels (default 960)")

@@ -73,9 +73,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="F",
         help="the rest pose's frame (default: the last)",
     )
-    p.add_argument(
-        "--pcs", type=int, metavar="K", help="number of controlled principal components"
-    )
+    p.add_argument("--pcs", type=int, metavar="K", help="number of controlled principal components")
     p.add_argument(
         "--variance",
         type=float,
@@ -110,9 +108,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="auto",
         help="the hand the second one is held to (auto: the club's hand when a club is fitted, else left; none: no grip repair)",
     )
-    p.add_argument(
-        "-o", "--output", required=True, metavar="OUT.bvh", help="the variant to write"
-    )
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="the variant to write")
     p.add_argument(
         "--plot",
         metavar="OUT.png",
@@ -148,9 +144,7 @@ def run(args: argparse.Namespace) -> int:
     if args.rest_frame is not None and args.abort_at is None:
         raise MjmotionError("--rest-frame goes with --abort-at")
     if args.scores and args.pcs is not None:
-        raise MjmotionError(
-            "--pcs is set by the number of columns of --scores; drop --pcs"
-        )
+        raise MjmotionError("--pcs is set by the number of columns of --scores; drop --pcs")
 
     source = load(args.file, args)
     # inner-joint translations (some rigs animate them) are parameters too, so nothing is lost
@@ -180,18 +174,12 @@ def run(args: argparse.Namespace) -> int:
     k = path.k
 
     raw = variations.synthesise(space, path)
-    first = (
-        variations.first_hand_for(source)
-        if args.first_hand == "auto"
-        else args.first_hand
-    )
+    first = variations.first_hand_for(source) if args.first_hand == "auto" else args.first_hand
     first = None if first == "none" else first
     if args.no_cleanup:
         result, cleanup = raw, None
     else:
-        result, cleanup = variations.clean_up(
-            source, raw, path, first_hand=first, feet=args.feet
-        )
+        result, cleanup = variations.clean_up(source, raw, path, first_hand=first, feet=args.feet)
     bvh.write(result, out)
 
     report = variations.report(source, raw, result, path, space, first_hand=first)
@@ -207,16 +195,11 @@ def run(args: argparse.Namespace) -> int:
     )
     errs = reconstruction_errors(
         source,
-        sorted(
-            {1, 2, 3, 5, 10, k, space.n_components}
-            & set(range(1, space.n_components + 1))
-        ),
+        sorted({1, 2, 3, 5, 10, k, space.n_components} & set(range(1, space.n_components + 1))),
     )
     report["reconstruction_error_m"] = {str(kk): v for kk, v in errs.items()}
     vals = list(errs.values())
-    report["reconstruction_error_falls_with_k"] = bool(
-        all(b <= a + 1e-9 for a, b in itertools.pairwise(vals))
-    )
+    report["reconstruction_error_falls_with_k"] = bool(all(b <= a + 1e-9 for a, b in itertools.pairwise(vals)))
     report.update(source=args.file, output=str(out))
 
     if args.plot:
@@ -227,23 +210,15 @@ def run(args: argparse.Namespace) -> int:
             dims=args.plot_dims,
         )
     if args.json:
-        write_text_atomic(
-            args.json, json.dumps(report, indent=2, default=_jsonable) + "\n"
-        )
+        write_text_atomic(args.json, json.dumps(report, indent=2, default=_jsonable) + "\n")
 
-    print(
-        f"wrote {out}: {path.label}, {result.n_frames} frames, k={k} ({100 * report['variance_explained']:.1f}% of the variance)"
-    )
+    print(f"wrote {out}: {path.label}, {result.n_frames} frames, k={k} ({100 * report['variance_explained']:.1f}% of the variance)")
     fs = report["footskate_mm_per_s"]
     if fs["source"] is not None:
-        print(
-            f"footskate mm/s: source {fs['source']:.1f}, raw {_mm(fs['raw'])}, cleaned {_mm(fs['result'])}"
-        )
+        print(f"footskate mm/s: source {fs['source']:.1f}, raw {_mm(fs['raw'])}, cleaned {_mm(fs['result'])}")
     if report.get("grip_error_m") is not None:
         g = report["grip_error_m"]
-        print(
-            f"grip error: raw {1000 * g['raw']:.1f} mm, cleaned {1000 * g['result']:.1f} mm"
-        )
+        print(f"grip error: raw {1000 * g['raw']:.1f} mm, cleaned {1000 * g['result']:.1f} mm")
     print(
         "reconstruction error falls with k: "
         + ("yes" if report["reconstruction_error_falls_with_k"] else "NO")

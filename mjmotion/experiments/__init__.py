@@ -48,7 +48,9 @@ class Table:
         if self.notes:
             lines += [""] + [f"- {n}" for n in self.notes]
         if self.files:
-            lines += [""] + [f"![{Path(f).stem}]({Path(f).name})" if f.endswith(".png") else f"- [{Path(f).name}]({Path(f).name})" for f in self.files]
+            lines += [""] + [
+                f"![{Path(f).stem}]({Path(f).name})" if f.endswith(".png") else f"- [{Path(f).name}]({Path(f).name})" for f in self.files
+            ]
         return "\n".join(lines) + "\n"
 
     def write(self, out_dir: Path) -> Path:

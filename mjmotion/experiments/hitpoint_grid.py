@@ -277,7 +277,10 @@ def table_2_1(results: list[GridResult]) -> dict[str, tuple[float, float, int]]:
     out: dict[str, tuple[float, float, int]] = {}
     for solver in dict.fromkeys(g.solver for g in results):
         pairs = [
-            (np.mean([x["style_rmse"] for x in by[(s, solver, "locked")].reports]), np.mean([x["style_rmse"] for x in by[(s, solver, "swing")].reports]))
+            (
+                np.mean([x["style_rmse"] for x in by[(s, solver, "locked")].reports]),
+                np.mean([x["style_rmse"] for x in by[(s, solver, "swing")].reports]),
+            )
             for s in dict.fromkeys(g.shot for g in results)
             if (s, solver, "locked") in by and (s, solver, "swing") in by
         ]
@@ -296,7 +299,9 @@ def _style_paths_png(shot: Shot, solver: str, offset: np.ndarray, out: Path) -> 
     k = max(space.components_for(0.7), 4)
     paths = {"source": space.source_scores[:, :k]}
     for wrist, label in (("locked", "locked wrist"), ("swing", "2-DOF wrist")):
-        a = hitpoint.adapt(shot.motion, offset=offset, frame=shot.hit_frame, effector=shot.effector, solver=solver, wrist=wrist, prop=shot.prop, style=False)  # type: ignore[arg-type]
+        a = hitpoint.adapt(
+            shot.motion, offset=offset, frame=shot.hit_frame, effector=shot.effector, solver=solver, wrist=wrist, prop=shot.prop, style=False
+        )  # type: ignore[arg-type]
         paths[label] = space.scores(a.motion, k)
     return plots.score_paths(
         paths, out, dims=2, highlight=shot.hit_frame,
@@ -376,7 +381,8 @@ def _tabulate(out_dir: Path, shots: list[Shot], done: list[GridResult], quick: b
         + ", ".join(f"{k_} ball r={b.radius} m, e={b.restitution}" for k_, b in BALLS.items())
         + "); |ρ| near 1 = the launch follows the hit point predictably (the targets share heights, so "
         + "a perfectly monotone order gives less than 1: 0.949 on a 3×3 grid)",
-        "shots: " + ", ".join(f"{s.name} ({s.motion.n_frames} frames @ {s.motion.fps:g} fps, hit {s.hit_frame}, effector {s.effector})" for s in shots),
+        "shots: "
+        + ", ".join(f"{s.name} ({s.motion.n_frames} frames @ {s.motion.fps:g} fps, hit {s.hit_frame}, effector {s.effector})" for s in shots),
         "wall time per task (s): " + ", ".join(f"{g.shot}/{g.solver}/{g.wrist} {g.seconds:.1f}" for g in done),
     ]
     # Figure 2.6: launch directions from the hit points, locked vs 2-DOF wrist, for the first shot of each kind

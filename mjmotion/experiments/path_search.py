@@ -104,11 +104,10 @@ def timed(fn: Callable[[], T], repeats: int) -> tuple[float, T]:
     return statistics.median(times), out
 
 
-def search_rows(
-    cost: np.ndarray, grid_label: str, values: str, loop: bool, brute: bool, thresholds: tuple[float, ...], repeats: int
-) -> list[tuple]:
+def search_rows(cost: np.ndarray, grid_label: str, values: str, loop: bool, brute: bool, thresholds: tuple[float, ...], repeats: int) -> list[tuple]:
     """Rows of :data:`COLUMNS` for every method on one grid; the optimum is brute force when run, else DP."""
     ends = "corners" if loop else "free end"
+
     def search(method: str, **options: Any) -> Callable[[], reg.Path]:
         return lambda: reg.find_path(cost, method, loop=loop, start="auto", **options)
 

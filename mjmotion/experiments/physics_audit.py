@@ -41,9 +41,7 @@ def synthesized(quick: bool = False) -> dict[str, tuple[object, tuple]]:
     clips = synth.library()
     if quick:
         clips = {k: v for k, v in clips.items() if k in ("walk", "run", "drive", "kick")}
-    out: dict[str, tuple[object, tuple]] = {
-        name: (c.motion, (c.prop,) if c.prop is not None else ()) for name, c in clips.items()
-    }
+    out: dict[str, tuple[object, tuple]] = {name: (c.motion, (c.prop,) if c.prop is not None else ()) for name, c in clips.items()}
     (walk, run), lin, cleaned = _bundled_linear_blend()
     reg = blend.blend([walk, run], [0.5, 0.5], method="registered", name="registered_blend")
     out["linear blend walk/run .5"] = (lin, ())

@@ -37,9 +37,7 @@ def bend_axes(top: np.ndarray, mid: np.ndarray, end: np.ndarray, fallback: np.nd
     return np.where(nn > STRAIGHT_SINE * lengths, n / np.maximum(nn, 1e-12), f)
 
 
-def two_bone(
-    top: np.ndarray, mid: np.ndarray, end: np.ndarray, target: np.ndarray, axis: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def two_bone(top: np.ndarray, mid: np.ndarray, end: np.ndarray, target: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rotations that put ``end`` on ``target``, the bones keeping their lengths.
 
     ``top, mid, end, target: (T, 3)`` world positions (hip, knee, ankle); ``axis: (T, 3)`` unit

@@ -177,21 +177,79 @@ def shot(kind: str, seed: int = 0) -> SynthClip:
         keys = [0.0, 0.4, 0.85, 1.10, 1.30, 1.75, 2.35, 2.75]
         hit_key = 3
         root = [st["root"], st["root"], (0.0, -0.06, 0.91), (0.04, 0.26, 0.84), (0.05, 0.32, 0.86), (0.03, 0.18, 0.90), st["root"], st["root"]]
-        pelvis = [st["pelvis"], st["pelvis"], (-5.0, 0.0, 14.0), (25.0, -4.0, 22.0), (40.0, -2.0, 16.0), (25.0, 0.0, 14.0), st["pelvis"], st["pelvis"]]
+        pelvis = [
+            st["pelvis"],
+            st["pelvis"],
+            (-5.0, 0.0, 14.0),
+            (25.0, -4.0, 22.0),
+            (40.0, -2.0, 16.0),
+            (25.0, 0.0, 14.0),
+            st["pelvis"],
+            st["pelvis"],
+        ]
         spine = [st["spine"], st["spine"], (-10.0, 0.0, 10.0), (25.0, 8.0, 28.0), (40.0, 5.0, 12.0), (25.0, 0.0, 10.0), st["spine"], st["spine"]]
         head = [st["head"], st["head"], (80.0, 18.0), (75.0, 40.0), (70.0, 20.0), (75.0, 18.0), st["head"], st["head"]]
         grip = [st["grip"], st["grip"], (0.26, -0.26, 1.08), (0.30, 0.42, 0.86), (0.22, 0.50, 1.38), (0.28, 0.20, 1.10), st["grip"], st["grip"]]
-        bats = [stance_bat, stance_bat, _plane_bat(-150.0, 0.1), _plane_bat(-6.0, -0.05), _plane_bat(135.0, -0.1), _plane_bat(30.0, -0.1), stance_bat, stance_bat]
+        bats = [
+            stance_bat,
+            stance_bat,
+            _plane_bat(-150.0, 0.1),
+            _plane_bat(-6.0, -0.05),
+            _plane_bat(135.0, -0.1),
+            _plane_bat(30.0, -0.1),
+            stance_bat,
+            stance_bat,
+        ]
         left_steps = [(0.50, 0.92, 0.16, 0.66, np.radians(25.0)), (1.80, 2.25, *st["left"])]
         right_steps: list = []
     else:
         keys = [0.0, 0.4, 0.80, 1.05, 1.15, 1.35, 1.95, 2.45, 2.85]
         hit_key = 4
-        root = [st["root"], st["root"], (0.02, -0.12, 0.92), (0.08, -0.16, 0.90), (0.08, -0.15, 0.90), (0.06, -0.10, 0.92), (0.03, -0.05, 0.92), st["root"], st["root"]]
-        pelvis = [st["pelvis"], st["pelvis"], (-5.0, 0.0, 12.0), (35.0, 0.0, 10.0), (50.0, 0.0, 10.0), (75.0, 0.0, 8.0), (30.0, 0.0, 12.0), st["pelvis"], st["pelvis"]]
-        spine = [st["spine"], st["spine"], (-10.0, 0.0, 8.0), (20.0, -5.0, 6.0), (30.0, -5.0, 6.0), (30.0, 0.0, 6.0), (15.0, 0.0, 10.0), st["spine"], st["spine"]]
+        root = [
+            st["root"],
+            st["root"],
+            (0.02, -0.12, 0.92),
+            (0.08, -0.16, 0.90),
+            (0.08, -0.15, 0.90),
+            (0.06, -0.10, 0.92),
+            (0.03, -0.05, 0.92),
+            st["root"],
+            st["root"],
+        ]
+        pelvis = [
+            st["pelvis"],
+            st["pelvis"],
+            (-5.0, 0.0, 12.0),
+            (35.0, 0.0, 10.0),
+            (50.0, 0.0, 10.0),
+            (75.0, 0.0, 8.0),
+            (30.0, 0.0, 12.0),
+            st["pelvis"],
+            st["pelvis"],
+        ]
+        spine = [
+            st["spine"],
+            st["spine"],
+            (-10.0, 0.0, 8.0),
+            (20.0, -5.0, 6.0),
+            (30.0, -5.0, 6.0),
+            (30.0, 0.0, 6.0),
+            (15.0, 0.0, 10.0),
+            st["spine"],
+            st["spine"],
+        ]
         head = [st["head"], st["head"], (80.0, 10.0), (80.0, 5.0), (80.0, 5.0), (70.0, 5.0), (75.0, 15.0), st["head"], st["head"]]
-        grip = [st["grip"], st["grip"], (0.14, -0.28, 1.28), (0.31, -0.02, 1.20), (0.32, 0.08, 1.14), (0.20, 0.20, 1.22), (0.25, 0.0, 1.02), st["grip"], st["grip"]]
+        grip = [
+            st["grip"],
+            st["grip"],
+            (0.14, -0.28, 1.28),
+            (0.31, -0.02, 1.20),
+            (0.32, 0.08, 1.14),
+            (0.20, 0.20, 1.22),
+            (0.25, 0.0, 1.02),
+            st["grip"],
+            st["grip"],
+        ]
         bats = [
             stance_bat,
             stance_bat,
@@ -258,9 +316,39 @@ def kick(seed: int = 0) -> SynthClip:
     keys = [0.0, 0.4, 0.75, 1.0, 1.2, 1.42, 1.72, 2.1, 2.5]
     lift_key, land_key = 2, 6
     st = STAND
-    root = [st["root"], st["root"], (0.0, 0.07, 0.98), (-0.02, 0.08, 0.97), (-0.06, 0.08, 0.97), (-0.02, 0.08, 0.97), (0.0, 0.06, 0.98), st["root"], st["root"]]
-    pelvis = [st["pelvis"], st["pelvis"], (0.0, 2.0, 0.0), (-5.0, 0.0, -8.0), (-10.0, 0.0, -18.0), (-5.0, 0.0, -8.0), (0.0, 2.0, 0.0), st["pelvis"], st["pelvis"]]
-    spine = [st["spine"], st["spine"], (0.0, -2.0, 2.0), (5.0, 0.0, 12.0), (10.0, 0.0, 14.0), (5.0, 0.0, 12.0), (0.0, -2.0, 2.0), st["spine"], st["spine"]]
+    root = [
+        st["root"],
+        st["root"],
+        (0.0, 0.07, 0.98),
+        (-0.02, 0.08, 0.97),
+        (-0.06, 0.08, 0.97),
+        (-0.02, 0.08, 0.97),
+        (0.0, 0.06, 0.98),
+        st["root"],
+        st["root"],
+    ]
+    pelvis = [
+        st["pelvis"],
+        st["pelvis"],
+        (0.0, 2.0, 0.0),
+        (-5.0, 0.0, -8.0),
+        (-10.0, 0.0, -18.0),
+        (-5.0, 0.0, -8.0),
+        (0.0, 2.0, 0.0),
+        st["pelvis"],
+        st["pelvis"],
+    ]
+    spine = [
+        st["spine"],
+        st["spine"],
+        (0.0, -2.0, 2.0),
+        (5.0, 0.0, 12.0),
+        (10.0, 0.0, 14.0),
+        (5.0, 0.0, 12.0),
+        (0.0, -2.0, 2.0),
+        st["spine"],
+        st["spine"],
+    ]
     head = [st["head"]] * 2 + [(0.0, 4.0), (0.0, 6.0), (0.0, 6.0), (0.0, 6.0), (0.0, 4.0)] + [st["head"]] * 2
     # Right ankle offsets from where it stands (x, y, z metres) and foot pitch (degrees, + points the toes).
     offs = np.array(
@@ -290,7 +378,10 @@ def kick(seed: int = 0) -> SynthClip:
     contacts = np.column_stack([c_left, ~moving])
     a, b = int(np.floor(keys[lift_key] * FPS + 1e-9)), int(np.ceil(keys[land_key] * FPS - 1e-9))
     x, y, h = STAND_FEET["Right"]
-    prints += [Footprint("right", 0, a, a, (x, y, foot_geometry().toe_height), h), Footprint("right", b, n - 1, n - 1, (x, y, foot_geometry().toe_height), h)]
+    prints += [
+        Footprint("right", 0, a, a, (x, y, foot_geometry().toe_height), h),
+        Footprint("right", b, n - 1, n - 1, (x, y, foot_geometry().toe_height), h),
+    ]
     return _finish(pb, "kick", "kick", contacts, prints, params=(("seed", float(seed)),))
 
 
@@ -298,10 +389,40 @@ def punch(seed: int = 0) -> SynthClip:
     """Right straight punch: fists up to a guard, punch, back to the guard, arms down."""
     keys = [0.0, 0.4, 0.8, 1.05, 1.25, 1.5, 1.75, 2.2, 2.6]
     st = STAND
-    root = [st["root"], st["root"], (0.0, 0.0, 0.97), (0.0, 0.0, 0.97), (0.04, 0.01, 0.96), (0.0, 0.0, 0.97), (0.0, 0.0, 0.97), st["root"], st["root"]]
+    root = [
+        st["root"],
+        st["root"],
+        (0.0, 0.0, 0.97),
+        (0.0, 0.0, 0.97),
+        (0.04, 0.01, 0.96),
+        (0.0, 0.0, 0.97),
+        (0.0, 0.0, 0.97),
+        st["root"],
+        st["root"],
+    ]
     # Positive yaw brings the right shoulder forward: wind up (-), drive through (+).
-    pelvis = [st["pelvis"], st["pelvis"], (-10.0, 0.0, 4.0), (-10.0, 0.0, 4.0), (15.0, 0.0, 6.0), (-10.0, 0.0, 4.0), (-8.0, 0.0, 4.0), st["pelvis"], st["pelvis"]]
-    spine = [st["spine"], st["spine"], (-10.0, 0.0, 6.0), (-10.0, 0.0, 6.0), (25.0, 0.0, 10.0), (-10.0, 0.0, 6.0), (-8.0, 0.0, 6.0), st["spine"], st["spine"]]
+    pelvis = [
+        st["pelvis"],
+        st["pelvis"],
+        (-10.0, 0.0, 4.0),
+        (-10.0, 0.0, 4.0),
+        (15.0, 0.0, 6.0),
+        (-10.0, 0.0, 4.0),
+        (-8.0, 0.0, 4.0),
+        st["pelvis"],
+        st["pelvis"],
+    ]
+    spine = [
+        st["spine"],
+        st["spine"],
+        (-10.0, 0.0, 6.0),
+        (-10.0, 0.0, 6.0),
+        (25.0, 0.0, 10.0),
+        (-10.0, 0.0, 6.0),
+        (-8.0, 0.0, 6.0),
+        st["spine"],
+        st["spine"],
+    ]
     head = [st["head"]] * 2 + [(0.0, 2.0)] * 5 + [st["head"]] * 2
     n = round(keys[-1] * FPS) + 1
     t = np.arange(n) / FPS

@@ -177,9 +177,7 @@ def frame_rotation(bone: np.ndarray, pole: np.ndarray, rest_bone: np.ndarray, re
     return rot.from_matrix(f_world @ f_rest.T)
 
 
-def two_bone_ik(
-    root: np.ndarray, target: np.ndarray, l1: float, l2: float, pole: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def two_bone_ik(root: np.ndarray, target: np.ndarray, l1: float, l2: float, pole: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Analytic two-bone IK: the middle joint (knee, elbow) for each frame.
 
     Args:
@@ -324,4 +322,3 @@ def lower_pelvis(pb: PoseBuilder, ankles: dict[str, np.ndarray], fps: float, rea
         drop = gaussian_filter1d(maximum_filter1d(need, size=size, mode="nearest"), sigma, mode="nearest", truncate=3.0)
     pb.root[:, 2] -= np.maximum(drop, 0.0)
     pb.update()
-

@@ -150,7 +150,9 @@ class SynthClip:
             warp = (
                 None
                 if w is None
-                else Warp(str(w["source"]), np.asarray(w["source_frames"], dtype=float), float(w["rotation"]), tuple(float(x) for x in w["translation"]))  # type: ignore[arg-type]
+                else Warp(
+                    str(w["source"]), np.asarray(w["source_frames"], dtype=float), float(w["rotation"]), tuple(float(x) for x in w["translation"])
+                )  # type: ignore[arg-type]
             )
             p = entry.get("prop")
             prop = None if p is None else mjcf.Prop(**{**p, "pos": tuple(p["pos"]), "quat": tuple(p["quat"])})

@@ -89,21 +89,62 @@ class GaitStyle:
 STYLES: dict[str, GaitStyle] = {
     "walk": GaitStyle("walk", 1.3, 0.70, (0.3, 2.2), (0.62, 0.62)),
     "run": GaitStyle(
-        "run", 3.2, 1.15, (1.8, 6.0), (0.33, 0.33), heel_off=0.35, roll=np.radians(25.0), push_off=1.0,
-        clearance=(0.22, 0.22), step_width=0.06, extension=0.93, bob=0.03, bob_sign=-1.0,
-        sway=0.01, pelvis_yaw=np.radians(7.0), pelvis_list=np.radians(3.0), lean=np.radians(9.0),
-        arm_swing=(np.radians(32.0), np.radians(32.0)), elbow=np.radians(85.0), elbow_swing=np.radians(15.0),
+        "run",
+        3.2,
+        1.15,
+        (1.8, 6.0),
+        (0.33, 0.33),
+        heel_off=0.35,
+        roll=np.radians(25.0),
+        push_off=1.0,
+        clearance=(0.22, 0.22),
+        step_width=0.06,
+        extension=0.93,
+        bob=0.03,
+        bob_sign=-1.0,
+        sway=0.01,
+        pelvis_yaw=np.radians(7.0),
+        pelvis_list=np.radians(3.0),
+        lean=np.radians(9.0),
+        arm_swing=(np.radians(32.0), np.radians(32.0)),
+        elbow=np.radians(85.0),
+        elbow_swing=np.radians(15.0),
     ),
     "sneak": GaitStyle(
-        "sneak", 0.6, 0.45, (0.2, 1.2), (0.72, 0.72), heel_off=0.6, roll=np.radians(20.0),
-        clearance=(0.07, 0.07), step_width=0.12, extension=0.80, bob=0.01, sway=0.03,
-        pelvis_yaw=np.radians(4.0), pelvis_list=np.radians(2.0), lean=np.radians(22.0),
-        arm_swing=(np.radians(10.0), np.radians(10.0)), elbow=np.radians(60.0), elbow_swing=np.radians(5.0),
+        "sneak",
+        0.6,
+        0.45,
+        (0.2, 1.2),
+        (0.72, 0.72),
+        heel_off=0.6,
+        roll=np.radians(20.0),
+        clearance=(0.07, 0.07),
+        step_width=0.12,
+        extension=0.80,
+        bob=0.01,
+        sway=0.03,
+        pelvis_yaw=np.radians(4.0),
+        pelvis_list=np.radians(2.0),
+        lean=np.radians(22.0),
+        arm_swing=(np.radians(10.0), np.radians(10.0)),
+        elbow=np.radians(60.0),
+        elbow_swing=np.radians(5.0),
     ),
     "limp": GaitStyle(
-        "limp", 0.9, 0.55, (0.3, 1.5), (0.72, 0.50), right_offset=0.55, heel_off=0.6,
-        clearance=(0.10, 0.06), extension=0.96, bob=0.012, sway=0.035,
-        arm_swing=(np.radians(20.0), np.radians(12.0)), limp_drop=0.035, limp_lean=np.radians(7.0),
+        "limp",
+        0.9,
+        0.55,
+        (0.3, 1.5),
+        (0.72, 0.50),
+        right_offset=0.55,
+        heel_off=0.6,
+        clearance=(0.10, 0.06),
+        extension=0.96,
+        bob=0.012,
+        sway=0.035,
+        arm_swing=(np.radians(20.0), np.radians(12.0)),
+        limp_drop=0.035,
+        limp_lean=np.radians(7.0),
     ),
 }
 
@@ -174,9 +215,7 @@ def generate(
         raise MjmotionError(f"--seconds {seconds:g}: expected a duration between 0.5 and 120 s")
     omega = np.radians(float(turn_deg_per_s))
     if abs(turn_deg_per_s) > 90.0 or (abs(omega) > 1e-9 and v / abs(omega) < 1.0):
-        raise MjmotionError(
-            f"--turn {turn_deg_per_s:g}: expected at most 90 deg/s and a turning radius (speed/rate) of at least 1 m"
-        )
+        raise MjmotionError(f"--turn {turn_deg_per_s:g}: expected at most 90 deg/s and a turning radius (speed/rate) of at least 1 m")
     step = base.step_length * np.sqrt(v / base.speed) if step_length is None else float(step_length)
     if not (0.15 <= step <= 2.5):  # (NaN fails too)
         raise MjmotionError(f"step length {step:g} m: expected 0.15–2.5 m")
@@ -277,8 +316,14 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
 
 
 def _fit_pelvis_height(
-    pb: PoseBuilder, style: GaitStyle, ankles: dict[str, np.ndarray], base: float, mid_l: np.ndarray,
-    right_stance: np.ndarray, ballistic: bool, fps: float,
+    pb: PoseBuilder,
+    style: GaitStyle,
+    ankles: dict[str, np.ndarray],
+    base: float,
+    mid_l: np.ndarray,
+    right_stance: np.ndarray,
+    ballistic: bool,
+    fps: float,
 ) -> None:
     """Set the root height so every leg reaches its ankle goal.
 
@@ -322,8 +367,14 @@ def _stance_bump(t: np.ndarray, period: float, offset: float, duty: float) -> np
 
 
 def _foot_track(
-    t: np.ndarray, td: np.ndarray, lo_t: np.ndarray, toe_xy: np.ndarray, heads: np.ndarray,
-    style: GaitStyle, i: int, toe_height: float,
+    t: np.ndarray,
+    td: np.ndarray,
+    lo_t: np.ndarray,
+    toe_xy: np.ndarray,
+    heads: np.ndarray,
+    style: GaitStyle,
+    i: int,
+    toe_height: float,
 ) -> dict[str, np.ndarray]:
     """Ankle positions, foot and toe world rotations of one foot over the frames ``t``.
 

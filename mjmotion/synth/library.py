@@ -202,6 +202,7 @@ def load_library(directory: str | os.PathLike[str]) -> dict[str, SynthClip]:
 
 def same_ground_truth(a: SynthClip, b: SynthClip) -> bool:
     """Whether two clips carry the same ground truth (contacts, footprints, hit, prop, warp)."""
+
     def close(x: np.ndarray | None, y: np.ndarray | None) -> bool:
         return (x is None and y is None) or (x is not None and y is not None and np.allclose(x, y, atol=1e-12))
 
@@ -212,5 +213,14 @@ def same_ground_truth(a: SynthClip, b: SynthClip) -> bool:
         and close(a.sweet_spot, b.sweet_spot)
         and close(a.hit_normal, b.hit_normal)
         and a.prop == b.prop
-        and ((a.warp is None and b.warp is None) or (a.warp is not None and b.warp is not None and close(a.warp.source_frames, b.warp.source_frames) and a.warp.rotation == b.warp.rotation and a.warp.translation == b.warp.translation))
+        and (
+            (a.warp is None and b.warp is None)
+            or (
+                a.warp is not None
+                and b.warp is not None
+                and close(a.warp.source_frames, b.warp.source_frames)
+                and a.warp.rotation == b.warp.rotation
+                and a.warp.translation == b.warp.translation
+            )
+        )
     )

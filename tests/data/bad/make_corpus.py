@@ -146,114 +146,204 @@ def cases() -> list[Case]:
         _err("empty", "a 0-byte file", b"", 1, "empty"),
         _err("blank", "only whitespace and newlines", "  \n\t\n\n", 1, "empty"),
         _err("no_hierarchy", "starts with ROOT (no HIERARCHY keyword)", _edit(0, None), 1, "hierarchy"),
-        _err("missing_motion", "hierarchy only, no MOTION section", "\n".join(BASE_LINES[:MOTION]) + "\n",
-             MOTION + 1, "no motion"),  # fmt: skip
-        _err("truncated_hierarchy", "file ends inside the hierarchy", "\n".join(BASE_LINES[: head_off + 1]),
-             head_off + 1, "never closed"),  # fmt: skip
-        _err("unbalanced_missing_brace", "one '}' removed: a joint is open at MOTION",
-             _edit(last_close, None), MOTION, "unbalanced"),  # fmt: skip
-        _err("unbalanced_extra_brace", "an extra '}' after the root closes", _insert(last_close + 1, "}"),
-             last_close + 2, "unbalanced"),  # fmt: skip
-        _err("brace_missing_after_joint", "JOINT not followed by '{'", _edit(head_joint + 1, None),
-             head_joint + 2, "expected '{'"),  # fmt: skip
-        _err("two_roots", "a second ROOT after the first closes",
-             _insert(MOTION, "ROOT Other\n{\n\tOFFSET 0 0 0\n\tCHANNELS 3 Zrotation Xrotation Yrotation\n}"),
-             MOTION + 1, "second root"),  # fmt: skip
+        _err("missing_motion", "hierarchy only, no MOTION section", "\n".join(BASE_LINES[:MOTION]) + "\n", MOTION + 1, "no motion"),  # fmt: skip
+        _err(
+            "truncated_hierarchy", "file ends inside the hierarchy", "\n".join(BASE_LINES[: head_off + 1]), head_off + 1, "never closed"
+        ),  # fmt: skip
+        _err("unbalanced_missing_brace", "one '}' removed: a joint is open at MOTION", _edit(last_close, None), MOTION, "unbalanced"),  # fmt: skip
+        _err("unbalanced_extra_brace", "an extra '}' after the root closes", _insert(last_close + 1, "}"), last_close + 2, "unbalanced"),  # fmt: skip
+        _err("brace_missing_after_joint", "JOINT not followed by '{'", _edit(head_joint + 1, None), head_joint + 2, "expected '{'"),  # fmt: skip
+        _err(
+            "two_roots",
+            "a second ROOT after the first closes",
+            _insert(MOTION, "ROOT Other\n{\n\tOFFSET 0 0 0\n\tCHANNELS 3 Zrotation Xrotation Yrotation\n}"),
+            MOTION + 1,
+            "second root",
+        ),  # fmt: skip
         _err("root_without_name", "ROOT with no name", _edit(1, "ROOT"), 2, "name"),
-        _err("motion_before_root", "HIERARCHY then straight to MOTION", "HIERARCHY\nMOTION\nFrames: 1\nFrame Time: 0.1\n\n",
-             2, "before any root"),  # fmt: skip
-        _err("stray_token", "an unknown keyword in the hierarchy", _insert(spine_ch + 1, "\t\tSCALE 1 1 1"),
-             spine_ch + 2, "unexpected 'scale'"),  # fmt: skip
-        _err("end_site_channels", "an End Site with CHANNELS", _insert(find("End Site") + 3, "CHANNELS 3 Zrotation Xrotation Yrotation"),
-             find("End Site") + 4, "end site cannot have channels"),  # fmt: skip
-        _err("duplicate_joint_name", "two joints called Head", _edit(leg_joint, "\t\tJOINT Head"),
-             leg_joint + 1, "duplicate joint name 'head'"),  # fmt: skip
-        _err("missing_offset", "a joint without OFFSET", _edit(head_off, None),
-             BASE_LINES.index("\t\t}"), "'head' (line 10) has no offset"),  # fmt: skip
+        _err(
+            "motion_before_root", "HIERARCHY then straight to MOTION", "HIERARCHY\nMOTION\nFrames: 1\nFrame Time: 0.1\n\n", 2, "before any root"
+        ),  # fmt: skip
+        _err(
+            "stray_token", "an unknown keyword in the hierarchy", _insert(spine_ch + 1, "\t\tSCALE 1 1 1"), spine_ch + 2, "unexpected 'scale'"
+        ),  # fmt: skip
+        _err(
+            "end_site_channels",
+            "an End Site with CHANNELS",
+            _insert(find("End Site") + 3, "CHANNELS 3 Zrotation Xrotation Yrotation"),
+            find("End Site") + 4,
+            "end site cannot have channels",
+        ),  # fmt: skip
+        _err(
+            "duplicate_joint_name", "two joints called Head", _edit(leg_joint, "\t\tJOINT Head"), leg_joint + 1, "duplicate joint name 'head'"
+        ),  # fmt: skip
+        _err(
+            "missing_offset", "a joint without OFFSET", _edit(head_off, None), BASE_LINES.index("\t\t}"), "'head' (line 10) has no offset"
+        ),  # fmt: skip
         # --- channels ----------------------------------------------------------------------
-        _err("channels_count_high", "CHANNELS 4 with three names", _edit(spine_ch, "\t\tCHANNELS 4 Zrotation Xrotation Yrotation"),
-             spine_ch + 1, "says 4 but lists 3"),  # fmt: skip
-        _err("channels_count_low", "CHANNELS 2 with three names", _edit(spine_ch, "\t\tCHANNELS 2 Zrotation Xrotation Yrotation"),
-             spine_ch + 1, "says 2 but lists 3"),  # fmt: skip
-        _err("channels_count_huge", "CHANNELS 999999999", _edit(spine_ch, "\t\tCHANNELS 999999999 Zrotation"),
-             spine_ch + 1, "says 999999999"),  # fmt: skip
-        _err("channels_count_word", "CHANNELS three", _edit(spine_ch, "\t\tCHANNELS three Zrotation Xrotation Yrotation"),
-             spine_ch + 1, "not a whole number"),  # fmt: skip
-        _err("channel_unknown", "a channel called Wrotation", _edit(spine_ch, "\t\tCHANNELS 3 Zrotation Wrotation Yrotation"),
-             spine_ch + 1, "unknown channel 'wrotation'"),  # fmt: skip
-        _err("channel_twice", "Zrotation listed twice", _edit(spine_ch, "\t\tCHANNELS 3 Zrotation Zrotation Yrotation"),
-             spine_ch + 1, "listed twice"),  # fmt: skip
+        _err(
+            "channels_count_high",
+            "CHANNELS 4 with three names",
+            _edit(spine_ch, "\t\tCHANNELS 4 Zrotation Xrotation Yrotation"),
+            spine_ch + 1,
+            "says 4 but lists 3",
+        ),  # fmt: skip
+        _err(
+            "channels_count_low",
+            "CHANNELS 2 with three names",
+            _edit(spine_ch, "\t\tCHANNELS 2 Zrotation Xrotation Yrotation"),
+            spine_ch + 1,
+            "says 2 but lists 3",
+        ),  # fmt: skip
+        _err(
+            "channels_count_huge", "CHANNELS 999999999", _edit(spine_ch, "\t\tCHANNELS 999999999 Zrotation"), spine_ch + 1, "says 999999999"
+        ),  # fmt: skip
+        _err(
+            "channels_count_word",
+            "CHANNELS three",
+            _edit(spine_ch, "\t\tCHANNELS three Zrotation Xrotation Yrotation"),
+            spine_ch + 1,
+            "not a whole number",
+        ),  # fmt: skip
+        _err(
+            "channel_unknown",
+            "a channel called Wrotation",
+            _edit(spine_ch, "\t\tCHANNELS 3 Zrotation Wrotation Yrotation"),
+            spine_ch + 1,
+            "unknown channel 'wrotation'",
+        ),  # fmt: skip
+        _err(
+            "channel_twice", "Zrotation listed twice", _edit(spine_ch, "\t\tCHANNELS 3 Zrotation Zrotation Yrotation"), spine_ch + 1, "listed twice"
+        ),  # fmt: skip
         # --- numbers -----------------------------------------------------------------------
         _err("offset_word", "OFFSET with a word", _edit(head_off, "\t\t\tOFFSET 0.00 sixty 0.00"), head_off + 1, "not a number"),
         _err("offset_nan", "OFFSET with nan", _edit(head_off, "\t\t\tOFFSET 0.00 nan 0.00"), head_off + 1, "not a finite number"),
         _err("offset_short", "OFFSET with two numbers", _edit(head_off, "\t\t\tOFFSET 0.00 60.00"), head_off + 1, "needs 3 numbers"),
-        _err("value_word", "a word among the motion values (frame 2)", _data_line(1, lambda t: _set(t, 7, "abc")),
-             DATA + 2, "value 8 'abc' is not a number"),  # fmt: skip
-        _err("value_decimal_comma", "a decimal comma (frame 3)", _data_line(2, lambda t: _set(t, 0, "3,0")),
-             DATA + 3, "value 1 '3,0' is not a number"),  # fmt: skip
-        _err("value_nan", "nan among the values (frame 2)", _data_line(1, lambda t: _set(t, 4, "nan")),
-             DATA + 2, "value 5 is nan"),  # fmt: skip
-        _err("value_inf", "-inf among the values (frame 3)", _data_line(2, lambda t: _set(t, 17, "-inf")),
-             DATA + 3, "value 18 is -inf"),  # fmt: skip
-        _err("value_overflow", "1e999 (overflows to inf) in frame 1", _data_line(0, lambda t: _set(t, 3, "1e999")),
-             DATA + 1, "value 4 is inf"),  # fmt: skip
-        _err("values_too_few", "17 values on the second motion line", _data_line(1, lambda t: t[:-1]),
-             DATA + 2, "17 values on a motion line; expected 18"),  # fmt: skip
-        _err("values_too_many", "19 values on the third motion line", _data_line(2, lambda t: [*t, "0.0"]),
-             DATA + 3, "19 values on a motion line; expected 18"),  # fmt: skip
-        _err("values_all_lines_short", "every motion line one value short", "\n".join(
-            BASE_LINES[:DATA] + [" ".join(s.split()[:-1]) for s in BASE_LINES[DATA:]]) + "\n",
-             DATA + 1, "17 values on a motion line; expected 18"),  # fmt: skip
+        _err(
+            "value_word",
+            "a word among the motion values (frame 2)",
+            _data_line(1, lambda t: _set(t, 7, "abc")),
+            DATA + 2,
+            "value 8 'abc' is not a number",
+        ),  # fmt: skip
+        _err(
+            "value_decimal_comma", "a decimal comma (frame 3)", _data_line(2, lambda t: _set(t, 0, "3,0")), DATA + 3, "value 1 '3,0' is not a number"
+        ),  # fmt: skip
+        _err("value_nan", "nan among the values (frame 2)", _data_line(1, lambda t: _set(t, 4, "nan")), DATA + 2, "value 5 is nan"),  # fmt: skip
+        _err("value_inf", "-inf among the values (frame 3)", _data_line(2, lambda t: _set(t, 17, "-inf")), DATA + 3, "value 18 is -inf"),  # fmt: skip
+        _err(
+            "value_overflow", "1e999 (overflows to inf) in frame 1", _data_line(0, lambda t: _set(t, 3, "1e999")), DATA + 1, "value 4 is inf"
+        ),  # fmt: skip
+        _err(
+            "values_too_few",
+            "17 values on the second motion line",
+            _data_line(1, lambda t: t[:-1]),
+            DATA + 2,
+            "17 values on a motion line; expected 18",
+        ),  # fmt: skip
+        _err(
+            "values_too_many",
+            "19 values on the third motion line",
+            _data_line(2, lambda t: [*t, "0.0"]),
+            DATA + 3,
+            "19 values on a motion line; expected 18",
+        ),  # fmt: skip
+        _err(
+            "values_all_lines_short",
+            "every motion line one value short",
+            "\n".join(BASE_LINES[:DATA] + [" ".join(s.split()[:-1]) for s in BASE_LINES[DATA:]]) + "\n",
+            DATA + 1,
+            "17 values on a motion line; expected 18",
+        ),  # fmt: skip
         # --- motion header -----------------------------------------------------------------
-        _err("frames_larger", "Frames: 5 but three lines of values", _edit(FRAMES, "Frames: 5"),
-             DATA + 4, "'frames: 5' but the motion section has 3"),  # fmt: skip
-        _err("frames_smaller", "Frames: 2 but three lines of values", _edit(FRAMES, "Frames: 2"),
-             DATA + 3, "'frames: 2' but the motion section has 3"),  # fmt: skip
-        _err("frames_huge", "Frames: 10^13 (must not allocate for it)", _edit(FRAMES, "Frames: 10000000000000"),
-             DATA + 4, "but the motion section has 3"),  # fmt: skip
-        _err("frames_zero", "Frames: 0 and no values", "\n".join(BASE_LINES[:DATA]).replace("Frames: 3", "Frames: 0") + "\n",
-             FRAMES + 1, "expected at least one frame"),  # fmt: skip
+        _err(
+            "frames_larger", "Frames: 5 but three lines of values", _edit(FRAMES, "Frames: 5"), DATA + 4, "'frames: 5' but the motion section has 3"
+        ),  # fmt: skip
+        _err(
+            "frames_smaller", "Frames: 2 but three lines of values", _edit(FRAMES, "Frames: 2"), DATA + 3, "'frames: 2' but the motion section has 3"
+        ),  # fmt: skip
+        _err(
+            "frames_huge",
+            "Frames: 10^13 (must not allocate for it)",
+            _edit(FRAMES, "Frames: 10000000000000"),
+            DATA + 4,
+            "but the motion section has 3",
+        ),  # fmt: skip
+        _err(
+            "frames_zero",
+            "Frames: 0 and no values",
+            "\n".join(BASE_LINES[:DATA]).replace("Frames: 3", "Frames: 0") + "\n",
+            FRAMES + 1,
+            "expected at least one frame",
+        ),  # fmt: skip
         _err("frames_negative", "Frames: -3", _edit(FRAMES, "Frames: -3"), FRAMES + 1, "expected at least one frame"),
         _err("frames_fraction", "Frames: 3.5", _edit(FRAMES, "Frames: 3.5"), FRAMES + 1, "not a whole number"),
         _err("frames_missing", "no Frames: line", _edit(FRAMES, None), FRAMES + 1, "expected 'frames: n'"),
         _err("frame_time_zero", "Frame Time: 0", _edit(FRAME_TIME, "Frame Time: 0"), FRAME_TIME + 1, "expected a positive"),
-        _err("frame_time_negative", "Frame Time: -0.0333333", _edit(FRAME_TIME, "Frame Time: -0.0333333"),
-             FRAME_TIME + 1, "expected a positive"),  # fmt: skip
+        _err(
+            "frame_time_negative", "Frame Time: -0.0333333", _edit(FRAME_TIME, "Frame Time: -0.0333333"), FRAME_TIME + 1, "expected a positive"
+        ),  # fmt: skip
         _err("frame_time_nan", "Frame Time: nan", _edit(FRAME_TIME, "Frame Time: nan"), FRAME_TIME + 1, "not a finite number"),
         _err("frame_time_word", "Frame Time: fast", _edit(FRAME_TIME, "Frame Time: fast"), FRAME_TIME + 1, "not a number"),
         # --- bytes -------------------------------------------------------------------------
         _err("binary_garbage", "4 KiB of random bytes", garbage, garbage.count(b"\n", 0, garbage.find(b"\x00")) + 1, "binary data"),
         _err("binary_png", "a PNG header", b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", 3, "binary data"),
-        _err("invalid_utf8", "a Latin-1 byte in a joint name (line 10)",
-             _edit(head_joint, "\t\tJOINT Kopf").encode().replace(b"Kopf", b"K\xf6pf"), head_joint + 1, "invalid utf-8"),  # fmt: skip
-        _err("invalid_utf8_values", "a stray 0xff byte in the motion values",
-             _edit(DATA + 1, BASE_LINES[DATA + 1] + " \udcff").encode("utf-8", "surrogateescape"), DATA + 2, "invalid utf-8"),  # fmt: skip
+        _err(
+            "invalid_utf8",
+            "a Latin-1 byte in a joint name (line 10)",
+            _edit(head_joint, "\t\tJOINT Kopf").encode().replace(b"Kopf", b"K\xf6pf"),
+            head_joint + 1,
+            "invalid utf-8",
+        ),  # fmt: skip
+        _err(
+            "invalid_utf8_values",
+            "a stray 0xff byte in the motion values",
+            _edit(DATA + 1, BASE_LINES[DATA + 1] + " \udcff").encode("utf-8", "surrogateescape"),
+            DATA + 2,
+            "invalid utf-8",
+        ),  # fmt: skip
         # --- unusual but valid -------------------------------------------------------------
         _ok("crlf", "Windows line ends", BASE.replace("\n", "\r\n"), same=True),
         _ok("cr_only", "classic Mac line ends (CR only)", BASE.replace("\n", "\r"), same=True),
         _ok("bom", "UTF-8 byte-order mark", b"\xef\xbb\xbf" + BASE.encode(), same=True),
         _ok("utf16", "UTF-16 with a byte-order mark (PowerShell '>')", BASE.encode("utf-16"), same=True),
-        _ok("spaces_and_tabs", "indentation with spaces, runs of blanks between values",
-            BASE.replace("\t", "  ").replace(" ", " \t "), same=True),  # fmt: skip
+        _ok(
+            "spaces_and_tabs", "indentation with spaces, runs of blanks between values", BASE.replace("\t", "  ").replace(" ", " \t "), same=True
+        ),  # fmt: skip
         _ok("frames_tab", "'Frames:' followed by a tab", BASE.replace("Frames: 3", "Frames:\t3"), same=True),
         _ok("no_final_newline", "no newline after the last frame", BASE.rstrip("\n"), same=True),
-        _ok("blank_lines", "blank lines between and after motion lines",
-            "\n".join(BASE_LINES[:DATA] + [s + "\n" for s in BASE_LINES[DATA:]]) + "\n\n\n", same=True),  # fmt: skip
+        _ok(
+            "blank_lines",
+            "blank lines between and after motion lines",
+            "\n".join(BASE_LINES[:DATA] + [s + "\n" for s in BASE_LINES[DATA:]]) + "\n\n\n",
+            same=True,
+        ),  # fmt: skip
         _ok("brace_same_line", "'{' on the JOINT line", BASE.replace("JOINT Spine\n\t{", "JOINT Spine {"), same=True),
         _ok("lowercase_channels", "channel names in lower case", BASE.replace("Zrotation", "zrotation"), same=True),
-        _ok("number_forms", "+1, 1e0, .5e1 and 1.0E+0 number spellings",
-            _data_line(0, lambda t: _set(_set(_set(t, 0, "+1"), 1, "0.905e2"), 2, "-.2E+1")), same=True),  # fmt: skip
-        _ok("zero_length_end_site", "an End Site with OFFSET 0 0 0",
-            _edit(find("OFFSET", 3), "\t\t\t\tOFFSET 0 0 0")),  # fmt: skip
-        _ok("xml_special_names", "joint names with < > & \" ' characters",
-            BASE.replace("JOINT Head", 'JOINT <Head&"Neck">').replace("JOINT LeftLeg", "JOINT Left'Leg</body>")),  # fmt: skip
-        _ok("names_with_spaces_colons", "names like 'mixamorig:Left Up Leg'",
-            BASE.replace("JOINT LeftUpLeg", "JOINT mixamorig:Left Up Leg")),  # fmt: skip
+        _ok(
+            "number_forms",
+            "+1, 1e0, .5e1 and 1.0E+0 number spellings",
+            _data_line(0, lambda t: _set(_set(_set(t, 0, "+1"), 1, "0.905e2"), 2, "-.2E+1")),
+            same=True,
+        ),  # fmt: skip
+        _ok("zero_length_end_site", "an End Site with OFFSET 0 0 0", _edit(find("OFFSET", 3), "\t\t\t\tOFFSET 0 0 0")),  # fmt: skip
+        _ok(
+            "xml_special_names",
+            "joint names with < > & \" ' characters",
+            BASE.replace("JOINT Head", 'JOINT <Head&"Neck">').replace("JOINT LeftLeg", "JOINT Left'Leg</body>"),
+        ),  # fmt: skip
+        _ok(
+            "names_with_spaces_colons", "names like 'mixamorig:Left Up Leg'", BASE.replace("JOINT LeftUpLeg", "JOINT mixamorig:Left Up Leg")
+        ),  # fmt: skip
         _ok("unicode_names", "non-ASCII joint names", BASE.replace("JOINT Head", "JOINT Kopf_頭")),
-        _ok("zero_channel_joint", "a joint with CHANNELS 0 (fixed)",
-            _edit(spine_ch, "\t\tCHANNELS 0").replace(BASE_LINES[DATA], " ".join(BASE_LINES[DATA].split()[:6] + BASE_LINES[DATA].split()[9:]))
+        _ok(
+            "zero_channel_joint",
+            "a joint with CHANNELS 0 (fixed)",
+            _edit(spine_ch, "\t\tCHANNELS 0")
+            .replace(BASE_LINES[DATA], " ".join(BASE_LINES[DATA].split()[:6] + BASE_LINES[DATA].split()[9:]))
             .replace(BASE_LINES[DATA + 1], " ".join(BASE_LINES[DATA + 1].split()[:6] + BASE_LINES[DATA + 1].split()[9:]))
-            .replace(BASE_LINES[DATA + 2], " ".join(BASE_LINES[DATA + 2].split()[:6] + BASE_LINES[DATA + 2].split()[9:]))),  # fmt: skip
+            .replace(BASE_LINES[DATA + 2], " ".join(BASE_LINES[DATA + 2].split()[:6] + BASE_LINES[DATA + 2].split()[9:])),
+        ),  # fmt: skip
         _ok("single_frame", "one frame", "\n".join(BASE_LINES[: DATA + 1]).replace("Frames: 3", "Frames: 1") + "\n"),
     ]
     names = [c.name for c in out]
@@ -314,7 +404,7 @@ def readme(all_cases: list[Case]) -> str:
         "",
         "Each case is one edit of a valid five-joint file (`base.bvh`), so the line an error must name",
         "is known from the edit. An error case must raise `BvhError` whose message starts `FILE:LINE:`",
-        "and contains the phrase; a valid case must load (\"same\": to exactly the motion of",
+        'and contains the phrase; a valid case must load ("same": to exactly the motion of',
         "`base.bvh`). When `Frames:` promises more frames than there are, the line named is the one",
         "after the last line of values (where the data runs out).",
         "",
