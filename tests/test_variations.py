@@ -205,7 +205,7 @@ def test_scaling_lengthens_and_shortens_the_hand_path_in_the_swing(golf):
 def _foot_height_error(src, out, p):
     # mean |height| difference of the feet from the source's where the source's foot is down
     h = evaluate.foot_heights_speeds(None, out).heights
-    hs = V._source_at(evaluate.foot_heights_speeds(None, src).heights, p)
+    hs = V.fixes._source_at(evaluate.foot_heights_speeds(None, src).heights, p)
     return float(np.mean(np.abs(h - hs)[hs < evaluate.H_C]))
 
 
@@ -277,18 +277,6 @@ def test_abort_follows_the_source_and_ends_at_the_rest_pose_smoothly(golf):
 
 
 # --- plots and CLI -----------------------------------------------------------------------------
-def test_plot_score_paths_writes_png(swing01, tmp_path):
-    _, space = swing01
-    base = V.source_path(space, 3)
-    paths = {"source": base.scores, "scale 1.3": V.scaled_path(base, 1.3).scores}
-    for dims in (2, 3):
-        out = tmp_path / f"p{dims}.png"
-        V.plot_score_paths(paths, out, dims=dims)
-        assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000
-    with pytest.raises(MjmotionError, match="2 or 3"):
-        V.plot_score_paths(paths, tmp_path / "x.png", dims=4)
-
-
 def test_vary_cli_report_and_errors(tmp_path, capsys):
     src_file = require_data() / "cmu_asfamc_converted" / "64_01.bvh"
     out, js, png = tmp_path / "v.bvh", tmp_path / "v.json", tmp_path / "v.png"

@@ -127,7 +127,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import bvh, variations
+    from .. import bvh, plots, variations
     from ..style import PoseSpace, reconstruction_errors
 
     inputs = [args.file] + ([args.scores] if args.scores else [])
@@ -204,7 +204,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.plot:
         src_path = space.source_scores
-        variations.plot_score_paths(
+        plots.score_paths(
             {"source": src_path, path.label: path.scores},
             args.plot,
             dims=args.plot_dims,

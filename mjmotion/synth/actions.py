@@ -19,10 +19,10 @@ from scipy.spatial.transform import RotationSpline
 from .. import mjcf
 from .. import rotations as rot
 from ..errors import MjmotionError
-from ..skeleton import Motion
-from .body import PoseBuilder, axis_angle, compose, foot_geometry, forward_kinematics, lower_pelvis, yaw
+from .body import PoseBuilder, axis_angle, compose, foot_geometry, lower_pelvis, yaw
 from .clip import SynthClip
 from .gait import FPS, STYLES, Footprint, _foot_track, check_seed
+from .props import prop_frame
 
 #: The bat: in the right (bottom) hand, grip across the palm, the blade out of the little-finger
 #: side; the prop's -x axis is the palm normal (the face of the blade looks where the palm does).
@@ -65,31 +65,6 @@ def _plane_bat(beta_deg: float, x_tilt: float = 0.0) -> np.ndarray:
     axis = (x_tilt, np.sin(b), -np.cos(b))
     face = (0.0, np.cos(b), np.sin(b))
     return _bat_frame(axis, face)  # type: ignore[arg-type]
-
-
-def _holding_joint(motion: Motion, prop: mjcf.Prop, frame: int) -> tuple[np.ndarray, np.ndarray]:
-    """World position ``(3,)`` and rotation ``(4,)`` of the joint holding ``prop`` at ``frame`` (NumPy FK)."""
-    pos, wq = forward_kinematics(motion.root_positions[frame : frame + 1], motion.rotations[frame : frame + 1], motion.skeleton)
-    j = motion.skeleton.index(prop.joint)
-    return pos[0, j], wq[0, j]
-
-
-def _site_from(p: np.ndarray, q: np.ndarray, prop: mjcf.Prop, site: str) -> np.ndarray:
-    along = {"grip": 0.0, "sweet_spot": prop.sweet_spot, "tip": prop.length}[site]
-    local = np.asarray(prop.pos) + rot.rotate(np.asarray(prop.quat), np.array([0.0, 0.0, along]))
-    return p + rot.rotate(q, local)
-
-
-def prop_site(motion: Motion, prop: mjcf.Prop, frame: int, site: str = "sweet_spot") -> np.ndarray:
-    """World position ``(3,)`` of a prop site (``grip``, ``sweet_spot``, ``tip``) at ``frame`` (NumPy FK)."""
-    return _site_from(*_holding_joint(motion, prop, frame), prop, site)
-
-
-def prop_frame(motion: Motion, prop: mjcf.Prop, frame: int) -> tuple[np.ndarray, np.ndarray]:
-    """Sweet-spot position ``(3,)`` and face normal ``(3,)`` (the prop frame's -x) at ``frame``."""
-    p, wq = _holding_joint(motion, prop, frame)
-    q = rot.multiply(wq, np.asarray(prop.quat))
-    return _site_from(p, wq, prop, "sweet_spot"), rot.rotate(q, np.array([-1.0, 0.0, 0.0]))
 
 
 # --- shared pieces -------------------------------------------------------------------------------

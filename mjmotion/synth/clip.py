@@ -13,6 +13,7 @@ from ..errors import MjmotionError
 from ..skeleton import Motion
 from ..transform import floor_transform, timewarp
 from .gait import Footprint
+from .props import prop_frame
 
 MANIFEST_VERSION = 1
 
@@ -279,8 +280,6 @@ def smooth_warp(n_source: int, n_frames: int, strength: float = 0.25, seed: int 
 
 
 def _sweet_spot(motion: Motion, prop: mjcf.Prop | None, frame: int) -> tuple[np.ndarray, np.ndarray]:
-    from .actions import prop_frame
-
     if prop is None:
         raise MjmotionError("a clip with a hit frame needs a prop")
     return prop_frame(motion, prop, frame)
