@@ -74,9 +74,11 @@ def test_foot_boxes_sit_on_the_sole_in_the_rest_pose(mocap):
     g = c.foot_geoms["left"][0]
     corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * c.model.geom_size[g]
     world = d.geom_xpos[g] + corners @ d.geom_xmat[g].reshape(3, 3).T
-    # Rest pose: the skeleton stands nearly along z, so the box bottom is at the toe tip's height.
-    assert world[:, 2].min() == pytest.approx(toe_tip[2], abs=0.01)
-    assert world[:, 2].max() <= skel.rest_positions()[ankle][2] + 0.01
+    # Rest pose: the skeleton stands nearly along z, so the box bottom is at the toe tip's height
+    # (qpos0 lifts the rest pose by the root's height so that it stands on the floor).
+    lift = c.model.qpos0[2]
+    assert world[:, 2].min() == pytest.approx(toe_tip[2] + lift, abs=0.01)
+    assert world[:, 2].max() <= skel.rest_positions()[ankle][2] + lift + 0.01
 
 
 def test_name_clash_with_added_elements_is_refused():
