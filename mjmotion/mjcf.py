@@ -611,8 +611,10 @@ def _index(
 
 # --- a model a MuJoCo user can open: standing, a keyframe, servos, a skin ---------------------
 #: Natural frequency (Hz) and damping ratio of the joint servos :func:`add_actuators` adds.
-SERVO_HZ = 5.0
+SERVO_HZ = 25.0
 SERVO_DAMPING = 1.0
+#: Armature of every actuated degree of freedom, kg·m² per kg of body mass for a 1.75 m character.
+SERVO_ARMATURE = 2e-4
 
 
 def lowest_point(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray | list[int]) -> float:
@@ -670,39 +672,68 @@ def _recompiled(compiled: CompiledModel) -> CompiledModel:
     return dataclasses.replace(compiled, model=compiled.spec.compile())
 
 
-def add_actuators(compiled: CompiledModel, hz: float = SERVO_HZ, damping: float = SERVO_DAMPING) -> CompiledModel:
+def add_actuators(
+    compiled: CompiledModel,
+    neutral: np.ndarray | None = None,
+    hz: float = SERVO_HZ,
+    damping: float = SERVO_DAMPING,
+    armature: float = SERVO_ARMATURE,
+) -> CompiledModel:
     """A position servo per joint degree of freedom (the free root stays unactuated).
 
-    MuJoCo actuates a ball joint through a ``joint`` transmission with a 3-vector ``gear``: the
-    actuator's length is ``gear · r`` with ``r`` the joint's rotation vector (axis × angle of its
-    quaternion) and its force a torque about ``gear`` in the joint frame. Three position
-    actuators with gears x, y, z are a servo on the rotation vector, with no gimbal lock and no
-    change to the ball-joint model the rest of the lab uses; slide joints get one each. A
-    target pose's controls are its actuator lengths (:func:`add_keyframe` sets them).
+    A ball joint gets three position actuators on a ``site`` transmission with a ``refsite``:
+    MuJoCo's actuator length is then the rotation vector (axis × angle) of the child's frame
+    relative to a reference frame fixed in the parent, so the three are a servo on the joint's
+    rotation away from a neutral pose (``neutral[j]``, its local rotation), with no gimbal lock and
+    the ball-joint model (and ``qpos``) the rest of the lab uses. A rotation vector wraps at 180°:
+    a ``joint`` transmission measures from the joint's zero, and rigs whose captured poses sit
+    ~180° from their rest frames (iClone's thighs, eyes and teeth) would flip; measured from a
+    standing neutral pose (the skin's bind pose) they stay far from it. Slide joints get one
+    ``joint`` servo each. A pose's controls are its actuator lengths (:func:`add_keyframe` sets them).
 
-    Gains scale with the inertia each joint moves: ``kp = I ω²``, ``kv = 2 ζ I ω`` with ``I`` the
-    joint-space mass matrix diagonal in the rest pose (the segment's and everything distal to it,
-    about that axis), so every joint has the natural frequency ``hz`` and damping ratio ``damping``.
-    The integrator becomes ``implicitfast``, which treats the servos' damping implicitly.
+    Gains scale with the inertia each joint moves: ``kp = I ω²``, ``kv = 2 ζ I ω``, ``I`` the
+    joint-space mass matrix diagonal in the rest pose (the segment and everything distal to it, plus
+    an armature of ``armature × body mass × (stature / 1.75 m)²`` that keeps fingers and helper
+    bones from being so light that contacts make them unstable), so every joint has the natural
+    frequency ``hz`` and damping ratio ``damping``. The integrator becomes ``implicitfast``, which
+    treats the servos' damping implicitly.
+
+    Args:
+        neutral: ``(J, 4)`` local rotations the servos measure from; default the rest pose.
     """
-    m, spec = compiled.model, compiled.spec
+    skel, spec = compiled.skeleton, compiled.spec
+    neutral = np.tile(rot.IDENTITY, (skel.n_joints, 1)) if neutral is None else rot.normalize(neutral)
+    total = float(compiled.model.body_mass[compiled.body_ids].sum())
+    rotor = armature * total * (float(np.clip(skel.stature(), 0.3, 3.0)) / 1.75) ** 2
+    for joint in spec.joints:
+        if joint.type != mujoco.mjtJoint.mjJNT_FREE:
+            joint.armature = rotor
+    m = spec.compile()
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
     mass = np.zeros((m.nv, m.nv))
-    mujoco.mj_fullM(m, mass, d.qM)
+    mujoco.mj_fullM(m, d, mass)
     omega = 2.0 * np.pi * hz
-    for j, name in enumerate(compiled.skeleton.names):
+
+    def servo(label: str, inertia: float, **transmission: object) -> None:
+        act = spec.add_actuator(name=label, **transmission)
+        act.set_to_position(kp=inertia * omega**2, kv=2.0 * damping * inertia * omega)
+
+    for j, name in enumerate(skel.names):
         if j == 0:
             continue
-        axes = [(name, compiled.dof_adr[j] + k, np.eye(3)[k], f"{name}/{'xyz'[k]}") for k in range(3)]
+        child, parent = spec.body(name), spec.body(skel.names[int(skel.parents[j])])
+        child.add_site(name=f"{name}/servo", group=5)
+        parent.add_site(name=f"{name}/servo_ref", pos=skel.offsets[j].tolist(), quat=neutral[j].tolist(), group=5)
+        for k in range(3):
+            gear = [0.0, 0.0, 0.0, *np.eye(3)[k]]
+            inertia = float(mass[compiled.dof_adr[j] + k, compiled.dof_adr[j] + k])
+            servo(f"{name}/{'xyz'[k]}", inertia, target=f"{name}/servo", refsite=f"{name}/servo_ref", trntype=mujoco.mjtTrn.mjTRN_SITE, gear=gear)
         if compiled.slide_adr[j] >= 0:
             for label in "xyz":
                 jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"{name}/slide_{label}")
-                axes.append((f"{name}/slide_{label}", int(m.jnt_dofadr[jid]), np.array([1.0, 0.0, 0.0]), f"{name}/slide_{label}"))
-        for joint, dof, gear, label in axes:
-            inertia = float(mass[dof, dof])
-            act = spec.add_actuator(name=label, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT, gear=[*gear, 0.0, 0.0, 0.0])
-            act.set_to_position(kp=inertia * omega**2, kv=2.0 * damping * inertia * omega)
+                dof = int(m.jnt_dofadr[jid])
+                servo(f"{name}/slide_{label}", float(mass[dof, dof]), target=f"{name}/slide_{label}", trntype=mujoco.mjtTrn.mjTRN_JOINT)
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     return _recompiled(compiled)
 

@@ -42,7 +42,7 @@ class Settings:
     """How the surface and weights are made, in metres for a 1.75 m character (scaled with stature).
 
     Attributes:
-        voxel: marching-cubes grid spacing (1.2 cm gives 10–20k vertices).
+        voxel: marching-cubes grid spacing (1.4 cm gives 11–15k vertices on the shared skeletons).
         blend: fillet width where two geoms meet (the smooth union).
         margin: how far outside the geoms the surface lies (so the skin covers them).
         falloff: the weights' distance bound (see :mod:`.weights`).
@@ -50,7 +50,7 @@ class Settings:
         influences: most bones per vertex (1–4).
     """
 
-    voxel: float = 0.012
+    voxel: float = 0.014
     blend: float = 0.02
     margin: float = 0.004
     falloff: float = 0.03
@@ -72,6 +72,7 @@ class Skin:
         weights: influences per vertex; ``weights.bones`` index ``joints``.
         parents: ``(N,)`` each bone's nearest ancestor among ``joints`` (index into it; ``-1`` none).
         bind_pose: ``(J, 4)`` local rotations of the bind pose (:func:`.bind.bind_rotations`).
+        bind_root: ``(3,)`` the root's position in the bind pose.
     """
 
     vertices: np.ndarray
@@ -84,6 +85,7 @@ class Skin:
     weights: _weights.Weights
     parents: np.ndarray
     bind_pose: np.ndarray
+    bind_root: np.ndarray
 
     @property
     def n_vertices(self) -> int:
@@ -176,6 +178,7 @@ def build(compiled: mjcf.CompiledModel, reference: Motion | None = None, setting
         weights=w,
         parents=_bone_parents(skel.parents, joints),
         bind_pose=local,
+        bind_root=q[0:3].copy(),
     )
     _CACHE[key] = out
     if len(_CACHE) > _CACHE_SIZE:
