@@ -668,8 +668,9 @@ def _stand(spec: mujoco.MjSpec, model: mujoco.MjModel, root: mujoco.MjsBody, ske
     model.qpos_spring[adr + 2] = lift
 
 
-def _recompiled(compiled: CompiledModel) -> CompiledModel:
-    return dataclasses.replace(compiled, model=compiled.spec.compile())
+def _recompiled(compiled: CompiledModel, spec: mujoco.MjSpec) -> CompiledModel:
+    """``compiled`` with ``spec`` (an edited copy of its spec) compiled in; the input is untouched."""
+    return dataclasses.replace(compiled, spec=spec, model=spec.compile())
 
 
 def add_actuators(
@@ -701,7 +702,7 @@ def add_actuators(
     Args:
         neutral: ``(J, 4)`` local rotations the servos measure from; default the rest pose.
     """
-    skel, spec = compiled.skeleton, compiled.spec
+    skel, spec = compiled.skeleton, compiled.spec.copy()
     neutral = np.tile(rot.IDENTITY, (skel.n_joints, 1)) if neutral is None else rot.normalize(neutral)
     total = float(compiled.model.body_mass[compiled.body_ids].sum())
     rotor = armature * total * (float(np.clip(skel.stature(), 0.3, 3.0)) / 1.75) ** 2
@@ -735,7 +736,7 @@ def add_actuators(
                 dof = int(m.jnt_dofadr[jid])
                 servo(f"{name}/slide_{label}", float(mass[dof, dof]), target=f"{name}/slide_{label}", trntype=mujoco.mjtTrn.mjTRN_JOINT)
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    return _recompiled(compiled)
+    return _recompiled(compiled, spec)
 
 
 def add_keyframe(compiled: CompiledModel, qpos: np.ndarray, name: str = "start") -> CompiledModel:
@@ -747,12 +748,13 @@ def add_keyframe(compiled: CompiledModel, qpos: np.ndarray, name: str = "start")
     d.qpos[:] = q
     mujoco.mj_kinematics(m, d)
     q[2] -= lowest_point(m, d, character_geoms(m, int(compiled.body_ids[0])))
-    key = compiled.spec.add_key(name=name, qpos=q.tolist())
+    spec = compiled.spec.copy()
+    key = spec.add_key(name=name, qpos=q.tolist())
     if m.nu:
         d.qpos[:] = q
         mujoco.mj_forward(m, d)
         key.ctrl = d.actuator_length.tolist()
-    return _recompiled(compiled)
+    return _recompiled(compiled, spec)
 
 
 def add_skin(
@@ -796,7 +798,16 @@ def add_skin(
     return skin
 
 
-def with_skin(compiled: CompiledModel, **skin: object) -> CompiledModel:
-    """``compiled`` with a skin added (the keyword arguments of :func:`add_skin`) and recompiled."""
-    add_skin(compiled.spec, **skin)  # type: ignore[arg-type]
-    return _recompiled(compiled)
+def with_skin(compiled: CompiledModel, hide_group: int | None = None, **skin: object) -> CompiledModel:
+    """``compiled`` with a skin added (the keyword arguments of :func:`add_skin`) and recompiled.
+
+    ``hide_group``: move the character's own geoms (still its collision and mass) to this geom group.
+    """
+    spec = compiled.spec.copy()
+    if hide_group is not None:
+        mine = set(character_geoms(compiled.model, int(compiled.body_ids[0])).tolist())
+        for g in spec.geoms:
+            if g.id in mine:
+                g.group = hide_group
+    add_skin(spec, **skin)  # type: ignore[arg-type]
+    return _recompiled(compiled, spec)

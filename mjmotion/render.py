@@ -327,10 +327,6 @@ def _paint(spec: mujoco.MjSpec, color: Sequence[float], prop_names: set[str]) ->
         g.rgba = [*(rgb * shade), 1.0]
 
 
-#: Geom group the capsules of a skinned character move to: MuJoCo draws groups 0–2 by default.
-HIDDEN_GROUP = 3
-
-
 def _skin_instead_of_capsules(
     spec: mujoco.MjSpec, child: mujoco.MjSpec, compiled: mjcf.CompiledModel, actor: Actor, default: Sequence[float], prefix: str
 ) -> None:
@@ -341,7 +337,7 @@ def _skin_instead_of_capsules(
     props = {p.name for p in actor.props}
     for g in child.geoms:
         if g.name not in props:
-            g.group = HIDDEN_GROUP
+            g.group = skin.HIDDEN_GROUP
     rgb = np.clip(np.asarray(actor.color or default, dtype=float), 0.0, 1.0)
     mjcf.add_skin(spec, **skin.skin_arguments(s, prefix=prefix, name=f"{prefix}skin", rgba=(*rgb, 1.0)))  # type: ignore[arg-type]
 

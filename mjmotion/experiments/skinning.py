@@ -163,8 +163,11 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
         for i, a in enumerate(angles):
             table.add(kind, float(a), pct["lbs"][i, 0], pct["dqs"][i, 0], pct["lbs"][i, 1], pct["dqs"][i, 1])
         series[kind] = {"angles": angles, **{f"{m}_{q}": pct[m][:, k] for m in ("lbs", "dqs") for k, q in enumerate(("area", "volume"))}}
-    t180 = {m: measures(arm, "twist", 180.0, m)[0] / measures(arm, "twist", 0.0, m)[0] for m in ("lbs", "dqs")}
-    table.notes.append(f"at a 180° twist LBS keeps {100 * t180['lbs']:.0f} % of the elbow's cross-section, DQS {100 * t180['dqs']:.0f} %")
+    last = series["twist"]
+    table.notes.append(
+        f"at a {last['angles'][-1]:.0f}° twist LBS keeps {last['lbs_area'][-1]:.0f} % of the elbow's cross-section and "
+        f"{last['lbs_volume'][-1]:.0f} % of its volume, DQS {last['dqs_area'][-1]:.0f} % and {last['dqs_volume'][-1]:.0f} %"
+    )
     local = pose(arm, "twist", 180.0)
     views = {m: skin_at(arm, local, m) for m in ("lbs", "dqs")}
     centre = bind.world_pose(motion.skeleton, local, arm.skin.bind_root)[0][arm.elbow]

@@ -252,9 +252,20 @@ def animate(motion: Motion, method: str = "lbs", normals: bool = True, settings:
     return SkinnedMotion(faces=s.faces, bind_vertices=s.vertices, vertices=v, normals=n, fps=motion.fps)
 
 
-def attach(compiled: mjcf.CompiledModel, skin: Skin, rgba: tuple[float, float, float, float] = (0.75, 0.6, 0.5, 1.0)) -> mjcf.CompiledModel:
-    """``compiled`` carrying ``skin`` as a MuJoCo ``<skin>`` (its body geoms keep their group)."""
-    return mjcf.with_skin(compiled, **skin_arguments(skin, rgba=rgba))
+#: Geom group the character's own geoms move to in a skinned model: MuJoCo draws groups 0–2 by default.
+HIDDEN_GROUP = 3
+
+
+def attach(
+    compiled: mjcf.CompiledModel, skin: Skin, rgba: tuple[float, float, float, float] = (0.75, 0.6, 0.5, 1.0), hide_geoms: bool = True
+) -> mjcf.CompiledModel:
+    """``compiled`` carrying ``skin`` as a MuJoCo ``<skin>``.
+
+    With ``hide_geoms`` the character's capsules and foot boxes (still its collision and mass
+    geometry) move to geom group :data:`HIDDEN_GROUP`, which viewers do not draw unless asked
+    (key ``3`` in MuJoCo's viewer); props and the floor stay visible.
+    """
+    return mjcf.with_skin(compiled, hide_group=HIDDEN_GROUP if hide_geoms else None, **skin_arguments(skin, rgba=rgba))
 
 
 def skin_arguments(skin: Skin, prefix: str = "", **extra: object) -> dict[str, object]:

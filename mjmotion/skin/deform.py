@@ -7,9 +7,9 @@ the bodies the skin is bound to — and their bind-pose frames, and return defor
 **LBS** (vertex blending): ``v' = (Σᵢ wᵢ Mᵢ Bᵢ⁻¹) v`` with ``Mᵢ`` the bone's current frame and
 ``Bᵢ`` its bind frame. The sum is linear in the bone matrices, so all frames are one matrix
 product: ``(T·3, 4N)`` bone matrices times a ``(4N, V)`` matrix holding ``wᵢ·(v, 1)``. Normals go
-through the inverse transpose of the blended 3×3 part, computed as its cofactor matrix (the
-inverse transpose up to a positive scale, which normalising removes), so a collapsing joint
-cannot divide by zero.
+through the inverse transpose of the blended 3×3 part, computed as its cofactor matrix times the
+sign of its determinant (the inverse transpose up to a positive scale, which normalising removes),
+so a collapsing joint cannot divide by zero.
 
 **DQS** (Kavan et al. 2007): each bone's rigid motion as a unit dual quaternion, blended with the
 same weights after flipping each to the hemisphere of the vertex's main bone, normalised, and
@@ -43,11 +43,13 @@ def bone_transforms(
     return q, t
 
 
-def _cofactor_times(a: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """``cof(A) · n`` — ``det(A) A⁻ᵀ n`` without the division — for ``a: (t, 3, 3, V)``
-    (component-first) and ``n: (3, V)``; returns ``(t, 3, V)``."""
+def _inverse_transpose_times(a: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """``A⁻ᵀ n`` up to a positive scale — ``sign(det A) · cof(A) · n``, no division — for
+    ``a: (t, 3, 3, V)`` (component-first) and ``n: (3, V)``; returns ``(t, 3, V)``."""
     c0, c1, c2 = a[:, :, 0], a[:, :, 1], a[:, :, 2]  # the columns, each (t, 3, V)
-    return n[0] * _cross(c1, c2) + n[1] * _cross(c2, c0) + n[2] * _cross(c0, c1)
+    x12 = _cross(c1, c2)
+    sign = np.where(np.einsum("tcv,tcv->tv", c0, x12) < 0, -1.0, 1.0)[:, None]
+    return sign * (n[0] * x12 + n[1] * _cross(c2, c0) + n[2] * _cross(c0, c1))
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -102,7 +104,7 @@ def lbs(
     for a in range(0, n_t, CHUNK):
         b = min(a + CHUNK, n_t)
         blend = (r_flat[a * 9 : b * 9] @ w.T).reshape(b - a, 3, 3, -1)  # (t, 3, 3, V): Σ wᵢ Rᵢ per vertex
-        nrm[a:b] = _unit(_cofactor_times(blend, n_cf)).transpose(0, 2, 1)
+        nrm[a:b] = _unit(_inverse_transpose_times(blend, n_cf)).transpose(0, 2, 1)
     return np.ascontiguousarray(out), nrm
 
 

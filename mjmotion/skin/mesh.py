@@ -63,11 +63,9 @@ class Shapes:
             t = np.clip((points - a) @ ab / max(float(ab @ ab), 1e-18), 0.0, 1.0)
             return np.linalg.norm(points - a - t[:, None] * ab, axis=1) - self.radii[shape]
         k = shape - nc
-        rounding = 0.5 * float(self.box_half[k].min())
         local = (points - self.box_centers[k]) @ self.box_axes[k]
-        q = np.abs(local) - (self.box_half[k] - rounding)
-        outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
-        return outside + np.minimum(q.max(axis=1), 0.0) - rounding
+        q = np.abs(local) - self.box_half[k]
+        return np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)
 
     def shape_body(self) -> np.ndarray:
         """``(S,)`` body index of each shape (capsules first)."""
