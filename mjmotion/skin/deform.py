@@ -5,8 +5,9 @@ the bodies the skin is bound to — and their bind-pose frames, and return defor
 ``(T, V, 3)`` (and normals) for all frames at once.
 
 **LBS** (vertex blending): ``v' = (Σᵢ wᵢ Mᵢ Bᵢ⁻¹) v`` with ``Mᵢ`` the bone's current frame and
-``Bᵢ`` its bind frame. The sum is linear in the bone matrices, so all frames are one matrix
-product: ``(T·3, 4N)`` bone matrices times a ``(4N, V)`` matrix holding ``wᵢ·(v, 1)``. Normals go
+``Bᵢ`` its bind frame. The sum is linear in the bone matrices, so each frame is one sparse matrix
+product: a ``(V, 4N)`` matrix holding ``wᵢ·(v, 1)`` in bone ``i``'s columns (at most four bones
+per row) times the frame's stacked ``[Rᵢ | tᵢ]ᵀ``. Normals go
 through the inverse transpose of the blended 3×3 part, computed as its cofactor matrix times the
 sign of its determinant (the inverse transpose up to a positive scale, which normalising removes),
 so a collapsing joint cannot divide by zero.
@@ -87,17 +88,22 @@ def lbs(
     Returns:
         ``(T, V, 3)`` positions and, if ``normals`` was given, ``(T, V, 3)`` unit normals.
     """
+    from scipy import sparse
+
     used = np.flatnonzero(np.any(weights > 0, axis=0))
     w = weights[:, used]  # (V, n)
     r = rot.to_matrix(q[:, used])  # (T, n, 3, 3)
-    m = np.concatenate([r, t[:, used, :, None]], axis=3)  # (T, n, 3, 4)
+    m = np.concatenate([r, t[:, used, :, None]], axis=3)  # (T, n, 3, 4): [R | t] per bone
     n_t, n_b = m.shape[:2]
-    m_flat = m.transpose(0, 2, 1, 3).reshape(n_t * 3, n_b * 4)
     homog = np.hstack([vertices, np.ones((len(vertices), 1))])  # (V, 4)
-    s = (w.T[:, None, :] * homog.T[None, :, :]).reshape(n_b * 4, len(vertices))  # row (bone, coord)
-    out = (m_flat @ s).reshape(n_t, 3, len(vertices)).transpose(0, 2, 1)
+    # Row v of s holds wᵢ·(v, 1) in the columns of bone i: v'ᵀ = s[v] @ (Mᵢ stacked); at most 4 bones per row.
+    s = sparse.csr_matrix((w[:, :, None] * homog[:, None, :]).reshape(len(vertices), n_b * 4))
+    mt = m.transpose(0, 1, 3, 2).reshape(n_t, n_b * 4, 3)
+    out = np.empty((n_t, len(vertices), 3))
+    for f in range(n_t):
+        out[f] = s @ mt[f]
     if normals is None:
-        return np.ascontiguousarray(out), None
+        return out, None
     nrm = np.empty_like(out)
     r_flat = r.transpose(0, 2, 3, 1).reshape(n_t * 9, n_b)
     n_cf = np.ascontiguousarray(normals.T)
@@ -105,7 +111,7 @@ def lbs(
         b = min(a + CHUNK, n_t)
         blend = (r_flat[a * 9 : b * 9] @ w.T).reshape(b - a, 3, 3, -1)  # (t, 3, 3, V): Σ wᵢ Rᵢ per vertex
         nrm[a:b] = _unit(_inverse_transpose_times(blend, n_cf)).transpose(0, 2, 1)
-    return np.ascontiguousarray(out), nrm
+    return out, nrm
 
 
 def _hemisphere_signs(q: np.ndarray, parents: np.ndarray) -> np.ndarray:
