@@ -63,7 +63,8 @@ def _head(skeleton: Skeleton) -> int | None:
     seg = segments(skeleton)
     heads = [j for j, s in enumerate(seg) if s == "head"]
     named = [j for j in heads if "head" in skeleton.names[j].lower()]
-    return (named or heads or [None])[0]
+    found = named or heads
+    return found[0] if found else None
 
 
 def _hips(skeleton: Skeleton) -> tuple[int, int] | None:

@@ -185,6 +185,6 @@ def dqs(
         w, u, dw, du = br[:, :1], br[:, 1:], bd[:, :1], bd[:, 1:]
         trans = 2.0 * (w * du - dw * u + _cross(u, du))
         out[a:b] = (_rotate(br, v_cf) + trans).transpose(0, 2, 1)
-        if nrm is not None:
+        if nrm is not None and n_cf is not None:
             nrm[a:b] = _unit(_rotate(br, n_cf)).transpose(0, 2, 1)
     return out, nrm
