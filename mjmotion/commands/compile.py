@@ -20,7 +20,8 @@ MuJoCo's viewer with the Key slider, or mujoco.mj_resetDataKeyframe).
 
 --skin adds the character's skinned surface (a MuJoCo <skin>: a closed mesh around the geoms
 in a standing T-pose, up to four bone weights per vertex by bind-pose distance; MuJoCo deforms
-it by vertex blending when it draws). --actuators adds a position servo per joint degree of
+it by vertex blending when it draws); the capsules and foot boxes stay the collision and mass
+geometry but move to geom group 3, which viewers hide unless asked (key 3 in MuJoCo's viewer). --actuators adds a position servo per joint degree of
 freedom (three per ball joint, on the rotation away from the T-pose; gains scaled by the inertia
 each joint moves), and the keyframe's controls hold its pose: python -m mujoco.viewer --mjcf=X.xml.
 
