@@ -15,6 +15,7 @@ each other. The world has a checker floor (z = 0), lights and a camera tracking 
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass, field
 from xml.etree import ElementTree
@@ -156,6 +157,7 @@ class CompiledModel:
             st = sites.get(el.get("name", ""))
             if st is not None:
                 _set_vec(el, "pos", st.pos, default=(0.0, 0.0, 0.0))
+        _skins_at_full_precision(root, self.spec)
         ElementTree.indent(root, "  ")
         return ElementTree.tostring(root, encoding="unicode") + "\n"
 
@@ -163,6 +165,25 @@ class CompiledModel:
         from .outputs import write_text_atomic
 
         write_text_atomic(path, self.to_xml())
+
+
+def _skins_at_full_precision(root: ElementTree.Element, spec: mujoco.MjSpec) -> None:
+    """Skin vertices and bind frames as MuJoCo stores them (float32, 9 digits), not the writer's 6."""
+    skins = {s.name: s for s in spec.skins}
+    for el in root.iter("skin"):
+        s = skins.get(el.get("name", ""))
+        if s is None:
+            continue
+        el.set("vertex", _floats32(s.vert))
+        for bone, pos, quat, w in zip(el.iter("bone"), np.reshape(s.bindpos, (-1, 3)), np.reshape(s.bindquat, (-1, 4)), s.vertweight):
+            bone.set("bindpos", " ".join(repr(float(x)) for x in pos))
+            bone.set("bindquat", " ".join(repr(float(x)) for x in quat))
+            bone.set("vertweight", _floats32(w))
+
+
+def _floats32(values: object) -> str:
+    """The shortest text that reads back as the same float32 values."""
+    return " ".join(np.format_float_positional(x, unique=True, trim="-") for x in np.asarray(values, dtype=np.float32))
 
 
 def _set_vec(el: ElementTree.Element, attr: str, value: np.ndarray, default: tuple[float, ...]) -> None:
@@ -290,14 +311,18 @@ def compile(
     props: tuple[Prop, ...] | list[Prop] = (),
     ball: Ball | None = None,
     total_mass: float | None = None,
+    actuators: bool = False,
 ) -> CompiledModel:
     """Build and compile the MuJoCo model of ``skeleton`` with optional props and a ball.
+
+    The initial pose (``qpos0``) is the rest pose standing on the floor: its lowest geom at z = 0.
 
     Args:
         skeleton: the character.
         props: sticks attached to joints (see :class:`Prop`).
         ball: a free ball, or ``None``.
         total_mass: the character's mass in kg; default ``BODY_MASS_INDEX × height²``.
+        actuators: add a position servo per joint degree of freedom (see :func:`add_actuators`).
     """
     depth = np.zeros(skeleton.n_joints, dtype=int)
     for j in range(1, skeleton.n_joints):
@@ -437,7 +462,9 @@ def compile(
         for g in geoms:
             g.density = density
     model = spec.compile()
-    return _index(skeleton, spec, model, tuple(site_names), tuple(props), ball, foot_geoms)
+    _stand(spec, model, bodies[0], skeleton)
+    compiled = _index(skeleton, spec, model, tuple(site_names), tuple(props), ball, foot_geoms)
+    return add_actuators(compiled) if actuators else compiled
 
 
 def add_world(spec: mujoco.MjSpec) -> None:
@@ -580,3 +607,207 @@ def _index(
         ball_qpos_adr=ball_adr,
         foot_geoms=geoms,
     )
+
+
+# --- a model a MuJoCo user can open: standing, a keyframe, servos, a skin ---------------------
+#: Natural frequency (Hz) and damping ratio of the joint servos :func:`add_actuators` adds.
+SERVO_HZ = 25.0
+SERVO_DAMPING = 1.0
+#: Armature of every actuated degree of freedom, kg·m² per kg of body mass for a 1.75 m character.
+SERVO_ARMATURE = 2e-4
+
+
+def lowest_point(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray | list[int]) -> float:
+    """The lowest world z of ``geoms`` at ``data``'s kinematics (capsules, boxes, spheres, cylinders,
+    ellipsoids exactly; other types by their bounding sphere)."""
+    low = np.inf
+    g_type = mujoco.mjtGeom
+    for g in geoms:
+        z, m22 = float(data.geom_xpos[g, 2]), data.geom_xmat[g].reshape(3, 3)[2]
+        size, kind = model.geom_size[g], int(model.geom_type[g])
+        if kind == g_type.mjGEOM_CAPSULE:
+            reach = abs(m22[2]) * size[1] + size[0]
+        elif kind == g_type.mjGEOM_BOX:
+            reach = float(np.abs(m22) @ size)
+        elif kind == g_type.mjGEOM_SPHERE:
+            reach = size[0]
+        elif kind == g_type.mjGEOM_CYLINDER:
+            reach = abs(m22[2]) * size[1] + size[0] * np.sqrt(max(0.0, 1.0 - m22[2] ** 2))
+        elif kind == g_type.mjGEOM_ELLIPSOID:
+            reach = float(np.linalg.norm(m22 * size))
+        else:
+            reach = float(model.geom_rbound[g])
+        low = min(low, z - reach)
+    return float(low)
+
+
+def character_geoms(model: mujoco.MjModel, root_body: int) -> np.ndarray:
+    """Ids of the geoms on the skeleton's own bodies under ``root_body`` (props and their bodies excluded)."""
+    body = model.geom_bodyid
+    return np.flatnonzero((model.body_rootid[body] == root_body) & (model.body_jntnum[body] > 0))
+
+
+def _stand(spec: mujoco.MjSpec, model: mujoco.MjModel, root: mujoco.MjsBody, skeleton: Skeleton) -> None:
+    """Lift the rest pose (``qpos0``) so its lowest geom touches the floor.
+
+    The free joint's ``qpos0`` is the root body's position, so the spec's root moves up; the
+    compiled model's copies (``body_pos``, ``qpos0``, ``qpos_spring``) are set to what compiling
+    again would give, which saves a second compile on every call.
+    """
+    d = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, d)
+    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, skeleton.names[0])
+    geoms = character_geoms(model, bid)
+    if len(geoms) == 0:
+        return
+    lift = -lowest_point(model, d, geoms)
+    root.pos = [0.0, 0.0, lift]
+    adr = int(model.jnt_qposadr[model.body_jntadr[bid]])
+    model.body_pos[bid] = root.pos
+    model.qpos0[adr + 2] = lift
+    model.qpos_spring[adr + 2] = lift
+
+
+def _recompiled(compiled: CompiledModel, spec: mujoco.MjSpec) -> CompiledModel:
+    """``compiled`` with ``spec`` (an edited copy of its spec) compiled in; the input is untouched."""
+    return dataclasses.replace(compiled, spec=spec, model=spec.compile())
+
+
+def add_actuators(
+    compiled: CompiledModel,
+    neutral: np.ndarray | None = None,
+    hz: float = SERVO_HZ,
+    damping: float = SERVO_DAMPING,
+    armature: float = SERVO_ARMATURE,
+) -> CompiledModel:
+    """A position servo per joint degree of freedom (the free root stays unactuated).
+
+    A ball joint gets three position actuators on a ``site`` transmission with a ``refsite``:
+    MuJoCo's actuator length is then the rotation vector (axis × angle) of the child's frame
+    relative to a reference frame fixed in the parent, so the three are a servo on the joint's
+    rotation away from a neutral pose (``neutral[j]``, its local rotation), with no gimbal lock and
+    the ball-joint model (and ``qpos``) the rest of the lab uses. A rotation vector wraps at 180°:
+    a ``joint`` transmission measures from the joint's zero, and rigs whose captured poses sit
+    ~180° from their rest frames (iClone's thighs, eyes and teeth) would flip; measured from a
+    standing neutral pose (the skin's bind pose) they stay far from it. Slide joints get one
+    ``joint`` servo each. A pose's controls are its actuator lengths (:func:`add_keyframe` sets them).
+
+    Gains scale with the inertia each joint moves: ``kp = I ω²``, ``kv = 2 ζ I ω``, ``I`` the
+    joint-space mass matrix diagonal in the rest pose (the segment and everything distal to it, plus
+    an armature of ``armature × body mass × (stature / 1.75 m)²`` that keeps fingers and helper
+    bones from being so light that contacts make them unstable), so every joint has the natural
+    frequency ``hz`` and damping ratio ``damping``. The integrator becomes ``implicitfast``, which
+    treats the servos' damping implicitly.
+
+    Args:
+        neutral: ``(J, 4)`` local rotations the servos measure from; default the rest pose.
+    """
+    skel, spec = compiled.skeleton, compiled.spec.copy()
+    neutral = np.tile(rot.IDENTITY, (skel.n_joints, 1)) if neutral is None else rot.normalize(neutral)
+    total = float(compiled.model.body_mass[compiled.body_ids].sum())
+    rotor = armature * total * (float(np.clip(skel.stature(), 0.3, 3.0)) / 1.75) ** 2
+    for joint in spec.joints:
+        if joint.type != mujoco.mjtJoint.mjJNT_FREE:
+            joint.armature = rotor
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    mass = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, mass)
+    omega = 2.0 * np.pi * hz
+
+    def servo(label: str, inertia: float, **transmission: object) -> None:
+        act = spec.add_actuator(name=label, **transmission)
+        act.set_to_position(kp=inertia * omega**2, kv=2.0 * damping * inertia * omega)
+
+    for j, name in enumerate(skel.names):
+        if j == 0:
+            continue
+        child, parent = spec.body(name), spec.body(skel.names[int(skel.parents[j])])
+        child.add_site(name=f"{name}/servo", group=5)
+        parent.add_site(name=f"{name}/servo_ref", pos=skel.offsets[j].tolist(), quat=neutral[j].tolist(), group=5)
+        for k in range(3):
+            gear = [0.0, 0.0, 0.0, *np.eye(3)[k]]
+            inertia = float(mass[compiled.dof_adr[j] + k, compiled.dof_adr[j] + k])
+            servo(f"{name}/{'xyz'[k]}", inertia, target=f"{name}/servo", refsite=f"{name}/servo_ref", trntype=mujoco.mjtTrn.mjTRN_SITE, gear=gear)
+        if compiled.slide_adr[j] >= 0:
+            for label in "xyz":
+                jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"{name}/slide_{label}")
+                dof = int(m.jnt_dofadr[jid])
+                servo(f"{name}/slide_{label}", float(mass[dof, dof]), target=f"{name}/slide_{label}", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    return _recompiled(compiled, spec)
+
+
+def add_keyframe(compiled: CompiledModel, qpos: np.ndarray, name: str = "start") -> CompiledModel:
+    """The pose ``qpos: (nq,)`` as a keyframe, moved up or down so its lowest character geom is on
+    the floor; with servos, its controls hold that pose (``mj_resetDataKeyframe`` loads both)."""
+    m = compiled.model
+    q = np.array(qpos, dtype=float)
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    mujoco.mj_kinematics(m, d)
+    q[2] -= lowest_point(m, d, character_geoms(m, int(compiled.body_ids[0])))
+    spec = compiled.spec.copy()
+    key = spec.add_key(name=name, qpos=q.tolist())
+    if m.nu:
+        d.qpos[:] = q
+        mujoco.mj_forward(m, d)
+        key.ctrl = d.actuator_length.tolist()
+    return _recompiled(compiled, spec)
+
+
+def add_skin(
+    spec: mujoco.MjSpec,
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    bodies: list[str] | tuple[str, ...],
+    bind_positions: np.ndarray,
+    bind_rotations: np.ndarray,
+    bones: np.ndarray,
+    weights: np.ndarray,
+    name: str = "skin",
+    rgba: tuple[float, float, float, float] = (0.75, 0.6, 0.5, 1.0),
+    inflate: float = 0.0,
+) -> mujoco.MjsSkin:
+    """Add a MuJoCo skin (drawn, not simulated) to ``spec``.
+
+    Args:
+        vertices: ``(V, 3)`` bind-pose positions; faces: ``(F, 3)`` counter-clockwise from outside.
+        bodies: ``(N,)`` names of the bodies the skin follows.
+        bind_positions, bind_rotations: ``(N, 3)``, ``(N, 4)`` those bodies' frames in the bind pose.
+        bones, weights: ``(V, K)`` index into ``bodies`` (``-1`` unused) and weight of each influence.
+    """
+    skin = spec.add_skin(name=name)
+    skin.vert = np.asarray(vertices, dtype=float).ravel().tolist()
+    skin.face = np.asarray(faces, dtype=int).ravel().tolist()
+    skin.rgba = list(rgba)
+    skin.inflate = inflate
+    ids: list[list[int]] = [[] for _ in bodies]
+    ws: list[list[float]] = [[] for _ in bodies]
+    for v, k in zip(*np.nonzero(np.asarray(bones) >= 0)):
+        b = int(bones[v, k])
+        ids[b].append(int(v))
+        ws[b].append(float(weights[v, k]))
+    keep = [b for b in range(len(bodies)) if ids[b]]
+    skin.bodyname = [bodies[b] for b in keep]
+    skin.bindpos = np.asarray(bind_positions, dtype=float)[keep].ravel().tolist()
+    skin.bindquat = np.asarray(bind_rotations, dtype=float)[keep].ravel().tolist()
+    skin.vertid = [ids[b] for b in keep]
+    skin.vertweight = [ws[b] for b in keep]
+    return skin
+
+
+def with_skin(compiled: CompiledModel, hide_group: int | None = None, **skin: object) -> CompiledModel:
+    """``compiled`` with a skin added (the keyword arguments of :func:`add_skin`) and recompiled.
+
+    ``hide_group``: move the character's own geoms (still its collision and mass) to this geom group.
+    """
+    spec = compiled.spec.copy()
+    if hide_group is not None:
+        mine = set(character_geoms(compiled.model, int(compiled.body_ids[0])).tolist())
+        for g in spec.geoms:
+            if g.id in mine:
+                g.group = hide_group
+    add_skin(spec, **skin)  # type: ignore[arg-type]
+    return _recompiled(compiled, spec)

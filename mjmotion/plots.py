@@ -326,3 +326,55 @@ def hitpoint_grid(
     if title:
         fig.suptitle(title)
     return _save(fig, out, dpi)
+
+
+def skinning_artefacts(
+    series: Mapping[str, Mapping[str, np.ndarray]],
+    views: Mapping[str, np.ndarray],
+    faces: np.ndarray,
+    centre: np.ndarray,
+    reach: float,
+    out: str | os.PathLike[str],
+    *,
+    dpi: int = 100,
+) -> Path:
+    """Skinning artefacts: kept area and volume against angle, and the skin at the joint.
+
+    Args:
+        series: ``{"twist": {...}, "bend": {...}}``, each with ``angles`` ``(A,)`` and
+            ``lbs_area``, ``dqs_area``, ``lbs_volume``, ``dqs_volume`` ``(A,)`` in % of the bind pose.
+        views: ``{label: (V, 3) vertices}`` of one pose to draw near the joint (e.g. LBS and DQS at 180°).
+        faces: ``(F, 3)`` of the mesh; centre: ``(3,)`` the joint; reach: metres drawn around it.
+    """
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    fig, axes = _figure((11.0, 7.5), ncols=2, nrows=2)
+    for ax, kind in zip(axes[0], ("twist", "bend")):
+        s = series[kind]
+        angles = _array(f"{kind} angles", s["angles"], 1)
+        for k, (key, label, style) in enumerate(
+            (("lbs_area", "LBS area", "-"), ("dqs_area", "DQS area", "-"), ("lbs_volume", "LBS volume", "--"), ("dqs_volume", "DQS volume", "--"))
+        ):
+            ax.plot(angles, np.asarray(s[key], dtype=float), style, color=COLORS[k % 2], marker="o", ms=3, label=label)  # NaN: not measured
+        ax.axhline(90.0, color="#999999", lw=0.8, ls=":")
+        ax.set_xlabel(f"elbow {kind}, degrees")
+        ax.set_ylabel("% of the bind pose")
+        ax.set_title(f"forearm {kind}: cross-section area and volume at the elbow")
+        ax.legend(loc="lower left", fontsize=8)
+    for i, (label, verts) in enumerate(views.items()):
+        ax = axes[1, i]
+        ax.remove()
+        ax = fig.add_subplot(2, 2, 3 + i, projection="3d")
+        v = _array(label, verts, 2, 3)
+        near = np.all(np.abs(v[faces] - centre).max(axis=2) < reach, axis=1)
+        tri = v[faces[near]]
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        shade = 0.35 + 0.65 * np.clip((n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)) @ np.array([0.3, -0.5, 0.8]), 0, 1)
+        ax.add_collection3d(Poly3DCollection(tri, facecolors=np.outer(shade, [0.30, 0.55, 0.85]), edgecolor="none"))
+        for k, lim in enumerate((ax.set_xlim, ax.set_ylim, ax.set_zlim)):
+            lim(centre[k] - 0.55 * reach, centre[k] + 0.55 * reach)
+        ax.set_box_aspect((1, 1, 1))
+        ax.view_init(elev=20, azim=-60)
+        ax.set_title(f"{label}, 180° twist: the skin at the elbow")
+        ax.set_axis_off()
+    return _save(fig, out, dpi)

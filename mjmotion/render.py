@@ -59,6 +59,8 @@ class Actor:
         color: RGB 0–1 of its bones (feet a darker shade); ``None`` = next in :data:`PALETTE`.
         props: sticks it holds (built for ``motion.skeleton``, see :func:`mjmotion.mjcf.default_prop`).
         trail: a site or joint name whose recent path is drawn as a fading ghost trail, or ``None``.
+        skin: draw the character as a skinned surface (:mod:`mjmotion.skin`, deformed by MuJoCo's
+            vertex blending) instead of its capsules; props are drawn either way.
     """
 
     motion: Motion
@@ -66,6 +68,7 @@ class Actor:
     color: tuple[float, float, float] | None = None
     props: tuple[mjcf.Prop, ...] = ()
     trail: str | None = None
+    skin: bool = False
 
 
 @dataclass(frozen=True)
@@ -249,6 +252,8 @@ def build_scene(
         compiled.append(c)
         child = c.spec.copy()  # attach moves elements; keep the compiled model's spec intact
         _paint(child, actor.color or PALETTE[i % len(PALETTE)], {p.name for p in actor.props})
+        if actor.skin:
+            _skin_instead_of_capsules(spec, child, c, actor, PALETTE[i % len(PALETTE)], _prefix(i))
         spec.worldbody.add_frame().attach_body(child.worldbody.first_body(), prefix=_prefix(i))
     ball_offsets = offsets if spacing > 0 else offsets[:1]
     if ball is not None:
@@ -320,6 +325,21 @@ def _paint(spec: mujoco.MjSpec, color: Sequence[float], prop_names: set[str]) ->
             continue
         shade = 0.8 if g.name.startswith(("foot/", "toe/")) else 1.0
         g.rgba = [*(rgb * shade), 1.0]
+
+
+def _skin_instead_of_capsules(
+    spec: mujoco.MjSpec, child: mujoco.MjSpec, compiled: mjcf.CompiledModel, actor: Actor, default: Sequence[float], prefix: str
+) -> None:
+    """Hide ``child``'s body geoms and give ``spec`` the character's skin, bound to the prefixed bodies."""
+    from . import skin
+
+    s = skin.build(compiled, reference=actor.motion)
+    props = {p.name for p in actor.props}
+    for g in child.geoms:
+        if g.name not in props:
+            g.group = skin.HIDDEN_GROUP
+    rgb = np.clip(np.asarray(actor.color or default, dtype=float), 0.0, 1.0)
+    mjcf.add_skin(spec, **skin.skin_arguments(s, prefix=prefix, name=f"{prefix}skin", rgba=(*rgb, 1.0)))  # type: ignore[arg-type]
 
 
 def _qpos_map(child: mujoco.MjModel, combined: mujoco.MjModel, prefix: str) -> np.ndarray:

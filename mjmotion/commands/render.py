@@ -23,6 +23,12 @@ examples:
   mjmotion render source.bvh adapted.bvh blend.bvh --labels source adapted blend -o compare.mp4
   mjmotion render swing.bvh --prop club --ball 0.5 0.1 0.02 --trail -o swing.gif --width 640 --height 360
   mjmotion render kick.bvh --trail rtoes --frames 100:400 --fps 25 --fast -o kick.mp4
+  mjmotion render walk.bvh --skin -o walk_skin.mp4
+  mjmotion render walk.bvh --skin both -o skin_vs_capsules.mp4
+
+--skin draws each character as its skinned surface (the mesh and weights `mjmotion compile --skin`
+writes, deformed by MuJoCo's vertex blending) instead of capsules; --skin both draws every clip
+twice, skinned and as capsules, side by side in one colour. Either works with --fast.
 """
 
 
@@ -56,6 +62,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--distance", type=float, help="camera distance in metres (default: fit the characters)")
     p.add_argument("--no-shadows", action="store_true", help="faster: no shadows")
     p.add_argument("--fast", action="store_true", help="no shadows and no floor reflection: about twice as fast in software GL")
+    p.add_argument(
+        "--skin",
+        nargs="?",
+        const="only",
+        choices=("only", "both"),
+        help="draw the skinned character instead of capsules; 'both': each clip skinned and as capsules, side by side",
+    )
     add_input_options(p)
 
 
@@ -69,15 +82,26 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError(f"--labels: got {len(args.labels)} labels for {len(args.files)} clips; give one per clip")
     labels = args.labels or [os.path.splitext(os.path.basename(f))[0] for f in args.files]
     actors = []
-    for path, label in zip(args.files, labels):
+    for i, (path, label) in enumerate(zip(args.files, labels)):
         m = load(path, args)
         props = tuple(_prop(m, text) for text in args.prop)  # fitted on the whole clip (a swing's address frames)
         if args.frames:
             m = m[parse_frames(args.frames, m.n_frames)]
-        actors.append(render.Actor(m, label=label, props=props, trail=_trail(m, props, args.trail)))
+        trail = _trail(m, props, args.trail)
+        if args.skin == "both":
+            colour = render.PALETTE[i % len(render.PALETTE)]
+            for skinned, kind in ((True, "skin"), (False, "capsules")):
+                actors.append(render.Actor(m, label=f"{label} {kind}".strip(), color=colour, props=props, trail=trail, skin=skinned))
+        else:
+            actors.append(render.Actor(m, label=label, props=props, trail=trail, skin=args.skin == "only"))
     ball = mjcf.Ball(position=tuple(args.ball)) if args.ball else None
     view = render.View(azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
-    scene = render.build_scene(actors, fps=args.fps, ball=ball, spacing=args.spacing, view=view)
+    try:
+        scene = render.build_scene(actors, fps=args.fps, ball=ball, spacing=args.spacing, view=view)
+    except MjmotionError as e:
+        if not args.skin:
+            raise
+        raise MjmotionError(f"--skin: {e} ({', '.join(args.files)})") from None
     quality = {"shadows": not (args.fast or args.no_shadows), "reflections": not args.fast}
     render.render(scene, out, width=args.width, height=args.height, **quality)
     print(f"wrote {out}: {scene.n_frames} frames, {args.width}x{args.height} at {args.fps:g} fps, {len(actors)} character(s)")
