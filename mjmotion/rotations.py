@@ -7,15 +7,20 @@ functions here are the only places that reorder. Every function broadcasts over 
 from __future__ import annotations
 
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+if TYPE_CHECKING:  # SciPy's import costs ~0.3 s: loaded by the functions that use it
+    from scipy.spatial.transform import Rotation
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 
 def to_scipy(q: np.ndarray) -> Rotation:
     """``q: (..., 4)`` wxyz → a flat SciPy ``Rotation`` of ``prod(...)`` rotations."""
+    from scipy.spatial.transform import Rotation
+
     q = np.asarray(q, dtype=float).reshape(-1, 4)
     return Rotation.from_quat(q[:, [1, 2, 3, 0]])
 
@@ -73,6 +78,8 @@ def to_matrix(q: np.ndarray) -> np.ndarray:
 
 def from_matrix(m: np.ndarray) -> np.ndarray:
     """Unit quaternions ``(..., 4)`` (w ≥ 0) of rotation matrices ``(..., 3, 3)``."""
+    from scipy.spatial.transform import Rotation
+
     m = np.asarray(m, dtype=float)
     q = from_scipy(Rotation.from_matrix(m.reshape(-1, 3, 3)), m.shape[:-2])
     return positive_w(q)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from .. import mjcf
 from ._common import add_input_options, load, output_path
 
 NAME = "compile"
@@ -35,6 +34,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from .. import mjcf
+
     out = output_path(args, args.file)
     m = load(args.file, args)
     props = tuple(mjcf.parse_prop_option(m.skeleton, text) for text in args.prop)
