@@ -71,18 +71,42 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)``."""
-    q = np.asarray(q, dtype=float)
-    return to_scipy(q).as_matrix().reshape(*q.shape[:-1], 3, 3)
+    """Rotation matrices ``(..., 3, 3)`` of quaternions ``(..., 4)`` (normalised first, as SciPy does)."""
+    w, x, y, z = np.moveaxis(normalize(q), -1, 0)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
+        ],
+        axis=-2,
+    )
 
 
 def from_matrix(m: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``(..., 4)`` (w ≥ 0) of rotation matrices ``(..., 3, 3)``."""
-    from scipy.spatial.transform import Rotation
+    """Unit quaternions ``(..., 4)`` (w ≥ 0) of rotation matrices ``(..., 3, 3)``.
 
+    Per matrix, the quaternion is built around its largest component (from the trace or the
+    largest diagonal entry: the well-conditioned branch, as SciPy's ``from_matrix`` does) and
+    normalised, so a slightly non-orthogonal matrix gives the nearest rotation's quaternion.
+    """
     m = np.asarray(m, dtype=float)
-    q = from_scipy(Rotation.from_matrix(m.reshape(-1, 3, 3)), m.shape[:-2])
-    return positive_w(q)
+    a = m.reshape(-1, 3, 3)
+    m00, m01, m02 = a[:, 0, 0], a[:, 0, 1], a[:, 0, 2]
+    m10, m11, m12 = a[:, 1, 0], a[:, 1, 1], a[:, 1, 2]
+    m20, m21, m22 = a[:, 2, 0], a[:, 2, 1], a[:, 2, 2]
+    cands = np.stack(  # (4 branches, N, wxyz): w, x, y or z largest
+        [
+            np.stack([1 + m00 + m11 + m22, m21 - m12, m02 - m20, m10 - m01], axis=-1),
+            np.stack([m21 - m12, 1 + m00 - m11 - m22, m01 + m10, m02 + m20], axis=-1),
+            np.stack([m02 - m20, m01 + m10, 1 - m00 + m11 - m22, m12 + m21], axis=-1),
+            np.stack([m10 - m01, m02 + m20, m12 + m21, 1 - m00 - m11 + m22], axis=-1),
+        ]
+    )
+    branch = np.argmax(np.stack([m00 + m11 + m22, m00, m11, m22]), axis=0)
+    q = cands[branch, np.arange(len(a))]
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    return positive_w(q.reshape(*m.shape[:-2], 4))
 
 
 def positive_w(q: np.ndarray) -> np.ndarray:
