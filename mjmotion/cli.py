@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
 import traceback
@@ -101,7 +102,16 @@ def _one_line(message: str) -> str:
     return message.replace("\r", "\\r").replace("\n", "\\n")
 
 
+#: Thread-count variables OpenBLAS reads; when none is set, the CLI runs BLAS on one thread.
+_BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    if not any(v in os.environ for v in _BLAS_THREAD_VARS):
+        # One BLAS thread unless the user says otherwise: OpenBLAS starting its pool costs ~60 ms
+        # of CPU at NumPy's import, and our products (600 × 210) are too small to gain from two
+        # threads on a shared 2-core machine; verbs that parallelise use processes (--jobs).
+        os.environ["OPENBLAS_NUM_THREADS"] = "1"
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
     args = parser.parse_args(argv)
