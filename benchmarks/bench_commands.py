@@ -44,14 +44,6 @@ from mjmotion import bvh, cli
 LARGE = Path("cmu_iclone_ccrig") / "002_07.bvh"
 
 
-def data_dir() -> Path:
-    env = os.environ.get("MJMOTION_DATA")
-    d = Path(env) if env else REPO.parent / "shared" / "mocap"
-    if not d.is_dir():
-        sys.exit(f"real mocap not found at {d}: set MJMOTION_DATA")
-    return d
-
-
 def prepare(d: Path, tmp: Path) -> dict[str, str]:
     """Inputs in ``tmp``: the registration benchmark's two 600-frame clips and a stream script."""
     import bench_registration
@@ -160,7 +152,11 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=7, help="timed rounds (default 7)")
     ap.add_argument("--only", nargs="+", metavar="WORD", help="only rows whose label contains one of these words (and the baseline)")
     args = ap.parse_args()
-    d = data_dir()
+    import bench_registration
+
+    d = bench_registration.data_dir()
+    if d is None:
+        sys.exit("real mocap not found: set MJMOTION_DATA to the shared/mocap directory")
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), "MPLBACKEND": "Agg"}
     tmp = Path(tempfile.mkdtemp(prefix="bench_commands_"))
     try:
