@@ -128,13 +128,14 @@ def main() -> int:
         tmp = Path(t)
         large = d / "cmu_iclone_ccrig" / "002_07.bvh"
         x10 = big_bvh(large, 10, tmp)
+        size_big = x10.stat().st_size
         bvh_cases = [(f"{p.name} ({p.stat().st_size / 1e6:.1f} MB)", str(p)) for p in (d / "cmu_cgspeed_daz" / "05_01.bvh", large, x10)]
         res_b = family("BVH read (bvh.parse)", bvh_cases, lambda p, mode: BVH_CODE.format(path=p, mode=mode), args.rounds, env, tmp)
         dp_cases = [(f"{n} x {n} grid ({n * n / 1e6:.2f} M cells)", str(n)) for n in (600, 2000)]
         res_d = family("registration DP (dp_path)", dp_cases, lambda n, mode: DP_CODE.format(n=n, mode=mode), args.rounds, env, tmp)
     # the rule's constants against this run; speeds as marginal costs between sizes (start-up cancels)
     (_, m_small), (lab, m), (_, m_big) = res_b
-    size, size_big = large.stat().st_size, x10.stat().st_size
+    size = large.stat().st_size
     (_, md_small), (lab_d, md) = res_d
     per_byte = (m_big["numpy"] - m["numpy"]) / (size_big - size)
     per_cell = (md["numpy"] - md_small["numpy"]) / (2000**2 - 600**2)

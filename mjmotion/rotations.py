@@ -84,29 +84,12 @@ def to_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def from_matrix(m: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``(..., 4)`` (w ≥ 0) of rotation matrices ``(..., 3, 3)``.
+    """Unit quaternions ``(..., 4)`` (w ≥ 0) of rotation matrices ``(..., 3, 3)`` (SciPy's, loaded here)."""
+    from scipy.spatial.transform import Rotation
 
-    Per matrix, the quaternion is built around its largest component (from the trace or the
-    largest diagonal entry: the well-conditioned branch, as SciPy's ``from_matrix`` does) and
-    normalised, so a slightly non-orthogonal matrix gives the nearest rotation's quaternion.
-    """
     m = np.asarray(m, dtype=float)
-    a = m.reshape(-1, 3, 3)
-    m00, m01, m02 = a[:, 0, 0], a[:, 0, 1], a[:, 0, 2]
-    m10, m11, m12 = a[:, 1, 0], a[:, 1, 1], a[:, 1, 2]
-    m20, m21, m22 = a[:, 2, 0], a[:, 2, 1], a[:, 2, 2]
-    cands = np.stack(  # (4 branches, N, wxyz): w, x, y or z largest
-        [
-            np.stack([1 + m00 + m11 + m22, m21 - m12, m02 - m20, m10 - m01], axis=-1),
-            np.stack([m21 - m12, 1 + m00 - m11 - m22, m01 + m10, m02 + m20], axis=-1),
-            np.stack([m02 - m20, m01 + m10, 1 - m00 + m11 - m22, m12 + m21], axis=-1),
-            np.stack([m10 - m01, m02 + m20, m12 + m21, 1 - m00 - m11 + m22], axis=-1),
-        ]
-    )
-    branch = np.argmax(np.stack([m00 + m11 + m22, m00, m11, m22]), axis=0)
-    q = cands[branch, np.arange(len(a))]
-    q /= np.linalg.norm(q, axis=-1, keepdims=True)
-    return positive_w(q.reshape(*m.shape[:-2], 4))
+    q = from_scipy(Rotation.from_matrix(m.reshape(-1, 3, 3)), m.shape[:-2])
+    return positive_w(q)
 
 
 def positive_w(q: np.ndarray) -> np.ndarray:
