@@ -17,11 +17,13 @@ import io
 import itertools
 import os
 import stat
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from . import compiled
 from . import rotations as rot
 from .errors import BvhError, MjmotionError
 from .skeleton import (
@@ -123,11 +125,23 @@ def parse(data: bytes | str, path: str = "<string>", scale: float | None = None,
 
 
 # --- the compiled path for long clips --------------------------------------------------------
-#: Motion sections from this many bytes up take the compiled path (``mjmotion._fast``): below
-#: it, importing Numba (~0.5 s, once per process) costs more than the NumPy path saves.
+#: Motion sections from this many bytes up may take the compiled path (``mjmotion._fast``), when
+#: it pays end to end (:mod:`mjmotion.compiled`): the kernels are loaded in this process already,
+#: or the NumPy path would take longer than their first call on a machine.
 FAST_MIN_BYTES = 1 << 20
+#: The NumPy path's speed, to predict its time (``benchmarks/bench_compiled.py``: 9–12 ns per byte).
+NUMPY_SECONDS_PER_BYTE = 1.2e-8
 #: At most this many numbers per file are converted by Python for the compiled path.
 _MAX_DEFERRED = 1 << 16
+
+
+def _compiled_pays(n_bytes: int) -> bool:
+    """Whether a motion section of ``n_bytes`` takes the compiled path (see :data:`FAST_MIN_BYTES`)."""
+    if n_bytes < FAST_MIN_BYTES:
+        return False
+    fast = sys.modules.get(f"{__package__}._fast")
+    loaded = fast is not None and compiled.ready(fast.parse_values, fast.euler_quats)
+    return compiled.pays(n_bytes * NUMPY_SECONDS_PER_BYTE, loaded)
 
 
 @functools.lru_cache(maxsize=1)
@@ -168,7 +182,7 @@ def _parse_values_fast(data: bytes | str, path: str):
     if data.startswith((b"\xff\xfe", b"\xfe\xff")) or data.find(b"\x00") >= 0:
         return None
     cut = _motion_values_start(data)
-    if cut is None or len(data) - cut < FAST_MIN_BYTES:
+    if cut is None or not _compiled_pays(len(data) - cut):
         return None
     kernels = _fast_kernels()
     if kernels is None:

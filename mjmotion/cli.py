@@ -4,12 +4,20 @@ Each verb lives in its own module under :mod:`mjmotion.commands` and exposes ``N
 ``HELP``, ``add_arguments(parser)`` and ``run(args) -> int``; this front end discovers them,
 so adding a verb touches no shared file. Errors a user can act on print one ``error:`` line
 and exit with status 2; ``--verbose`` adds the traceback for bug reports.
+
+Start-up is what a user feels first, so the front end imports every verb module (for the list
+of verbs) but calls ``add_arguments`` only for the verb being run, and a verb module imports
+nothing heavier than the standard library at its top: NumPy, SciPy, MuJoCo, CasADi,
+Matplotlib and Numba load inside ``run()`` (``tests/test_cli.py`` checks this for every
+verb module, new ones included). A new verb adds its name to :data:`VERB_ORDER` only to
+choose its place in ``--help``.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
 import traceback
@@ -46,7 +54,21 @@ def _verbs() -> list[ModuleType]:
     return sorted(mods, key=lambda m: (rank.get(m.NAME, len(rank)), m.NAME))
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _chosen_verb(argv: Sequence[str], names: set[str]) -> str | None:
+    """The verb named in ``argv`` (its first word that is not an option), or ``None``."""
+    for word in argv:
+        if word == "--":
+            return None
+        if not word.startswith("-"):
+            return word if word in names else None
+    return None
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``mjmotion`` parser; with ``argv``, only the verb it names gets its options (and imports).
+
+    Without ``argv`` every verb's options are added (for documentation and tests).
+    """
     parser = _Parser(
         prog="mjmotion",
         description=(
@@ -59,7 +81,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"mjmotion {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="show the traceback of an error (for bug reports)")
     sub = parser.add_subparsers(dest="verb", metavar="VERB", parser_class=_Parser)
-    for mod in _verbs():
+    verbs = _verbs()
+    chosen = None if argv is None else _chosen_verb(argv, {m.NAME for m in verbs})
+    for mod in verbs:
         p = sub.add_parser(
             mod.NAME,
             help=mod.HELP,
@@ -67,7 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )
         p.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS, help="show the traceback of an error")
-        mod.add_arguments(p)
+        if argv is None or mod.NAME == chosen:
+            mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
     return parser
 
@@ -77,8 +102,18 @@ def _one_line(message: str) -> str:
     return message.replace("\r", "\\r").replace("\n", "\\n")
 
 
+#: Thread-count variables OpenBLAS reads; when none is set, the CLI runs BLAS on one thread.
+_BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+    if not any(v in os.environ for v in _BLAS_THREAD_VARS):
+        # One BLAS thread unless the user says otherwise: OpenBLAS starting its pool costs ~60 ms
+        # of CPU at NumPy's import, and our products (600 × 210) are too small to gain from two
+        # threads on a shared 2-core machine; verbs that parallelise use processes (--jobs).
+        os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     if not getattr(args, "verb", None):
         parser.print_help()

@@ -298,12 +298,19 @@ def _mass_class(segment: str) -> str:
     return {"neck": "head", "girdle": "trunk"}.get(segment, segment)
 
 
+def _mat_quat(m: np.ndarray) -> np.ndarray:
+    """The unit quaternion (w ≥ 0) of a rotation matrix ``(3, 3)``, by MuJoCo (SciPy's import costs ~0.3 s)."""
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(m, dtype=float).ravel())
+    return rot.positive_w(q)
+
+
 def _look_quat(forward: np.ndarray) -> np.ndarray:
     """Orientation of a camera looking along ``forward`` with the world's +z up (cameras look along -z)."""
     z = -forward / np.linalg.norm(forward)
     x = np.cross([0.0, 0.0, 1.0], z)
     x /= np.linalg.norm(x)
-    return rot.from_matrix(np.column_stack([x, np.cross(z, x), z]))
+    return _mat_quat(np.column_stack([x, np.cross(z, x), z]))
 
 
 def compile(
@@ -533,7 +540,7 @@ def _foot_boxes(skeleton: Skeleton, feet: dict[str, tuple[int, int | None]]) -> 
         fwd /= flen
         side_axis = np.cross(up, fwd)
         frame = np.column_stack([fwd, side_axis, up])
-        quat = rot.from_matrix(frame)
+        quat = _mat_quat(frame)
         sole = min(float(np.dot(p - a, up)) for p in pts_arr)
         top = min(0.0, sole + 0.09 * height / 1.75)
         half_w = 0.045 * height / 1.75

@@ -45,6 +45,9 @@ PALETTE: tuple[tuple[float, float, float], ...] = (
     (0.40, 0.80, 0.80),  # teal
 )
 BALL_RGBA = (0.85, 0.10, 0.10, 1.0)
+#: Contact shadows: opacity of a shadow touching the floor, and the height (m) from which none is drawn.
+CONTACT_SHADOW_ALPHA = 0.5
+CONTACT_SHADOW_HEIGHT = 0.6
 #: Backends tried, in order, when ``MUJOCO_GL`` is unset or not an offscreen one.
 OFFSCREEN_BACKENDS = ("egl", "osmesa")
 
@@ -448,7 +451,12 @@ class Renderer:
         scene: what to draw.
         width, height: image size, pixels.
         labels: draw each character's label above its head.
-        shadows, reflections: MuJoCo's shadow and floor-reflection passes.
+        contact_shadows: a soft shadow on the floor under every body part, fading with its
+            height (light from straight above): shows where the feet meet the floor at almost
+            no cost. ``None`` (default): drawn unless ``shadows`` is on.
+        shadows, reflections: MuJoCo's shadow-mapped key light and the floor reflection; in
+            software GL (Mesa llvmpipe) each about doubles a frame's time
+            (``benchmarks/bench_render.py``).
         samples: multisampling (MSAA) samples; 0 is fastest in software GL.
         shadow_size: shadow map size, pixels.
         trail_seconds: length of the effector ghost trails.
@@ -461,8 +469,9 @@ class Renderer:
         height: int = 540,
         *,
         labels: bool = True,
-        shadows: bool = True,
-        reflections: bool = True,
+        contact_shadows: bool | None = None,
+        shadows: bool = False,
+        reflections: bool = False,
         samples: int = 0,
         shadow_size: int = 1024,
         trail_seconds: float = 0.6,
@@ -484,7 +493,10 @@ class Renderer:
         self._mjr = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
         n_trail = sum(1 for p in scene.trail_points if p is not None) * (self.trail_frames + 1)
-        self._scn = mujoco.MjvScene(model, maxgeom=model.ngeom + n_trail + 100)
+        #: geoms that cast a contact shadow: every character's and prop's (not the floor's)
+        contact = not shadows if contact_shadows is None else contact_shadows
+        self._casters = np.flatnonzero(model.geom_bodyid > 0) if contact else np.zeros(0, dtype=int)
+        self._scn = mujoco.MjvScene(model, maxgeom=model.ngeom + n_trail + len(self._casters) + 100)
         self._scn.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
         self._scn.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = reflections
         #: MuJoCo's visibility options (``geomgroup``, ``sitegroup``, ``flags``), applied to every frame.
@@ -527,6 +539,7 @@ class Renderer:
         cam.lookat[:] = s.lookat[i]
         cam.azimuth, cam.elevation, cam.distance = s.azimuth, s.elevation, s.distance
         mujoco.mjv_updateScene(s.model, d, self.option, None, cam, mujoco.mjtCatBit.mjCAT_ALL, self._scn)
+        self._add_contact_shadows(d)
         self._add_trails(i)
         self._gl.make_current()
         mujoco.mjr_render(self._rect, self._scn, self._mjr)
@@ -556,6 +569,49 @@ class Renderer:
             width=self.width,
             height=self.height,
         )
+
+    def _add_contact_shadows(self, d: mujoco.MjData) -> None:
+        """A flat, translucent ellipse on the floor under each caster geom (added to the MjvScene).
+
+        Each geom is taken as the ellipsoid through its extent (capsules: radius and half-length
+        plus radius); its vertical projection is the ellipse, darker the nearer the geom's lowest
+        point is to the floor (none from :data:`CONTACT_SHADOW_HEIGHT` up).
+        """
+        g = self._casters
+        if len(g) == 0:
+            return
+        model = self.scene.model
+        size = model.geom_size[g]
+        kind = model.geom_type[g]
+        semi = size.copy()  # semi-axes along the geom's own x, y, z
+        cap = (kind == mujoco.mjtGeom.mjGEOM_CAPSULE) | (kind == mujoco.mjtGeom.mjGEOM_CYLINDER)
+        semi[cap] = np.column_stack([size[cap, 0], size[cap, 0], size[cap, 1] + size[cap, 0]])
+        sph = kind == mujoco.mjtGeom.mjGEOM_SPHERE
+        semi[sph] = size[sph, :1]
+        axes = d.geom_xmat[g].reshape(-1, 3, 3) * semi[:, None, :]  # (G, 3, 3) columns: semi-axes in the world
+        shape = axes @ axes.transpose(0, 2, 1)  # the ellipsoid's shape matrix; its xy block is the shadow's
+        a, b, c = shape[:, 0, 0], shape[:, 0, 1], shape[:, 1, 1]
+        half, diff = 0.5 * (a + c), np.hypot(0.5 * (a - c), b)
+        major, minor = np.sqrt(half + diff), np.sqrt(np.maximum(half - diff, 0.0))
+        yaw = 0.5 * np.arctan2(2 * b, a - c)
+        low = d.geom_xpos[g, 2] - np.sqrt(shape[:, 2, 2])
+        alpha = CONTACT_SHADOW_ALPHA * np.clip(1.0 - low / CONTACT_SHADOW_HEIGHT, 0.0, 1.0)
+        scn = self._scn
+        for k in np.flatnonzero((alpha > 0.01) & (major > 1e-4)):
+            if scn.ngeom >= scn.maxgeom:
+                return
+            cz, sz = np.cos(yaw[k]), np.sin(yaw[k])
+            geom = scn.geoms[scn.ngeom]
+            mujoco.mjv_initGeom(
+                geom,
+                mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+                np.array([major[k], max(minor[k], 0.2 * major[k]), 5e-4]),
+                np.array([d.geom_xpos[g[k], 0], d.geom_xpos[g[k], 1], 2e-3]),
+                np.array([cz, -sz, 0.0, sz, cz, 0.0, 0.0, 0.0, 1.0]),
+                np.array([0.0, 0.0, 0.0, alpha[k]], dtype=np.float32),
+            )
+            geom.category = mujoco.mjtCatBit.mjCAT_DECOR
+            scn.ngeom += 1
 
     def _add_trails(self, i: int) -> None:
         """Fading spheres at the effector's last ``trail_frames`` positions (added to the MjvScene)."""

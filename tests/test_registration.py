@@ -58,6 +58,19 @@ def test_distance_grid_matches_numerical_minimum_per_cell():
         assert (tx, ty) == pytest.approx((x[1], x[2]), abs=1e-4)
 
 
+def test_grid_leaves_out_joints_of_weight_zero_and_its_products_give_the_cost():
+    rng = np.random.default_rng(4)
+    pa, pb = rng.normal(size=(9, 5, 3)) + [3.0, -2.0, 1.0], rng.normal(size=(7, 5, 3))
+    w = np.array([1.0, 0.0, 2.0, 0.5, 0.0])
+    full = R.distance_grid(pa, pb, w, window=2).cost
+    kept = R.distance_grid(pa[:, w > 0], pb[:, w > 0], w[w > 0], window=2).cost
+    assert np.allclose(full, kept, rtol=0, atol=1e-13)
+    left, right, left_z, right_z = R.grid.grid_operands(pa, pb, w, 2)
+    assert left.shape == (18, 2 * 5 * 3) and right.shape == (7, 30) and left_z.shape == (9, 17) and right_z.shape == (7, 17)
+    ab = left @ right.T
+    assert np.allclose(np.maximum(left_z @ right_z.T - np.hypot(ab[:9], ab[9:]), 0), full, rtol=0, atol=1e-13)
+
+
 def test_grid_is_zero_for_a_clip_moved_on_the_floor():
     rng = np.random.default_rng(2)
     skel = random_skeleton(rng, 8, inner_positions=False)
@@ -150,6 +163,43 @@ def test_timewarp_curve_strictly_increasing_and_pinned(seed):
     np.testing.assert_allclose(s[-1], path.cells[-1], atol=0.05)
     d = R.discrete_timewarp(path).samples
     assert np.all(np.diff(d, axis=0) > 0)
+
+
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_bspline_basis_equals_scipys_design_matrix(k):
+    from scipy.interpolate import BSpline
+
+    rng = np.random.default_rng(k)
+    x = np.r_[0.0, np.sort(rng.uniform(0.0, 50.0, 300)), 50.0, 12.5]  # both ends and a knot exactly
+    knots = np.r_[[0.0] * k, np.linspace(0.0, 50.0, 9), [50.0] * k]
+    ours = R.curves.bspline_basis(x, knots, k)
+    assert ours.shape == (len(x), len(knots) - k - 1)
+    assert np.allclose(ours, BSpline.design_matrix(x, knots, k).toarray(), rtol=0, atol=1e-14)
+    assert np.allclose(ours.sum(axis=1), 1.0)  # a partition of unity
+
+
+@pytest.mark.parametrize("sigma", [0.4, 3.0, 6.0, 90.0])
+def test_gaussian_smooth_equals_scipys_gaussian_filter1d(sigma):
+    from scipy.ndimage import gaussian_filter1d
+
+    x = np.random.default_rng(1).normal(size=(120, 3)).cumsum(axis=0)
+    expect = gaussian_filter1d(x, sigma, axis=0, mode="nearest")
+    assert np.allclose(R.align.gaussian_smooth(x, sigma), expect, rtol=0, atol=1e-12 * np.abs(x).max())
+
+
+def test_register_loads_no_scipy(mocap):
+    """A fresh registration of two clips stays off SciPy (its import alone would double a fresh `register`)."""
+    code = (
+        "import sys\n"
+        "from mjmotion import bvh, registration as R\n"
+        f"a = bvh.read({str(mocap / 'cmu_cgspeed_daz' / '07_01.bvh')!r})[4:]\n"
+        f"b = bvh.read({str(mocap / 'cmu_cgspeed_daz' / '07_02.bvh')!r})[4:]\n"
+        "R.register(a, b)\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'scipy', 'numba', 'casadi', 'matplotlib'}))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip() == "[]"
 
 
 def test_discrete_timewarp_reproduces_sako_table_1():

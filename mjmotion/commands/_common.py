@@ -1,17 +1,21 @@
-"""Options and loading shared by the verbs."""
+"""Options and loading shared by the verbs.
+
+Only the standard library at import: the CLI imports every verb module to list the verbs, so
+NumPy and the readers load when a verb runs (see :mod:`mjmotion.cli`).
+"""
 
 from __future__ import annotations
 
 import argparse
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from .. import bvh
 from ..errors import MjmotionError, OutputExistsError
 from ..outputs import check_output
-from ..skeleton import ASF_UNIT, CM, METRE, MM, Motion
 
-_UNITS = {"m": METRE, "cm": CM, "mm": MM, "asf": ASF_UNIT}
+if TYPE_CHECKING:
+    from ..skeleton import Motion
 
 
 def add_input_options(p: argparse.ArgumentParser) -> None:
@@ -33,10 +37,13 @@ def add_output_options(p: argparse.ArgumentParser, required: bool = True, help: 
 
 def units_scale(text: str) -> float | None:
     """Metres per file unit from ``--units`` (``None`` = detect)."""
+    from ..skeleton import ASF_UNIT, CM, METRE, MM
+
     if text == "auto":
         return None
-    if text in _UNITS:
-        return _UNITS[text]
+    units = {"m": METRE, "cm": CM, "mm": MM, "asf": ASF_UNIT}
+    if text in units:
+        return units[text]
     try:
         value = float(text)
     except ValueError:
@@ -52,6 +59,8 @@ def load(path: str, args: argparse.Namespace) -> Motion:
     Refuses a clip that is the verb's ``-o`` output: inputs named inside another input (a
     stream script's clips) escape the check ``output_path`` makes before the work starts.
     """
+    from .. import bvh
+
     out = getattr(args, "output", None)
     if out and check_same_file(out, path):
         raise OutputExistsError(f"{out}: is an input of this command ({path}); choose another output path")

@@ -6,7 +6,6 @@ import argparse
 import json
 import math
 
-from .. import bvh
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load, output_path
 from .evaluate import _finite, _nan_to_none
@@ -66,9 +65,9 @@ def _metrics(c, motion, params) -> dict[str, float]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from .. import bvh, mjcf
     from .. import cleanup as cl
     from .. import evaluate as ev
-    from .. import mjcf
 
     _finite(args.h_c, "--h-c", "a contact height in metres")
     _finite(args.v_c, "--v-c", "a contact speed in m/s")

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from .. import mjcf
-from ..errors import MjmotionError
 from ._common import add_input_options, load, output_path
 
 NAME = "compile"
@@ -50,7 +48,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import kinematics
+    from .. import kinematics, mjcf
+    from ..errors import MjmotionError
 
     out = output_path(args, args.file)
     m = load(args.file, args)

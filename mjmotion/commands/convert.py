@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from .. import bvh
 from ..errors import MjmotionError
 from ._common import add_input_options, load, output_path, parse_frames
 
@@ -32,6 +31,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from .. import bvh
+
     out = output_path(args, args.input)
     m = load(args.input, args)
     if args.frames:

@@ -5,9 +5,6 @@ from __future__ import annotations
 import argparse
 import io
 
-import numpy as np
-
-from .. import kinematics, mjcf
 from ..outputs import write_bytes_atomic
 from ._common import add_input_options, load, output_path
 
@@ -32,6 +29,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .. import kinematics, mjcf
+
     out = output_path(args, args.file)
     m = load(args.file, args)
     props = tuple(_prop(m, text) for text in args.prop)
@@ -53,8 +54,10 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _prop(motion, text: str) -> mjcf.Prop:
+def _prop(motion, text: str):
     """A prop from ``--prop``; the club on a golf swing is fitted to both hands when that module exists."""
+    from .. import mjcf
+
     kind = text.partition(":")[0]
     if kind == "club" and ":" not in text:
         try:

@@ -6,9 +6,6 @@ import argparse
 import json
 import sys
 
-import numpy as np
-
-from .. import bvh
 from ..errors import MjmotionError
 from ..outputs import write_text_atomic
 from ._common import add_input_options, load, output_path
@@ -49,7 +46,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import hitpoint
+    import numpy as np
+
+    from .. import bvh, hitpoint
 
     out = output_path(args, args.file)
     report_path = None

@@ -15,7 +15,8 @@ from ._common import add_input_options, load, output_path, parse_frames
 NAME = "render"
 HELP = "render BVH clips side by side to an MP4 or GIF (offscreen MuJoCo)"
 DESCRIPTION = """Render one or more clips into one scene, side by side, each in its own colour with a
-label, on a checker floor, with a camera that follows them. Clips are resampled to --fps;
+label, on a checker floor with soft contact shadows, with a camera that follows them (--hq: MuJoCo's
+shadow-mapped light and the floor reflection, about 2.5x slower in software GL). Clips are resampled to --fps;
 shorter clips hold their last pose. The video is MP4 (H.264) or GIF, chosen by the OUT suffix.
 
 examples:
@@ -60,8 +61,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--azimuth", type=float, help="camera heading in degrees (default: from the clips' travel direction)")
     p.add_argument("--elevation", type=float, default=-10.0, help="camera elevation in degrees (default -10)")
     p.add_argument("--distance", type=float, help="camera distance in metres (default: fit the characters)")
-    p.add_argument("--no-shadows", action="store_true", help="faster: no shadows")
-    p.add_argument("--fast", action="store_true", help="no shadows and no floor reflection: about twice as fast in software GL")
+    p.add_argument("--no-shadows", action="store_true", help="no contact shadows under the characters")
+    p.add_argument("--fast", action="store_true", help="the quickest frames: no shadows of any kind, no floor reflection")
+    p.add_argument(
+        "--hq",
+        action="store_true",
+        help="MuJoCo's shadow-mapped key light and the floor reflection instead of contact shadows (about 2.5x slower in software GL)",
+    )
     p.add_argument(
         "--skin",
         nargs="?",
@@ -102,7 +108,8 @@ def run(args: argparse.Namespace) -> int:
         if not args.skin:
             raise
         raise MjmotionError(f"--skin: {e} ({', '.join(args.files)})") from None
-    quality = {"shadows": not (args.fast or args.no_shadows), "reflections": not args.fast}
+    hq = args.hq and not args.fast
+    quality = {"contact_shadows": not (hq or args.fast or args.no_shadows), "shadows": hq and not args.no_shadows, "reflections": hq}
     render.render(scene, out, width=args.width, height=args.height, **quality)
     print(f"wrote {out}: {scene.n_frames} frames, {args.width}x{args.height} at {args.fps:g} fps, {len(actors)} character(s)")
     return 0

@@ -6,8 +6,6 @@ import argparse
 import itertools
 import json
 
-import numpy as np
-
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load, output_path, parse_frames
@@ -233,6 +231,8 @@ def _mm(x: float | None) -> str:
 
 
 def _jsonable(x: object) -> object:
+    import numpy as np
+
     if isinstance(x, np.generic):
         return x.item()
     if isinstance(x, np.ndarray):

@@ -10,17 +10,20 @@ from __future__ import annotations
 import functools
 import heapq
 import math
-import sys
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from .. import compiled
 from ..errors import MjmotionError
 
 METHODS = ("dp", "greedy", "threshold", "brute")
-#: Grids from this size use the Numba DP kernel by default (below it NumPy's is quicker than loading Numba).
-NUMBA_MIN_CELLS = 2_000_000
+#: The NumPy DP's time per grid cell (``benchmarks/bench_compiled.py``: 80–100 ns at slope limit 2).
+NUMPY_SECONDS_PER_CELL = 1.0e-7
+#: Grids from this size use the Numba DP kernel by default even in a fresh process: NumPy's DP
+#: would take longer than the kernel's first call on a machine (:data:`mjmotion.compiled.COLD_START_S`).
+NUMBA_MIN_CELLS = int(compiled.COLD_START_S / NUMPY_SECONDS_PER_CELL)
 
 
 @dataclass(frozen=True)
@@ -240,15 +243,17 @@ def dp_path(
     otherwise end at the far corner. ``backend``: ``"numpy"`` (one vectorised pass per row: ``D``
     and ``V`` from the previous row, ``H_r`` by shifts within the row), ``"numba"`` (a compiled
     loop over cells, measured faster in benchmarks/bench_registration.py) or ``"auto"`` (Numba
-    when installed and the grid has at least :data:`NUMBA_MIN_CELLS` cells or Numba is loaded).
+    when installed and the kernel is loaded in this process already or the grid has at least
+    :data:`NUMBA_MIN_CELLS` cells: the rule of :mod:`mjmotion.compiled`).
     """
     c = np.ascontiguousarray(np.asarray(cost, dtype=float)[start[0] :, start[1] :])
     n_a, n_b = c.shape
     wv, wh = slope.vertical, slope.horizontal
     bp_dtype = np.int8 if 1 + wv + wh <= 127 else np.int32
-    # Numba's import and cache load cost ~0.3–1 s once, so "auto" takes it only where it pays:
-    # big grids, or a process that has loaded it already
-    use_numba = backend == "numba" or (backend == "auto" and (c.size >= NUMBA_MIN_CELLS or "numba" in sys.modules))
+    # Numba's import and cache load cost ~0.5 s once (~2 s compiling on a cold cache), so "auto"
+    # takes it only where it pays end to end: grids that big, or a process that has loaded it already
+    loaded = _dp_tables_numba.cache_info().currsize > 0 and compiled.ready(_dp_tables_numba())
+    use_numba = backend == "numba" or (backend == "auto" and (c.size >= NUMBA_MIN_CELLS or loaded))
     kernel = _dp_tables_numba() if use_numba else None
     if backend == "numba" and kernel is None:
         raise MjmotionError("the numba DP backend needs numba (pip install numba)")
