@@ -391,10 +391,17 @@ class Motion:
         return root, q, tr
 
     def resample(self, fps: float) -> Motion:
-        """The same motion at another frame rate (slerp of rotations, linear positions)."""
+        """The same motion at another frame rate (slerp of rotations, linear positions).
+
+        The output spans the clip's duration to within half an output frame: ``round(duration ·
+        fps) + 1`` frames, frame ``k`` at ``k / fps`` seconds, the last held at the clip's last
+        pose when it falls up to half a frame past it. A file's rounded frame time (16_16's
+        0.00833333 s reads as 120.00005 fps) thereby keeps every frame at the same rate, where
+        flooring dropped the last one.
+        """
         if not (np.isfinite(fps) and fps > 0):
             raise MjmotionError(f"fps must be a positive number, got {fps}")
-        n = int(np.floor(self.duration * fps + 1e-9)) + 1
-        frames = np.arange(n) * (self.fps / fps)
+        n = int(np.floor(self.duration * fps + 0.5)) + 1
+        frames = np.minimum(np.arange(n) * (self.fps / fps), self.n_frames - 1)
         root, q, tr = self.sample(frames)
         return self.replace(root_positions=root, rotations=q, translations=tr, fps=float(fps))
