@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .. import mjcf
-from ._common import add_input_options, load, output_path
+from ._common import add_input_options, output_path, read_motion
 
 NAME = "compile"
 HELP = "compile a BVH skeleton to a MuJoCo model (.xml)"
@@ -31,12 +31,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="attach a prop (club or bat) to JOINT (default: the right hand); repeatable",
     )
     p.add_argument("--ball", action="store_true", help="add a free ball (cricket-ball size)")
-    add_input_options(p)
+    add_input_options(p, trim=False)
 
 
 def run(args: argparse.Namespace) -> int:
     out = output_path(args, args.file)
-    m = load(args.file, args)
+    m = read_motion(args.file, args)
     props = tuple(mjcf.parse_prop_option(m.skeleton, text) for text in args.prop)
     compiled = mjcf.compile(m.skeleton, props, mjcf.Ball() if args.ball else None)
     compiled.save_xml(out)

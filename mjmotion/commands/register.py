@@ -7,7 +7,7 @@ import json
 
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, load, parse_frames
+from ._common import add_input_options, load
 
 NAME = "register"
 HELP = "timewarp and alignment curves between two clips (distance grid + minimal-cost path)"
@@ -54,9 +54,7 @@ def load_clips(files: list[str], args: argparse.Namespace) -> list:
         raise MjmotionError(f"--fps {args.fps}: expected a positive frame rate")
     clips = []
     for f, r in zip(files, ranges, strict=True):
-        m = load(f, args)
-        if r:
-            m = m[parse_frames(r, m.n_frames)]
+        m = load(f, args, r or None)
         if args.fps is not None:
             m = m.resample(args.fps)
         clips.append(m)

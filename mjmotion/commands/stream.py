@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_input_options, load, output_path, parse_frames
+from ._common import add_input_options, load, output_path
 
 NAME = "stream"
 HELP = "play a script of timed commands (blend weights, transitions to clips and back) into a BVH"
@@ -42,8 +42,7 @@ def run(args: argparse.Namespace) -> int:
     out = output_path(args, args.script)
 
     def load_clip(path: str, frames: str | None):
-        m = load(path, args)
-        return m[parse_frames(frames, m.n_frames)] if frames else m
+        return load(path, args, frames)
 
     script = stream.load_script(args.script, load_clip)
     result = stream.stream(script, name=out.stem)
