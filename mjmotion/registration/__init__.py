@@ -7,8 +7,9 @@ Seed 000 §3.1 and seed 004 §4–5 (after Kovar & Gleicher 2003), one module pe
    rotation about the vertical axis and a floor translation (closed form, seed 000 Eq. 3–5).
 2. :mod:`.paths` — :func:`find_path`: a minimal-cost path through the grid: continuity,
    monotonicity and a slope limit (seed 000 Eq. 6), fixed corners or a fixed start with a free
-   end on the boundary (least average cell cost, seed 004 §4.3); ``dp`` (dynamic programming),
-   ``brute``, ``greedy`` and ``threshold`` (Sako's alternatives, seed 004 §5.2).
+   end on the boundary (seed 004 §4.3: Kovar & Gleicher's least-total path to each boundary cell,
+   then the least average, or the least average over every path); ``dp`` (dynamic programming,
+   exact for each), ``brute``, ``greedy`` and ``threshold`` (Sako's alternatives, seed 004 §5.2).
 3. :mod:`.curves` — :func:`timewarp_curve`: a strictly increasing cubic B-spline fitted to the
    path (seed 004 §5.4), or :func:`discrete_timewarp` (Sako's insertion/deletion, Table 1).
 4. :mod:`.align` — :func:`alignment_curve`: the 2D rigid transform that moves clip B onto clip A
@@ -25,6 +26,8 @@ from .grid import DEFAULT_WINDOW, MAX_CELLS, Grid, check_grid_size, distance_gri
 from .nway import Registration, choose_reference, register_many
 from .pairs import PairRegistration, positions_of, register
 from .paths import (
+    BRUTE_TIME_LIMIT_S,
+    FREE_END_RULES,
     METHODS,
     NUMBA_MIN_CELLS,
     Path,
@@ -32,14 +35,18 @@ from .paths import (
     auto_start,
     brute_path,
     check_path,
+    count_paths,
     dp_path,
     find_path,
     greedy_path,
+    least_mean_path,
     threshold_path,
 )
 
 __all__ = [
+    "BRUTE_TIME_LIMIT_S",
     "DEFAULT_WINDOW",
+    "FREE_END_RULES",
     "MAX_CELLS",
     "METHODS",
     "NUMBA_MIN_CELLS",
@@ -55,12 +62,14 @@ __all__ = [
     "check_grid_size",
     "check_path",
     "choose_reference",
+    "count_paths",
     "discrete_timewarp",
     "distance_grid",
     "dp_path",
     "find_path",
     "greedy_path",
     "joint_weights",
+    "least_mean_path",
     "positions_of",
     "register",
     "register_many",
