@@ -364,6 +364,33 @@ def test_n_way_registration(mocap):
     np.testing.assert_allclose(reg.times[:, k], ref * factor, atol=2.0)
 
 
+def test_n_way_registration_is_one_n_dimensional_bspline(mocap):
+    """Issue 18.2 (seed 000 §3.1): one clamped uniform cubic B-spline whose control points are
+    n-vectors, a knot every 5–10 frames of the reference, strictly increasing in every coordinate;
+    the registration's rows lie on it, it follows each pair's own curve, and it recovers the known
+    relation of a walk and its copy slowed to 0.7× better than merging the pair curves did
+    (0.26 frames at worst)."""
+    walk = _clip(mocap, "07_01")
+    slow = transform.timewarp(walk, lambda i: i * 0.7, int((walk.n_frames - 1) / 0.7))
+    run = _clip(mocap, "09_01")
+    reg = R.register_many([run, walk, slow], reference=1)
+    sp = reg.spline
+    assert sp.k == 3 and sp.c.shape[1] == 3
+    t = sp.t
+    assert np.all(t[:4] == t[0]) and np.all(t[-4:] == t[-1])  # clamped
+    gaps = np.diff(t[3:-3])
+    assert np.allclose(gaps, gaps[0]) and 5.0 <= gaps[0] <= 10.0  # uniform, every 5–10 reference frames
+    assert sp.c.shape[0] == len(gaps) + 3
+    assert np.all(np.diff(sp.c, axis=0) > 0)  # strictly increasing control points → strictly increasing curve
+    tau = reg.times[:, 1]
+    np.testing.assert_allclose(np.diff(tau), 1.0, atol=0.02)  # a row per frame of the reference
+    np.testing.assert_allclose(sp(tau), reg.times, atol=1e-9)
+    for k, clip in ((0, run), (2, slow)):  # within a third of a frame of each pair's own curve
+        pair = R.register(walk, clip).curve.samples
+        assert np.abs(reg.times[:, k] - np.interp(tau, pair[:, 0], pair[:, 1])).max() < 0.35
+    assert np.abs(reg.times[:, 2] - tau / 0.7).max() < 0.2
+
+
 # --------------------------------------------------------------------------- CLI
 def test_cli_register_writes_the_documented_json(mocap, tmp_path):
     a = mocap / DAZ / "07_01.bvh"

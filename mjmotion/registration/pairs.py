@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -70,12 +71,17 @@ def register(
     weights: dict[str, float] | None = None,
     positions: tuple[np.ndarray, np.ndarray] | None = None,
     max_cells: int = MAX_CELLS,
+    rule: str = "per-end",
+    path_options: dict[str, Any] | None = None,
 ) -> PairRegistration:
     """Register clip B to clip A: grid, path, timewarp curve and alignment (seed 000 §3.1).
 
     ``start="auto"`` starts a free-end path at the best cell of the first third of the first row
     or column (seed 004 §5.3), so clips need not begin in phase; ``loop`` pins both corners.
-    ``positions`` may pass precomputed ``(T, J, 3)`` joint positions of both clips.
+    ``positions`` may pass precomputed ``(T, J, 3)`` joint positions of both clips. ``weights``:
+    joint name → weight of the distance (:func:`.grid.joint_weights`); ``rule``: the free-end
+    objective (:func:`.paths.dp_path`); ``path_options``: more options of the path search
+    (``time_limit_s`` for brute force, ``area_threshold`` for threshold).
     Clips shorter than the window still work (windows repeat edge frames); a clip of one
     frame cannot be registered.
     """
@@ -88,7 +94,7 @@ def register(
     t0 = time.perf_counter()
     grid = distance_grid(pa, pb, w, window, max_cells)
     t1 = time.perf_counter()
-    path = find_path(grid.cost, method, slope_limit, loop, start)
+    path = find_path(grid.cost, method, slope_limit, loop, start, rule, **(path_options or {}))
     t2 = time.perf_counter()
     if curve == "bspline":
         tw = timewarp_curve(path)
