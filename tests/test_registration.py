@@ -15,6 +15,7 @@ from scipy import optimize
 from mjmotion import bvh, kinematics, transform
 from mjmotion import registration as R
 from mjmotion.errors import MjmotionError, SkeletonMismatchError
+from mjmotion.registration.blendability import THRESHOLD
 
 DAZ = "cmu_cgspeed_daz"
 
@@ -315,7 +316,7 @@ def test_known_timewarp_and_floor_move_are_recovered(mocap, name, theta, shift):
     ang = np.degrees(np.abs(np.angle(np.exp(1j * (reg.alignment[:, 0] + theta)))))
     dist = np.linalg.norm(reg.alignment[:, 1:] - true_t, axis=1)
     assert ang.max() < 2.0 and dist.max() < 0.02, f"alignment error {ang.max():.2f}°, {dist.max() * 100:.1f} cm"
-    assert set(reg.timing_s) == {"grid", "path", "curve"}
+    assert set(reg.timing_s) == {"grid", "path", "curve", "blendability"}
 
 
 def test_clip_registered_with_itself_is_the_identity(mocap):
@@ -391,6 +392,34 @@ def test_n_way_registration_is_one_n_dimensional_bspline(mocap):
     assert np.abs(reg.times[:, 2] - tau / 0.7).max() < 0.2
 
 
+# --------------------------------------------------------------------------- blendability
+def test_blendability_tells_walks_and_runs_from_a_walk_and_a_pitch(mocap):
+    """Issue 18.4 (seed 004 §7.2, Fig. 10): the score is the path's mean cost over the smaller
+    self-similarity (the mean of a clip's own distance grid); walk/run pairs score under the
+    threshold, a walk with the baseball pitch 124_01 over it."""
+    asf = mocap / "cmu_asfamc_converted"
+    walk = bvh.read(str(asf / "16_15.bvh"))[2:]
+    pitch = bvh.read(str(asf / "124_01.bvh"))
+    run = _clip(mocap, "09_01")
+    pw, pp, pr_ = R.positions_of(walk), R.positions_of(pitch), R.positions_of(run)
+    w = R.joint_weights(walk.skeleton)
+    # a short clip's self-similarity is the mean of its whole own grid; a long one's a close estimate
+    assert R.self_similarity(pr_, R.joint_weights(run.skeleton)) == pytest.approx(
+        R.distance_grid(pr_, pr_, R.joint_weights(run.skeleton)).cost.mean(), rel=1e-12
+    )
+    assert R.self_similarity(pw, w) == pytest.approx(R.distance_grid(pw, pw, w).cost.mean(), rel=0.03)
+    bad = R.register(walk, pitch, positions=(pw, pp))
+    b = bad.blendability
+    assert b.score == pytest.approx(bad.path.mean_cost / min(b.self_similarity), rel=1e-12)
+    assert b.score > THRESHOLD and not b.blendable
+    assert "unblendable" in b.warning("16_15", "124_01")
+    good = R.register(_clip(mocap, "07_01"), run).blendability
+    assert good.blendable and good.score < 0.8 and good.warning("a", "b") is None
+    same = R.register(run, transform.floor_transform(run, 1.0, (2.0, 0.5))).blendability
+    assert same.score == pytest.approx(0.0, abs=1e-9)  # a clip and itself moved on the floor
+    assert bad.to_json()["blendability"] == b.to_json() and b.to_json()["blendable"] is False
+
+
 # --------------------------------------------------------------------------- CLI
 def test_cli_register_writes_the_documented_json(mocap, tmp_path):
     a = mocap / DAZ / "07_01.bvh"
@@ -401,7 +430,8 @@ def test_cli_register_writes_the_documented_json(mocap, tmp_path):
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     d = json.loads(out.read_text())
-    assert set(d) >= {"frames", "path", "path_cost", "mean_cost", "timewarp", "alignment", "timing_s"}
+    assert set(d) >= {"frames", "path", "path_cost", "mean_cost", "timewarp", "alignment", "timing_s", "blendability"}
+    assert d["blendability"]["blendable"] is True and "blendability 0." in r.stdout
     assert d["frames"] == [313, 145]
     tw = np.array(d["timewarp"])
     assert np.all(np.diff(tw, axis=0) > 0) and len(d["alignment"]) == len(tw)

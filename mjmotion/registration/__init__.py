@@ -15,12 +15,14 @@ Seed 000 §3.1 and seed 004 §4–5 (after Kovar & Gleicher 2003), one module pe
 4. :mod:`.align` — :func:`alignment_curve`: the 2D rigid transform that moves clip B onto clip A
    at every timewarp sample, smoothed.
 5. :mod:`.pairs` — :func:`register` (two clips); :mod:`.nway` — :func:`register_many` (n clips to
-   a reference, seed 000).
+   a reference, one n-dimensional B-spline, seed 000); :mod:`.blendability` — whether a pair can be
+   blended at all (seed 004 §7.2).
 
 World is Z-up: the floor is the ``(x, y)`` plane, so seed 000's ``(x, z)`` are our ``(x, y)``.
 """
 
 from .align import alignment_curve
+from .blendability import Blendability, blendability, self_similarity
 from .curves import TimewarpCurve, discrete_timewarp, timewarp_curve
 from .grid import DEFAULT_WINDOW, MAX_CELLS, Grid, check_grid_size, distance_grid, joint_weights, rigid_2d
 from .nway import Registration, choose_reference, register_many
@@ -45,6 +47,7 @@ from .paths import (
 
 __all__ = [
     "BRUTE_TIME_LIMIT_S",
+    "Blendability",
     "DEFAULT_WINDOW",
     "FREE_END_RULES",
     "MAX_CELLS",
@@ -58,6 +61,7 @@ __all__ = [
     "TimewarpCurve",
     "alignment_curve",
     "auto_start",
+    "blendability",
     "brute_path",
     "check_grid_size",
     "check_path",
@@ -74,6 +78,7 @@ __all__ = [
     "register",
     "register_many",
     "rigid_2d",
+    "self_similarity",
     "threshold_path",
     "timewarp_curve",
 ]

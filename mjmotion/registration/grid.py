@@ -99,11 +99,14 @@ def distance_grid(
     weights: np.ndarray | None = None,
     window: int = DEFAULT_WINDOW,
     max_cells: int = MAX_CELLS,
+    frames_a: np.ndarray | None = None,
+    frames_b: np.ndarray | None = None,
 ) -> Grid:
     """The registration grid (seed 000 §3.1 Eq. 2–5), every sum a matrix product.
 
     ``positions_a: (nA, J, 3)``, ``positions_b: (nB, J, 3)`` world joint positions (metres);
-    ``weights: (J,)`` non-negative (default 1). Cell ``[i, j]`` is
+    ``weights: (J,)`` non-negative (default 1); ``frames_a``, ``frames_b``: only these frames'
+    rows and columns (windows still from the whole clips). Cell ``[i, j]`` is
     ``min_{θ,t} Σ_k w_k ‖p_k − (R_θ p'_k + t)‖²`` over the windows around frame ``i`` of A and
     frame ``j`` of B. After centring each window on its weighted mean, with
     ``a = Σ w (x x' + y y')`` and ``b = Σ w (y x' − x y')`` the optimum is ``θ = atan2(b, a)`` and
@@ -114,15 +117,19 @@ def distance_grid(
         raise MjmotionError(f"distance_grid needs (T, J, 3) positions with equal J, got {pa.shape} and {pb.shape}")
     if window < 0:
         raise MjmotionError(f"the window half-width must be ≥ 0 frames, got {window}")
-    check_grid_size(len(pa), len(pb), max_cells)
+    rows = np.arange(len(pa)) if frames_a is None else np.asarray(frames_a, dtype=int)
+    cols = np.arange(len(pb)) if frames_b is None else np.asarray(frames_b, dtype=int)
+    check_grid_size(len(rows), len(cols), max_cells)
     w = np.ones(pa.shape[1]) if weights is None else np.asarray(weights, dtype=float)
     keep = w > 0  # joints of weight zero add nothing but work
     ca, cb = _window_clouds(pa[:, keep], window, w[keep]), _window_clouds(pb[:, keep], window, w[keep])
+    if frames_a is not None or frames_b is not None:
+        ca, cb = {k: v[rows] for k, v in ca.items()}, {k: v[cols] for k, v in cb.items()}
     # a and b from one product: [[x, y], [y, −x]]_A · [x, y]_Bᵀ
     right = np.concatenate([cb["x"], cb["y"]], axis=1)
     left = np.block([[ca["x"], ca["y"]], [ca["y"], -ca["x"]]])
     ab = left @ right.T
-    a, b = ab[: len(pa)], ab[len(pa) :]
+    a, b = ab[: len(rows)], ab[len(rows) :]
     zz = ca["z"] @ cb["z"].T
     cost = ca["hh"][:, None] + cb["hh"][None, :] - 2.0 * np.hypot(a, b)
     cost += ca["zz"][:, None] + cb["zz"][None, :] - 2.0 * zz

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import MjmotionError
 from ..skeleton import Motion
+from .blendability import Blendability
 from .curves import TimewarpCurve, monotone_bspline
 from .grid import DEFAULT_WINDOW, distance_grid, joint_weights
 from .pairs import positions_of, prepare, register
@@ -30,6 +31,8 @@ class Registration:
         alignment: ``(N, n, 3)`` ``[theta, tx, ty]`` moving clip ``k`` onto the reference.
         reference: index of the reference clip.
         mean_costs: ``(n,)`` mean path cost of each clip against the reference (0 for itself).
+        blendability: per clip, its :class:`~.blendability.Blendability` with the reference
+            (``None`` for the reference itself; empty for a registration built from rows).
         spline: the clamped uniform cubic B-spline (``scipy.interpolate.BSpline``) ``τ → (n,)`` of
             the clips' times at reference time ``τ``, its n-dimensional control points strictly
             increasing in every coordinate (``None`` for a registration built from rows).
@@ -40,6 +43,7 @@ class Registration:
     reference: int
     mean_costs: np.ndarray
     spline: Any = None
+    blendability: tuple[Blendability | None, ...] = ()
 
     @property
     def n_clips(self) -> int:
@@ -116,15 +120,18 @@ def register_many(
     curves: list[TimewarpCurve | None] = []
     aligns: list[np.ndarray | None] = []
     costs = np.zeros(n)
+    blends: list[Blendability | None] = []
     for k in range(n):
         if k == ref:
             curves.append(None)
             aligns.append(None)
+            blends.append(None)
             continue
         pr = register(motions[ref], motions[k], window, slope_limit, loop, "dp", start, weights=weights, positions=(pos[ref], pos[k]))
         curves.append(pr.curve)
         aligns.append(pr.alignment)
         costs[k] = pr.path.mean_cost
+        blends.append(pr.blendability)
     lo = max([c.samples[0, 0] for c in curves if c is not None], default=0.0)
     hi = min([c.samples[-1, 0] for c in curves if c is not None], default=motions[ref].n_frames - 1.0)
     if hi - lo < 1:
@@ -141,4 +148,4 @@ def register_many(
         if curve_k is not None and align_k is not None:
             for c in range(3):
                 align[:, k, c] = np.interp(times[:, ref], curve_k.samples[:, 0], align_k[:, c])
-    return Registration(times=times, alignment=align, reference=ref, mean_costs=costs, spline=spline)
+    return Registration(times=times, alignment=align, reference=ref, mean_costs=costs, spline=spline, blendability=tuple(blends))

@@ -11,6 +11,7 @@ import numpy as np
 from ..errors import MjmotionError
 from ..skeleton import Motion
 from .align import alignment_curve
+from .blendability import Blendability, blendability
 from .curves import TimewarpCurve, discrete_timewarp, timewarp_curve
 from .grid import DEFAULT_WINDOW, MAX_CELLS, Grid, check_grid_size, distance_grid, joint_weights
 from .paths import Path, find_path
@@ -25,6 +26,7 @@ class PairRegistration:
     curve: TimewarpCurve
     alignment: np.ndarray  # (N, 3) theta, tx, ty per curve sample: applied to B to match A
     timing_s: dict[str, float] = field(default_factory=dict)
+    blendability: Blendability | None = None
 
     def to_json(self) -> dict:
         """The JSON record of ``mjmotion register`` (keys documented in the issue/CLI help)."""
@@ -37,6 +39,7 @@ class PairRegistration:
             "timewarp": np.round(self.curve.samples, 4).tolist(),
             "alignment": np.round(self.alignment, 6).tolist(),
             "timing_s": self.timing_s,
+            **({"blendability": self.blendability.to_json()} if self.blendability is not None else {}),
         }
 
 
@@ -78,6 +81,7 @@ def register(
 
     ``start="auto"`` starts a free-end path at the best cell of the first third of the first row
     or column (seed 004 §5.3), so clips need not begin in phase; ``loop`` pins both corners.
+    Also scores how blendable the pair is (:mod:`.blendability`, seed 004 §7.2).
     ``positions`` may pass precomputed ``(T, J, 3)`` joint positions of both clips. ``weights``:
     joint name → weight of the distance (:func:`.grid.joint_weights`); ``rule``: the free-end
     objective (:func:`.paths.dp_path`); ``path_options``: more options of the path search
@@ -104,4 +108,7 @@ def register(
         raise MjmotionError(f"unknown timewarp curve {curve!r}; expected bspline or discrete")
     align = alignment_curve(pa, pb, tw.samples, w, window)
     t3 = time.perf_counter()
-    return PairRegistration(grid, path, tw, align, {"grid": t1 - t0, "path": t2 - t1, "curve": t3 - t2})
+    blend = blendability(pa, pb, path.mean_cost, w, window)
+    t4 = time.perf_counter()
+    timing = {"grid": t1 - t0, "path": t2 - t1, "curve": t3 - t2, "blendability": t4 - t3}
+    return PairRegistration(grid, path, tw, align, timing, blend)
