@@ -98,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
     plot = check_output(args.plot, args.force, (args.a, args.b)) if args.plot else None
     if args.window < 1 or args.window % 2 == 0:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
+    if not 0 < args.time_limit < float("inf"):
+        raise MjmotionError(f"--time-limit {args.time_limit}: expected a positive number of seconds")
     a, b = load_clips([args.a, args.b], args)
     pr = registration.register(
         a,
