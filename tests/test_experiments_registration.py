@@ -40,16 +40,19 @@ def test_path_search_dp_is_optimal_and_greedy_is_not_better(paths):
     check_outputs(table, out)
     rows = records(table)
     sub = [r for r in rows if r["grid"] == "sub-grid"]
-    assert sub and all(int(r["cells"]) <= 100 for r in sub)  # brute force only on small grids
+    assert sub and all(int(r["cells"]) <= 100 for r in sub)
+    exact_mean = {"DP, least mean", "brute force, least mean"}
     for r in rows:
-        if r["method"] in ("DP", "brute force"):
-            # on the sub-grids the optimum is brute force's: DP matches it on every pair
+        if r["method"] in ("DP", "brute force"):  # the per-end rule: the cheapest path to where it ends
+            assert r["total / least to its end (worst)"] == pytest.approx(1.0, abs=1e-12), r
+        if r["method"] in ("DP", "brute force", *exact_mean):
+            assert r["solved"].split("/")[0] == r["solved"].split("/")[1]
+        if r["method"] in exact_mean or (r["ends"] == "corners" and r["method"] in ("DP", "brute force")):
             assert r["cost / optimum (mean)"] == pytest.approx(1.0, abs=1e-12), r
             assert r["worst"] == pytest.approx(1.0, abs=1e-12), r
-            assert r["solved"].split("/")[0] == r["solved"].split("/")[1]
     for r in rows:
-        if r["ends"] == "corners" and r["solved"] != "0/" + r["solved"].split("/")[1]:
-            assert r["cost / optimum (mean)"] >= 1.0 - 1e-12, r  # nothing beats the optimum with fixed corners
+        if r["solved"] != "0/" + r["solved"].split("/")[1]:
+            assert r["cost / optimum (mean)"] >= 1.0 - 1e-12, r  # nothing beats the optimum, at either end rule
     greedy = [r for r in rows if r["method"] == "greedy" and r["ends"] == "corners"]
     assert greedy and max(r["worst"] for r in greedy) > 1.0  # on real grids greedy is not optimal
     for values in ("real", "integer"):
@@ -57,6 +60,9 @@ def test_path_search_dp_is_optimal_and_greedy_is_not_better(paths):
     assert any(r["method"].startswith("threshold") for r in rows)
     detail = (out / "pairs.md").read_text(encoding="utf-8")
     assert "walk × run (241×181)" in detail  # grid sizes are reported
+    brute = (out / "brute_force.md").read_text(encoding="utf-8")
+    lines = [ln for ln in brute.splitlines() if ln.startswith("| every")]
+    assert len(lines) == 4 and all(ln.rstrip(" |").endswith("yes") for ln in lines)  # brute force = DP at every size
 
 
 def test_sub_grid_and_quantise():
