@@ -116,6 +116,19 @@ def test_bspline_timewarp_recovers_the_known_warp_and_is_smoother(blends):
         assert float(kinds["bspline"]["clock jerk frames/frame²"]) < float(kinds["discrete"]["clock jerk frames/frame²"])
 
 
+def test_blendability_table_calls_alike_pairs_blendable_and_others_not(blends):
+    """Issue 18.4's calibration, on the bundled clips: walk with run, fast walk, sneak, limp under the
+    threshold; walk with a standing kick, punch or cricket drive over it."""
+    out, table = blends
+    text = (out / "blendability.md").read_text(encoding="utf-8")
+    rows = [[c.strip() for c in ln.split("|")[1:-1]] for ln in text.splitlines() if ln.startswith("| walk")]
+    assert len(rows) == len(timewarp_blend.BLENDABILITY_PAIRS_BUNDLED)
+    for r in rows:
+        rec = dict(zip(timewarp_blend.BLENDABILITY_COLUMNS, r, strict=True))
+        assert rec["blendable"] == rec["alike (Sako §7.2)"], rec
+    assert str(out / "blendability.md") in table.files
+
+
 def test_steps_per_s_counts_stance_changes():
     from mjmotion.evaluate import foot_track
 
