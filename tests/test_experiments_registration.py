@@ -169,6 +169,17 @@ def test_stream_is_continuous_without_time_blip(stream_table):
     # the stream follows its commands: faster in the walk/run blend, nearly still in the kick
     assert rows["walk/run .5"]["speed m/s"] > 1.3 * rows["walk"]["speed m/s"]
     assert rows["kick"]["speed m/s"] < 0.3 * rows["walk"]["speed m/s"]
+    # seed 000 §3.3: the fade from the walk/run mix into the kick is longer by its pace; from the walk, nominal
+    fades = {}
+    for ln in (out / "transitions.md").read_text(encoding="utf-8").splitlines():
+        if ln.startswith(("| kick", "| punch")):
+            rec = dict(zip(transitions.TRANSITION_COLUMNS, (c.strip() for c in ln.split("|")[1:-1]), strict=True))
+            fades[rec["clip"]] = rec
+    kick, punch = fades["kick"], fades["punch"]
+    assert float(kick["locomotion pace r (in)"]) > 1.1 and int(kick["fade-in frames"]) == round(18 * float(kick["locomotion pace r (in)"]))
+    assert float(punch["locomotion pace r (in)"]) == pytest.approx(1.0) and int(punch["fade-in frames"]) == 18
+    for rec in (kick, punch):
+        assert float(rec["clip frames played"]) == float(rec["clip's last frame"])
 
 
 def test_clock_checks_catch_a_backward_step_and_a_hidden_jump():
