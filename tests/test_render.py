@@ -151,10 +151,10 @@ def test_write_video_mp4_and_gif(gl_works, walk, tmp_path):
     import imageio_ffmpeg
     from PIL import Image
 
-    scene = render.build_scene([render.Actor(walk[:60])], fps=20)  # 59/120 s = 9.8 frames at 20 fps → 10 steps, 11 frames
+    scene = render.build_scene([render.Actor(walk[:60])], fps=20)  # 0.5 s → 10 frames
     out = render.render(scene, tmp_path / "w.mp4", width=160, height=90, progress=False)
     n, _ = imageio_ffmpeg.count_frames_and_secs(str(out))
-    assert n == scene.n_frames == 11
+    assert n == scene.n_frames == 10
     reader = imageio_ffmpeg.read_frames(str(out))
     assert next(reader)["size"] == (160, 90)
     reader.close()
@@ -177,7 +177,7 @@ def test_cli_render(gl_works, mocap, tmp_path, capsys):
     args = ["render", clip, clip, "--labels", "a", "b", "--frames", "0:60", "--fps", "10", "-o", str(out)]
     assert main(args + ["--width", "128", "--height", "72", "--ball", "0.5", "0", "0.1", "--trail"]) == 0
     with __import__("PIL.Image").Image.open(out) as im:
-        assert im.size == (128, 72) and im.n_frames == 6  # 59/120 s at 10 fps: 4.9 → 5 steps
+        assert im.size == (128, 72) and im.n_frames == 5
     capsys.readouterr()
     assert main(args) == 2  # exists, no --force
     assert "already exists" in capsys.readouterr().err

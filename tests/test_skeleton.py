@@ -65,13 +65,15 @@ def test_resample_keeps_the_last_frame_of_a_rounded_frame_time(mocap):
 
 
 @pytest.mark.parametrize("fps", [7.0, 10.0, 24.0, 25.0, 29.97, 50.0, 59.94, 60.0, 119.88])
-def test_resample_keeps_the_duration_within_half_an_output_frame(fps):
-    m = _motion(n=31, fps=30.0)
+@pytest.mark.parametrize("rounding", [1.0, 1 - 4e-7, 1 + 4e-7])  # the clip's rate as a rounded frame time reads it
+def test_resample_keeps_the_duration_to_within_one_output_frame(fps, rounding):
+    m = _motion(n=31, fps=30.0 * rounding)
     r = m.resample(fps)
-    assert abs(r.duration - m.duration) <= 0.5 / fps + 1e-12
+    assert -1.0 / fps < r.duration - m.duration <= 1e-4 * m.duration
     assert np.allclose(r.root_positions[0], m.root_positions[0])
-    if r.duration >= m.duration:  # rounded up: the last frame is the clip's last pose
-        assert np.allclose(r.root_positions[-1], m.root_positions[-1])
+    if fps in (10.0, 60.0):  # a whole number of output frames, whatever the rounding: all of them, the last the clip's last
+        assert r.n_frames == round(m.duration * fps) + 1
+        assert np.allclose(r.root_positions[-1], m.root_positions[-1], atol=1e-4)
 
 
 def test_motion_validates_shapes_and_fps():
