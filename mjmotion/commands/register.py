@@ -117,6 +117,7 @@ def run(args: argparse.Namespace) -> int:
     if plot:
         _plot(pr, plot, a.name, b.name)
     t = pr.timing_s
+    assert pr.blendability is not None  # register() always scores it
     print(
         f"wrote {out}: {len(pr.path.cells)}-cell path, mean cost {pr.path.mean_cost:.4g} m², "
         f"{len(pr.curve.samples)} timewarp samples; grid {t['grid'] * 1e3:.1f} ms, path {t['path'] * 1e3:.1f} ms, "

@@ -274,12 +274,13 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
 def free_end_notes(detail: Sequence[Sequence[object]]) -> list[str]:
     """What the least-mean objective does on the full grids, against the per-end rule and greedy."""
     full = [tuple(r) for r in detail if r[3] == "free end" and "every" not in str(r[0]) and r[5] != "failed"]
-    by = {(r[0], r[2], r[4]): r for r in full}
-    pairs = sorted({(r[0], r[2]) for r in full})
-    lower = [by[k + ("DP",)][6] for k in pairs if k + ("DP",) in by]
-    longer = [by[k + ("DP, least mean",)][9] / by[k + ("DP",)][9] for k in pairs if k + ("DP",) in by and k + ("DP, least mean",) in by]
-    beat = [k for k in pairs if k + ("greedy",) in by and by[k + ("greedy",)][6] < by[k + ("DP",)][6]]
-    greedy_to_end = max((by[k + ("greedy",)][8] for k in pairs if k + ("greedy",) in by), default=float("nan"))
+    # (grid, values, method) → (mean / least mean, total / least to its end, path cells)
+    by = {(str(r[0]), str(r[2]), str(r[4])): (float(str(r[6])), float(str(r[8])), float(str(r[9]))) for r in full}
+    pairs = sorted({(str(r[0]), str(r[2])) for r in full})
+    lower = [by[k + ("DP",)][0] for k in pairs if k + ("DP",) in by]
+    longer = [by[k + ("DP, least mean",)][2] / by[k + ("DP",)][2] for k in pairs if k + ("DP",) in by and k + ("DP, least mean",) in by]
+    beat = [k for k in pairs if k + ("greedy",) in by and by[k + ("greedy",)][0] < by[k + ("DP",)][0]]
+    greedy_to_end = max((by[k + ("greedy",)][1] for k in pairs if k + ("greedy",) in by), default=float("nan"))
     if not lower:
         return []
     return [
@@ -289,6 +290,11 @@ def free_end_notes(detail: Sequence[Sequence[object]]) -> list[str]:
             f"{min(longer):.2f}–{max(longer):.2f}× as many cells — a path's mean drops when it trades a diagonal for two "
             "straight steps through cells cheaper than its mean, so it stair-steps along the valley"),
     ]  # fmt: skip
+
+
+def _search_of(cost: np.ndarray, method: str, loop: bool, **options: Any) -> Callable[[], reg.Path]:
+    """A path search of ``cost`` to time (a free end starts at :func:`mjmotion.registration.auto_start`)."""
+    return lambda: reg.find_path(cost, method, loop=loop, start="auto", **options)
 
 
 def brute_table(grid: np.ndarray, pair: Pair, sizes: Sequence[int]) -> Table:
@@ -312,8 +318,8 @@ def brute_table(grid: np.ndarray, pair: Pair, sizes: Sequence[int]) -> Table:
             slope = reg.SlopeLimit.default(*sub.shape)
             start = (0, 0) if loop else reg.auto_start(sub)
             n_paths = reg.count_paths(sub.shape, slope, not loop, start)
-            t_bf, bf = timed(lambda sub=sub, loop=loop: reg.find_path(sub, "brute", loop=loop, start="auto", time_limit_s=BRUTE_LIMIT_S), 1)
-            t_dp, dp = timed(lambda sub=sub, loop=loop: reg.find_path(sub, "dp", loop=loop, start="auto"), 5)
+            t_bf, bf = timed(_search_of(sub, "brute", loop, time_limit_s=BRUTE_LIMIT_S), 1)
+            t_dp, dp = timed(_search_of(sub, "dp", loop), 5)
             rate = max(rate, n_paths / max(t_bf, 1e-9))
             same = bool(np.array_equal(bf.cells, dp.cells))
             table.add(f"every {k} frames ({sub.shape[0]}×{sub.shape[1]})", sub.size, "corners" if loop else "free end", n_paths, t_bf,
@@ -322,7 +328,7 @@ def brute_table(grid: np.ndarray, pair: Pair, sizes: Sequence[int]) -> Table:
         slope = reg.SlopeLimit.default(*grid.shape)
         start = (0, 0) if loop else reg.auto_start(grid)
         n_paths = reg.count_paths(grid.shape, slope, not loop, start)
-        t_dp, _ = timed(lambda loop=loop: reg.find_path(grid, "dp", loop=loop, start="auto"), 5)
+        t_dp, _ = timed(_search_of(grid, "dp", loop), 5)
         table.add(f"full ({grid.shape[0]}×{grid.shape[1]})", grid.size, "corners" if loop else "free end", n_paths,
                   n_paths / rate if rate > 0 else float("nan"), rate, 1e3 * t_dp, "–")  # fmt: skip
     table.notes.append("full grids: brute force s is the estimate at the fastest rate measured above (paths/s); inf = more than 1e308 paths")

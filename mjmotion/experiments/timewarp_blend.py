@@ -384,7 +384,7 @@ def blendability_table(data_dir: Path | None) -> Table:
             bl.score,
             bl.blendable,
         )
-    scores = {k: [float(r[7]) for r in table.rows if r[2] == k] for k in ("yes", "mixed", "no")}
+    scores = {k: [float(str(r[7])) for r in table.rows if r[2] == k] for k in ("yes", "mixed", "no")}
     table.notes.append("; ".join(f"alike '{k}': score {min(v):.3f}–{max(v):.3f}" for k, v in scores.items() if v) + f" (threshold {THRESHOLD:g})")
     return table
 
