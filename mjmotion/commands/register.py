@@ -45,7 +45,7 @@ def add_clip_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--frames",
         metavar="A:B[,A:B...]",
-        help="frame range of every clip, or one range per clip separated by commas (e.g. 4: for cgspeed clips whose first frames are a T-pose)",
+        help="frame range of every clip (the file's frames), or one range per clip separated by commas; without one a leading T-pose is skipped",
     )
     p.add_argument("--fps", type=float, metavar="F", help="resample every clip to F frames per second first")
     add_input_options(p)
