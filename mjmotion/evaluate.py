@@ -49,6 +49,7 @@ from .errors import MjmotionError, require_number
 from .kinematics import Pose
 from .mjcf import CompiledModel
 from .skeleton import Motion
+from .trim import leading_transient  # noqa: F401  (moved to mjmotion.trim; this alias until the lead merges)
 
 #: METRICS.md defaults.
 H_C = 0.05  # contact height, m
@@ -328,18 +329,6 @@ def joint_angular_speeds(motion: Motion) -> np.ndarray:
     q = motion.rotations
     d = rot.multiply(rot.conjugate(q[:-1]), q[1:])
     return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0])) * motion.fps
-
-
-def leading_transient(motion: Motion, max_frames: int = 10, factor: float = 4.0) -> int:
-    """Frames to skip at the start: a T-pose frame and the frames interpolating out of it (cgspeed
-    daz clips: frames 0-3). The last leading step whose max joint speed exceeds ``factor`` × the
-    clip's 99th-percentile step marks the end; 0 when nothing stands out."""
-    if motion.n_frames < 4 * max_frames:
-        return 0
-    peak = joint_angular_speeds(motion).max(axis=1)  # (T-1,)
-    ref = float(np.percentile(peak[max_frames:], 99))
-    big = np.flatnonzero(peak[:max_frames] > factor * max(ref, 1e-9))
-    return int(big[-1] + 1) if big.size else 0
 
 
 def _as_list(sources: Motion | Sequence[Motion]) -> list[Motion]:

@@ -391,10 +391,22 @@ class Motion:
         return root, q, tr
 
     def resample(self, fps: float) -> Motion:
-        """The same motion at another frame rate (slerp of rotations, linear positions)."""
+        """The same motion at another frame rate (slerp of rotations, linear positions).
+
+        Frame ``k`` is at ``k / fps`` seconds, up to the clip's last frame: the output is less than
+        one output frame shorter than the clip, and a duration a hair short of a whole number of
+        output frames — within 1e-4 of it, relative, the precision of a frame time written with
+        six digits — counts as that number (its last frame the clip's last pose). So a file's
+        rounded frame time keeps every frame at its own rate: 16_16's 0.00833333 s reads as
+        120.00005 fps and its 510 frames resample to 510 at 120 fps, where flooring the duration
+        dropped the last.
+        """
         if not (np.isfinite(fps) and fps > 0):
             raise MjmotionError(f"fps must be a positive number, got {fps}")
-        n = int(np.floor(self.duration * fps + 1e-9)) + 1
-        frames = np.arange(n) * (self.fps / fps)
+        x = self.duration * fps  # output frame steps the clip spans
+        steps = int(np.floor(x))
+        if x - steps > 1.0 - 1e-4 * max(x, 1.0):
+            steps += 1
+        frames = np.minimum(np.arange(steps + 1) * (self.fps / fps), self.n_frames - 1)
         root, q, tr = self.sample(frames)
         return self.replace(root_positions=root, rotations=q, translations=tr, fps=float(fps))

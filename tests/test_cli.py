@@ -33,7 +33,7 @@ def test_info_table_is_readable(walk, capsys):
 
 def test_fk_npz_matches_kinematics(walk, tmp_path):
     out = tmp_path / "fk.npz"
-    assert main(["fk", str(walk), "-o", str(out)]) == 0
+    assert main(["fk", str(walk), "-o", str(out), "--keep-start"]) == 0  # every frame of the file
     z = np.load(out)
     m = bvh.read(walk)
     assert list(z["joint_names"]) == list(m.skeleton.names)

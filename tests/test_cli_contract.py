@@ -122,11 +122,11 @@ VERBS: dict[str, Verb] = {
     "register": Verb(
         lambda i, o: [i, i, "--json", o],
         ".json",
-        bad=(("--window", "4"), ("--window", "0"), ("--frames", "500:600"), ("--slope-limit", "-1"), ("--fps", "-1")),
+        bad=(("--window", "4"), ("--window", "0"), ("--frames", "500:600"), ("--slope-limit", "-1"), ("--fps", "-1"), ("--time-limit", "0")),
         humanoid=True,
         extra_outputs=lambda d: ["--plot", str(d / "grid.png")],
     ),
-    "stream": Verb(lambda i, o: [i, "-o", o], ".bvh", humanoid=True, script=True),
+    "stream": Verb(lambda i, o: [i, "-o", o], ".bvh", humanoid=True, script=True, extra_outputs=lambda d: ["--json", str(d / "report.json")]),
     "hit": Verb(
         # A 5 mm move: reachable within the short clip's own joint ranges (an unreachable one exits 2 by design).
         lambda i, o: [i, "--effector", "right_foot", "--offset", "0", "0", "0.005", "-o", o],

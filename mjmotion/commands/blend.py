@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from ..errors import MjmotionError
+from . import _joint_weights as joint_weights
 from ._common import output_path
 from .register import add_clip_options, load_clips
 
@@ -44,8 +46,19 @@ def run(args: argparse.Namespace) -> int:
     except ValueError:
         raise MjmotionError(f"--weights {args.weights!r}: expected numbers separated by commas") from None
     blend.check_weights(weights, len(args.files), "--weights")
-    clips = load_clips(args.files, args)
-    result = blend.blend(clips, weights, method=args.method, name=out.stem)
+    if args.joint_weights and args.method == "linear":
+        raise MjmotionError("--joint-weights weighs the registration's distance; a linear blend has none (use --method registered)")
+    clips = blend.common_rate(load_clips(args.files, args))
+    registration = None
+    if args.method == "registered":
+        from ..registration import register_many
+
+        registration = register_many(clips, reference=0 if len(clips) <= 2 else None, weights=joint_weights.load(args, clips[0].skeleton))
+        for k, b in enumerate(registration.blendability):
+            warning = b.warning(clips[registration.reference].name, clips[k].name) if b is not None else None
+            if warning:
+                sys.stderr.write(f"warning: {warning}\n")
+    result = blend.blend(clips, weights, method=args.method, name=out.stem, registration=registration)
     bvh.write(result, out)
     travel = float(((result.root_positions[-1, :2] - result.root_positions[0, :2]) ** 2).sum()) ** 0.5
     print(f"wrote {out}: {result.n_frames} frames at {result.fps:g} fps ({args.method}), net floor travel {travel:.2f} m")

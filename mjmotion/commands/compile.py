@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_input_options, load, output_path
+from ._common import add_input_options, output_path, read_motion
 
 NAME = "compile"
 HELP = "compile a BVH skeleton to a MuJoCo model (.xml)"
@@ -44,7 +44,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ball", action="store_true", help="add a free ball (cricket-ball size)")
     p.add_argument("--skin", action="store_true", help="add the character's skinned surface (a MuJoCo <skin>)")
     p.add_argument("--actuators", action="store_true", help="add a position servo per joint degree of freedom")
-    add_input_options(p)
+    add_input_options(p, trim=False)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import MjmotionError
 
     out = output_path(args, args.file)
-    m = load(args.file, args)
+    m = read_motion(args.file, args)
     props = tuple(mjcf.parse_prop_option(m.skeleton, text) for text in args.prop)
     compiled = mjcf.compile(m.skeleton, props, mjcf.Ball() if args.ball else None)
     try:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import MjmotionError
-from ._common import add_input_options, load, output_path, parse_frames
+from ._common import add_input_options, load, output_path
 
 NAME = "convert"
 HELP = "write a BVH file again, optionally rescaled, resampled or cut"
@@ -34,9 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from .. import bvh
 
     out = output_path(args, args.input)
-    m = load(args.input, args)
-    if args.frames:
-        m = m[parse_frames(args.frames, m.n_frames)]
+    m = load(args.input, args, args.frames)
     if args.fps is not None:
         m = m.resample(args.fps)
     if args.scale is not None:

@@ -14,7 +14,7 @@ from typing import Any
 
 from ..errors import MjmotionError, require_number
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, load, parse_frames
+from ._common import add_input_options, load_first
 
 NAME = "evaluate"
 HELP = "footskate, ground, inverse-dynamics, limit and hitting metrics of a clip (or every clip in a folder)"
@@ -70,7 +70,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--grid-step", type=float, default=0.05, metavar="M", help="hit-grid spacing in m (default 0.05)")
     p.add_argument("--frames", metavar="A:B", help="evaluate only these frames")
-    p.add_argument("--keep-start", action="store_true", help="do not skip a leading T-pose/transition")
     p.add_argument("--h-c", type=float, default=0.05, metavar="M", help="contact height threshold (default 0.05 m)")
     p.add_argument("--v-c", type=float, default=0.5, metavar="M/S", help="contact speed threshold (default 0.5 m/s)")
     p.add_argument("--json", metavar="OUT.json", help="write every metric (and the parameters) as JSON")
@@ -86,15 +85,7 @@ def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:
     from .. import mjcf
 
     args = argparse.Namespace(**opts)
-    m = load(path, args)
-    offset = 0
-    if args.frames:
-        sl = parse_frames(args.frames, m.n_frames)
-        offset = sl.indices(m.n_frames)[0]
-        m = m[sl]
-    elif not args.keep_start:
-        offset = ev.leading_transient(m)
-        m = m[offset:]
+    m, offset = load_first(path, args, args.frames, note=False)  # the skipped frames are listed once, after the table
     props = tuple(_prop(m, t) for t in args.prop)
     ball = None
     hit = None
@@ -261,14 +252,15 @@ def _hit_grid(args: argparse.Namespace, opts: dict[str, Any]) -> dict[str, Any]:
     """Seed 003 §2.3.2 on this clip: launch predictability for both wrist treatments."""
     from .. import physics
 
-    m = load(args.path, argparse.Namespace(**opts))
+    m, first = load_first(args.path, argparse.Namespace(**opts), args.frames, note=False)
     prop = _prop(m, args.prop[0])
-    if not 0 <= args.frame < m.n_frames:
-        raise MjmotionError(f"--frame {args.frame}: outside the clip's 0..{m.n_frames - 1}")
-    offsets = physics.grid_offsets(m, prop, args.frame, args.hit_grid, args.grid_step)
+    frame = args.frame - first
+    if not 0 <= frame < m.n_frames:
+        raise MjmotionError(f"--frame {args.frame}: outside the evaluated frames {first}..{first + m.n_frames - 1}")
+    offsets = physics.grid_offsets(m, prop, frame, args.hit_grid, args.grid_step)
     out = {}
     for mode in ("locked", "world"):
-        p = physics.hit_grid(m, prop, args.frame, offsets, wrist=mode, ball_radius=args.ball_radius, ball_velocity=tuple(args.ball_velocity))
+        p = physics.hit_grid(m, prop, frame, offsets, wrist=mode, ball_radius=args.ball_radius, ball_velocity=tuple(args.ball_velocity))
         out[mode] = {"rho_azimuth": p.rho_azimuth, "rho_elevation": p.rho_elevation, "slope_deg_per_m": p.slope_deg_per_m, "rows": p.rows()}
     return out
 

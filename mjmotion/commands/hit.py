@@ -8,7 +8,7 @@ import sys
 
 from ..errors import MjmotionError
 from ..outputs import write_text_atomic
-from ._common import add_input_options, load, output_path
+from ._common import add_input_options, clip_frame, load_first, output_path
 
 NAME = "hit"
 HELP = "move a swing's hit point (IK with importance-based blending, keeping the style)"
@@ -57,12 +57,12 @@ def run(args: argparse.Namespace) -> int:
         if report_path == out:
             raise MjmotionError("--json and -o name the same file")
     falloff = hitpoint.DEFAULT_FALLOFF if args.falloff is None else args.falloff
-    m = load(args.file, args)
+    m, first = load_first(args.file, args)
     result = hitpoint.adapt(
         m,
         target=None if args.target is None else np.array(args.target),
         offset=None if args.offset is None else np.array(args.offset),
-        frame=args.frame,
+        frame=None if args.frame is None else clip_frame(args.frame, first, "--frame"),
         effector=args.effector,
         solver=args.solver,
         falloff=falloff,

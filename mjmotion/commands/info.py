@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from ._common import add_input_options, load
+from ._common import add_input_options, read_motion
 
 NAME = "info"
 HELP = "joints, frames, fps, duration, channel layout and detected scale of a BVH file"
@@ -20,11 +20,13 @@ examples:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help="a .bvh file")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    add_input_options(p)
+    add_input_options(p, trim=False)
 
 
 def describe(path: str, args: argparse.Namespace) -> dict:
-    m = load(path, args)
+    from ..trim import leading_transient
+
+    m = read_motion(path, args)
     s = m.skeleton
     return {
         "file": path,
@@ -35,6 +37,7 @@ def describe(path: str, args: argparse.Namespace) -> dict:
         "fps": m.fps,
         "frame_time": 1.0 / m.fps,
         "duration_s": m.duration,
+        "leading_transient_frames": leading_transient(m),
         "scale_m_per_unit": s.scale,
         "up": s.up,
         "stature_m": round(s.stature(), 4),
@@ -54,6 +57,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"{d['file']}")
     print(f"  joints      {d['joints']} (+{d['end_sites']} End Sites), {d['channels']} channels")
     print(f"  frames      {d['frames']} at {d['fps']:.4g} fps ({d['duration_s']:.3f} s)")
+    if d["leading_transient_frames"]:
+        k = d["leading_transient_frames"]
+        print(f"  start       frames 0-{k - 1} are a leading T-pose/transition: the other verbs skip them unless --keep-start")
     print(f"  units       {d['scale_m_per_unit']:.6g} m per file unit, up axis {d['up']}; stature ≈ {d['stature_m']:.2f} m")
     print(f"  feet        {d['feet']}")
     print(f"  hands       {d['hands']}")

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, load, parse_frames
+from . import _joint_weights as joint_weights
+from ._common import add_input_options, load
 
 NAME = "register"
 HELP = "timewarp and alignment curves between two clips (distance grid + minimal-cost path)"
@@ -19,16 +21,22 @@ JSON keys: frames [nA, nB]; path [[i, j], ...]; path_cost, mean_cost (m², weigh
 point distance per cell); method; timewarp [[tA, tB], ...] fractional frames, strictly increasing
 in both; alignment [[theta_rad, tx_m, ty_m], ...] one per timewarp sample, the floor transform
 that moves B onto A (rotate by theta about the vertical axis through the origin, then translate);
-timing_s {grid, path, curve} seconds.
+timing_s {grid, path, curve, blendability} seconds; blendability {score, threshold, blendable,
+mean_cost, self_similarity [A, B]}: mean_cost over the smaller self-similarity (mean distance
+between two frames of one clip), above threshold (0.9) the pair looks unblendable (seed 004 §7.2).
 
 By default the path starts at the best cell of the first third of the first row or column and
-ends where it reaches the last frame of either clip with the least average cost (Kovar &
-Gleicher); --loop pins it to both corners (looping clips, seed 000).
+ends on the last frame of either clip (--free-end): per-end (default; Kovar & Gleicher, seed 004
+§4.3) takes the least-total path to each end cell, then the one of least average cost; mean the
+least average cost over every path (Dinkelbach's parametric search over DP passes). --method dp
+solves either exactly, as brute does by enumerating every path (within --time-limit). --loop pins
+the path to both corners (looping clips, seed 000) and minimises its total.
 
 examples:
   mjmotion register walk.bvh run.bvh --json reg.json --plot grid.png
   mjmotion register 07_01.bvh 09_01.bvh --frames 4: --json reg.json
   mjmotion register a.bvh b.bvh --loop --slope-limit 3 --method greedy --json reg.json
+  mjmotion register walk.bvh run.bvh --joint-weights legs.json --json reg.json
 """
 
 
@@ -37,10 +45,11 @@ def add_clip_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--frames",
         metavar="A:B[,A:B...]",
-        help="frame range of every clip, or one range per clip separated by commas (e.g. 4: for cgspeed clips whose first frames are a T-pose)",
+        help="frame range of every clip (the file's frames), or one range per clip separated by commas; without one a leading T-pose is skipped",
     )
     p.add_argument("--fps", type=float, metavar="F", help="resample every clip to F frames per second first")
     add_input_options(p)
+    joint_weights.add_option(p)
 
 
 def load_clips(files: list[str], args: argparse.Namespace) -> list:
@@ -54,9 +63,7 @@ def load_clips(files: list[str], args: argparse.Namespace) -> list:
         raise MjmotionError(f"--fps {args.fps}: expected a positive frame rate")
     clips = []
     for f, r in zip(files, ranges, strict=True):
-        m = load(f, args)
-        if r:
-            m = m[parse_frames(r, m.n_frames)]
+        m = load(f, args, r or None)
         if args.fps is not None:
             m = m.resample(args.fps)
         clips.append(m)
@@ -71,7 +78,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--window", type=int, default=5, metavar="N", help="frames per point cloud, odd (default 5)")
     p.add_argument("--slope-limit", type=int, metavar="W", help="most consecutive steps along one clip only (default: seed 000 Eq. 6)")
     p.add_argument("--loop", action="store_true", help="fixed corners: the path joins (0,0) and (nA-1,nB-1)")
-    p.add_argument("--method", choices=("dp", "greedy", "threshold", "brute"), default="dp", help="path search (default dp, exact)")
+    p.add_argument(
+        "--method",
+        choices=("dp", "greedy", "threshold", "brute"),
+        default="dp",
+        help="path search (default dp: exact for --free-end and --loop; brute: exact by enumeration, slow)",
+    )
+    p.add_argument("--free-end", choices=("per-end", "mean"), default="per-end", help="free-end objective (default per-end, see above)")
+    p.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="brute force: give up after S seconds (default 60)")
     p.add_argument("--curve", choices=("bspline", "discrete"), default="bspline", help="timewarp fit (default bspline)")
     p.add_argument("--force", action="store_true", help="replace outputs that exist")
     add_clip_options(p)
@@ -84,17 +98,34 @@ def run(args: argparse.Namespace) -> int:
     plot = check_output(args.plot, args.force, (args.a, args.b)) if args.plot else None
     if args.window < 1 or args.window % 2 == 0:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
+    if not 0 < args.time_limit < float("inf"):
+        raise MjmotionError(f"--time-limit {args.time_limit}: expected a positive number of seconds")
     a, b = load_clips([args.a, args.b], args)
-    pr = registration.register(a, b, window=args.window // 2, slope_limit=args.slope_limit, loop=args.loop, method=args.method, curve=args.curve)
+    pr = registration.register(
+        a,
+        b,
+        window=args.window // 2,
+        slope_limit=args.slope_limit,
+        loop=args.loop,
+        method=args.method,
+        curve=args.curve,
+        weights=joint_weights.load(args, a.skeleton),
+        rule=args.free_end,
+        path_options={"time_limit_s": args.time_limit} if args.method == "brute" else None,
+    )
     write_text_atomic(out, json.dumps(pr.to_json()))
     if plot:
         _plot(pr, plot, a.name, b.name)
     t = pr.timing_s
+    assert pr.blendability is not None  # register() always scores it
     print(
         f"wrote {out}: {len(pr.path.cells)}-cell path, mean cost {pr.path.mean_cost:.4g} m², "
         f"{len(pr.curve.samples)} timewarp samples; grid {t['grid'] * 1e3:.1f} ms, path {t['path'] * 1e3:.1f} ms, "
-        f"curve {t['curve'] * 1e3:.1f} ms"
+        f"curve {t['curve'] * 1e3:.1f} ms; blendability {pr.blendability.score:.2f}"
     )
+    warning = pr.blendability.warning(a.name or args.a, b.name or args.b)
+    if warning:
+        sys.stderr.write(f"warning: {warning}\n")
     return 0
 
 

@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     labels = args.labels or [os.path.splitext(os.path.basename(f))[0] for f in args.files]
     actors = []
     for i, (path, label) in enumerate(zip(args.files, labels)):
-        m = load(path, args)
+        m = load(path, args, trim=not args.frames)  # --frames: the file's own frame numbers
         props = tuple(_prop(m, text) for text in args.prop)  # fitted on the whole clip (a swing's address frames)
         if args.frames:
             m = m[parse_frames(args.frames, m.n_frames)]

@@ -8,7 +8,7 @@ import json
 
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, load, output_path, parse_frames
+from ._common import add_input_options, clip_frame, load_first, output_path, parse_frames
 
 NAME = "vary"
 HELP = "exaggerate, mute or abort a shot by moving along its PCA score path"
@@ -144,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
     if args.scores and args.pcs is not None:
         raise MjmotionError("--pcs is set by the number of columns of --scores; drop --pcs")
 
-    source = load(args.file, args)
+    source, first = load_first(args.file, args)
     # inner-joint translations (some rigs animate them) are parameters too, so nothing is lost
     space = PoseSpace.fit(source, translations=True)
     if args.scores:
@@ -156,16 +156,19 @@ def run(args: argparse.Namespace) -> int:
         if args.scale is not None:
             seg = None
             if args.segment:
-                sl = parse_frames(args.segment, source.n_frames)
-                a, b, _ = sl.indices(source.n_frames)
-                seg = (a, b)
+                a, b, _ = parse_frames(args.segment, source.n_frames + first).indices(source.n_frames + first)  # file frames
+                seg = (max(a - first, 0), b - first)
+                if seg[1] <= seg[0]:
+                    raise MjmotionError(
+                        f"--segment {args.segment}: inside the skipped leading T-pose/transition (frames 0-{first - 1}); add --keep-start"
+                    )
             path = variations.scaled_path(base, args.scale, seg)
         else:
             path = variations.aborted_path(
                 base,
-                args.abort_at,
+                clip_frame(args.abort_at, first, "--abort-at"),
                 args.abort_frames,
-                -1 if args.rest_frame is None else args.rest_frame,
+                -1 if args.rest_frame is None else clip_frame(args.rest_frame, first, "--rest-frame"),
                 source.fps,
                 space=space,
             )

@@ -80,6 +80,43 @@ def _monotone_lsq(design: np.ndarray, targets: np.ndarray, eps: np.ndarray) -> n
     return coef
 
 
+@dataclass(frozen=True, eq=False)
+class Spline:
+    """A B-spline ``u → (C,)`` evaluated with :func:`bspline_basis` (SciPy's ``BSpline`` fields).
+
+    Attributes:
+        t: ``(n + k + 1,)`` knots; c: ``(n, C)`` coefficients (control points); k: degree.
+    """
+
+    t: np.ndarray
+    c: np.ndarray
+    k: int
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        """``(len(u), C)`` values at ``u`` (inside the knot span)."""
+        return bspline_basis(np.atleast_1d(np.asarray(u, dtype=float)), self.t, self.k) @ self.c
+
+
+def monotone_bspline(u: np.ndarray, targets: np.ndarray, n_intervals: int) -> Spline:
+    """A clamped uniform cubic B-spline ``u → (C,)`` fitted to ``targets: (P, C)`` at the strictly
+    increasing parameters ``u: (P,)``, strictly increasing in every coordinate.
+
+    ``n_intervals`` uniform knot intervals over ``[u[0], u[-1]]`` (degree 1 when there are too
+    few points for a cubic); least squares with monotone coefficients (each coordinate's
+    coefficients rise by at least 1e-3 of its span per knot) and the ends pinned (weight 100).
+    """
+    n_int = max(1, int(n_intervals))
+    k = 3 if n_int + 3 <= len(u) else 1
+    inner = np.linspace(u[0], u[-1], n_int + 1)
+    knots = np.r_[[u[0]] * k, inner, [u[-1]] * k]
+    design = bspline_basis(u, knots, k)
+    w = np.ones(len(u))
+    w[[0, -1]] = 100.0  # pin the ends
+    span = np.maximum(targets[-1] - targets[0], 1e-9)
+    coef = _monotone_lsq(design * w[:, None], targets * w[:, None], eps=1e-3 * span / len(knots))
+    return Spline(knots, coef, k)
+
+
 def timewarp_curve(path: Path | np.ndarray, knot_spacing: float = 8.0, n_samples: int | None = None) -> TimewarpCurve:
     """Clamped uniform cubic B-spline through the path, strictly increasing in both clips' times.
 
@@ -93,18 +130,8 @@ def timewarp_curve(path: Path | np.ndarray, knot_spacing: float = 8.0, n_samples
     if len(cells) < 2:
         raise MjmotionError("a timewarp curve needs a path of at least 2 cells; the clips are too short")
     u = cells[:, 0] + cells[:, 1]
-    n_int = max(1, int(round(len(cells) / knot_spacing)))
-    k = 3 if n_int + 3 <= len(cells) else 1
-    inner = np.linspace(u[0], u[-1], n_int + 1)
-    knots = np.r_[[u[0]] * k, inner, [u[-1]] * k]
-    design = bspline_basis(u, knots, k)
-    w = np.ones(len(u))
-    w[[0, -1]] = 100.0  # pin the ends
-    n = n_samples or len(cells)
-    us = np.linspace(u[0], u[-1], n)
-    span = np.maximum(cells[-1] - cells[0], 1e-9)
-    coef = _monotone_lsq(design * w[:, None], cells * w[:, None], eps=1e-3 * span / len(knots))
-    samples = bspline_basis(us, knots, k) @ coef
+    spline = monotone_bspline(u, cells, round(len(cells) / knot_spacing))
+    samples = spline(np.linspace(u[0], u[-1], n_samples or len(cells)))
     samples = np.clip(samples, cells.min(axis=0), cells.max(axis=0))
     keep = np.r_[True, np.all(np.diff(samples, axis=0) > 0, axis=1)]
     return TimewarpCurve(samples=samples[keep], kind="bspline")

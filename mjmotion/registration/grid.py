@@ -132,11 +132,14 @@ def distance_grid(
     weights: np.ndarray | None = None,
     window: int = DEFAULT_WINDOW,
     max_cells: int = MAX_CELLS,
+    frames_a: np.ndarray | None = None,
+    frames_b: np.ndarray | None = None,
 ) -> Grid:
     """The registration grid (seed 000 §3.1 Eq. 2–5), every sum a matrix product.
 
     ``positions_a: (nA, J, 3)``, ``positions_b: (nB, J, 3)`` world joint positions (metres);
-    ``weights: (J,)`` non-negative (default 1). Cell ``[i, j]`` is
+    ``weights: (J,)`` non-negative (default 1); ``frames_a``, ``frames_b``: only these frames'
+    rows and columns (windows still from the whole clips). Cell ``[i, j]`` is
     ``min_{θ,t} Σ_k w_k ‖p_k − (R_θ p'_k + t)‖²`` over the windows around frame ``i`` of A and
     frame ``j`` of B. After centring each window on its weighted mean, with
     ``a = Σ w (x x' + y y')`` and ``b = Σ w (y x' − x y')`` the optimum is ``θ = atan2(b, a)`` and
@@ -149,12 +152,17 @@ def distance_grid(
         raise MjmotionError(f"distance_grid needs (T, J, 3) positions with equal J, got {pa.shape} and {pb.shape}")
     if window < 0:
         raise MjmotionError(f"the window half-width must be ≥ 0 frames, got {window}")
-    check_grid_size(len(pa), len(pb), max_cells)
+    rows = np.arange(len(pa)) if frames_a is None else np.asarray(frames_a, dtype=int)
+    cols = np.arange(len(pb)) if frames_b is None else np.asarray(frames_b, dtype=int)
+    check_grid_size(len(rows), len(cols), max_cells)
     w = np.ones(pa.shape[1]) if weights is None else np.asarray(weights, dtype=float)
     left, right, left_z, right_z = grid_operands(pa, pb, w, window)  # joints of weight zero left out
+    if frames_a is not None or frames_b is not None:  # rows and columns picked after the windows
+        left = left.reshape(2, len(pa), -1)[:, rows].reshape(2 * len(rows), -1)
+        left_z, right, right_z = left_z[rows], right[cols], right_z[cols]
     ab = left @ right.T  # (2nA, nB): 2a over 2b
     cost = left_z @ right_z.T  # Σw|c|² + Σw|c'|² + heights, before the rotation term
-    a2, b2 = ab[: len(pa)], ab[len(pa) :]
+    a2, b2 = ab[: len(rows)], ab[len(rows) :]
     np.multiply(a2, a2, out=a2)  # in place: 2√(a² + b²) in four passes (np.hypot is slower)
     np.multiply(b2, b2, out=b2)
     a2 += b2
