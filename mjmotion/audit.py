@@ -43,6 +43,8 @@ PARQUET_EVERY = 10.0
 _OUTPUT_OPTIONS = ("path", "json", "csv", "force", "jobs")
 #: Error kinds whose rows a resume keeps (the same input gives the same error); others are retried.
 _FINAL_ERRORS = ("input",)
+#: The files an audit writes in its output folder.
+OUTPUTS = ("audit.csv", "audit.parquet", "summary.md", "histograms.png")
 #: Modules :func:`audit_clip` needs (imported once before local workers are forked).
 PRELOAD = ("mjmotion.commands.evaluate", "mjmotion.evaluate", "mjmotion.physics")
 #: Clips listed per metric among the worst in the summary.
@@ -398,7 +400,7 @@ def run(
     start = time.perf_counter()
     opts = opts if opts is not None else judge_options()
     clips = list_clips(root, source_map)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir.mkdir(exist_ok=True)
     previous = {r["path"]: r for r in Table.read(out_dir / "audit.csv")} if resume and (out_dir / "audit.csv").is_file() else {}
     options = {c.rel: options_text(opts, c) for c in clips}
     kept = [previous[c.rel] for c in clips if c.rel in previous and reusable(previous[c.rel], c, options[c.rel])]

@@ -347,6 +347,15 @@ class Dask(Executor):
             self.cluster.close()
 
 
+def check_options(workers: int | None = None, scheduler: str | None = None, jobs: int | None = None) -> None:
+    """Refuse worker counts below 1 and ``--scheduler`` with ``--workers`` (before any work)."""
+    for option, n in (("--workers", workers), ("--jobs", jobs)):
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+            raise MjmotionError(f"{option} {n}: expected a number of worker processes ≥ 1")
+    if scheduler is not None and workers is not None:
+        raise MjmotionError(f"--scheduler {scheduler} and --workers {workers}: the scheduler's cluster has its own workers; give one of them")
+
+
 def start(
     workers: int | None = None,
     scheduler: str | None = None,
@@ -357,11 +366,7 @@ def start(
     """The executor the options ask for: ``scheduler`` (an existing Dask cluster), else ``workers``
     (a Dask LocalCluster of that many processes), else ``jobs`` > 1 (a process pool), else serial.
     ``preload``: modules the tasks need, imported before local workers are forked (so they share them)."""
-    for option, n in (("--workers", workers), ("--jobs", jobs)):
-        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
-            raise MjmotionError(f"{option} {n}: expected a number of worker processes ≥ 1")
-    if scheduler is not None and workers is not None:
-        raise MjmotionError(f"--scheduler {scheduler} and --workers {workers}: the scheduler's cluster has its own workers; give one of them")
+    check_options(workers, scheduler, jobs)
     if scheduler is not None:
         return Dask(scheduler=scheduler, connect_timeout=connect_timeout)
     if workers is not None:

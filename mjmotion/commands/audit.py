@@ -74,7 +74,10 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
     if out.resolve() == root.resolve() or out.resolve().is_relative_to(root.resolve()):
         raise MjmotionError(f"-o {out}: is inside {root}; nothing is written in the audited folder, choose an output folder outside it")
     if out.exists() and not out.is_dir():
-        raise MjmotionError(f"-o {out}: exists and is not a folder")
+        raise MjmotionError(f"-o {out}: exists and is not a folder; an audit writes a folder of results")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not out.exists() and not parent.is_dir():
+        raise MjmotionError(f"-o {out}: folder {parent} does not exist")
     if out.exists() and any(out.iterdir()) and not (args.resume or args.force):
         raise MjmotionError(f"-o {out}: already exists; pass --resume to continue its audit or --force to start over")
     if not find_clips(root):
@@ -85,32 +88,29 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
 def run(args: argparse.Namespace) -> int:
     from .. import audit
     from ..errors import require_number
-    from ..executor import start
+    from ..executor import check_options, start
     from ._common import units_scale
 
     if args.timeout is not None:
         require_number("--timeout", args.timeout, what="a time limit in seconds")
     require_number("--connect-timeout", args.connect_timeout, what="seconds")
     units_scale(args.units)
+    check_options(args.workers, args.scheduler)
     root, out = check_paths(args)
     opts = audit.judge_options(units=args.units, up=args.up)
     source_map = None
     if args.source_map:
         rels = [p.relative_to(root.resolve()).as_posix() for p in audit.find_clips(root)]
         source_map = audit.read_source_map(args.source_map, rels)
-    if args.force:
-        for name in ("audit.csv", "audit.parquet", "summary.md", "histograms.png"):
-            (out / name).unlink(missing_ok=True)
     workers = args.workers if args.workers is not None or args.scheduler else _default_workers()
     with start(workers=workers, scheduler=args.scheduler, connect_timeout=args.connect_timeout, preload=audit.PRELOAD) as ex:
+        if args.force:  # only once the workers answer: a refused start leaves the old audit as it was
+            for name in audit.OUTPUTS:
+                (out / name).unlink(missing_ok=True)
         print(f"auditing {root} on {ex.describe()}" + (f"; dashboard {ex.dashboard}" if ex.dashboard else ""), flush=True)
         res = audit.run(root, out, ex, resume=args.resume, timeout=args.timeout, source_map=source_map, opts=opts)
     n_err = sum(r["status"] != "ok" for r in res.rows)
-    print(
-        f"{len(res.rows)} clips: {len(res.rows) - n_err} ok, {n_err} error; {res.computed} evaluated in {res.seconds:.1f} s "
-        f"({res.computed / res.seconds:.2f} clips/s)"
-        if res.seconds > 0
-        else ""
-    )
+    rate = f" ({res.computed / res.seconds:.2f} clips/s)" if res.computed and res.seconds > 0 else ""
+    print(f"{len(res.rows)} clips: {len(res.rows) - n_err} ok, {n_err} error; {res.computed} evaluated in {res.seconds:.1f} s{rate}")
     print("wrote " + ", ".join(res.files))
     return 0
