@@ -29,6 +29,7 @@ from typing import Any
 
 from . import __version__
 from .errors import MjmotionError
+from .executor import one_line
 from .outputs import write_text_atomic, write_with
 
 #: Columns every row has, before the metrics (``status`` is ``ok`` or ``error``).
@@ -157,7 +158,7 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
     try:
         motion, offset, report = evaluate_one(path, opts)
     except MjmotionError as e:
-        row: dict[str, Any] = {"error": str(e)}
+        row: dict[str, Any] = {"error": one_line(str(e))}
         try:  # the flavour of a clip that reads but cannot be judged
             m = bvh.read(path)
             row.update(frames=m.n_frames, fps=float(m.fps), flavour=flavour(m.skeleton.names), joints=m.skeleton.n_joints)

@@ -294,12 +294,19 @@ class Dask(Executor):
         done: set[str] = set()
         stream = as_completed([f for _, f in futures.values()], loop=self.client.loop)
         polled = time.perf_counter()
+        lost: list[Any] = []
         try:
-            while not stream.is_empty():
+            while not stream.is_empty() or lost:
+                for f in [f for f in lost if f.status != "lost"]:
+                    lost.remove(f)
+                    stream.add(f)
                 if stream.has_ready():
                     f = next(stream)
                     if f.key in done:
                         continue  # a future this loop cancelled on its time limit
+                    if f.status == "lost":
+                        lost.append(f)  # its result died with a worker before we fetched it: Dask computes it again
+                        continue
                     done.add(f.key)
                     key = futures[f.key][0]
                     futures[f.key] = (key, None)  # drop our reference: the cluster may free the result
