@@ -277,7 +277,7 @@ class Table:
         header, body = records[0], records[1:]
         if header[: len(META)] != list(META):
             raise MjmotionError(f"{path}: not an audit table of this version (columns {header[:4]}…); use --force to start over")
-        return [{c: _parse(c, v) for c, v in zip(header, rec) if v != ""} for rec in body if len(rec) == len(header)]
+        return [{c: _parse(c, v) for c, v in zip(header, rec)} for rec in body if len(rec) == len(header)]
 
 
 def _arrow_column(values: list[Any], name: str) -> Any:
