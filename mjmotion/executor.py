@@ -74,7 +74,7 @@ class Outcome:
             return self.value
         if self.exception is not None:
             raise self.exception
-        raise MjmotionError(f"{self.key}: {self.error}")
+        raise MjmotionError(self.error if self.kind == "input" else f"task {self.key}: {self.error}")
 
 
 def one_line(text: str) -> str:

@@ -92,7 +92,7 @@ def test_dask_worker_killed_mid_task_is_retried(dask2, tmp_path):
     outs = list(dask2.run(die_once, [(i, (i, str(marker))) for i in range(8)], progress=False))
     assert marker.exists()  # a worker really died in task 2
     assert sorted(o.key for o in outs) == list(range(8))
-    assert all(o.ok and o.value == o.key**2 for o in outs)
+    assert all(o.ok and o.value == o.key**2 for o in outs), [o for o in outs if not o.ok]
 
 
 def test_dask_time_limit(dask2):
@@ -152,3 +152,52 @@ def test_plain_progress_lines_when_not_a_terminal():
 def test_in_order():
     outs = [executor.Outcome(k, k) for k in ("b", "c", "a")]
     assert [o.key for o in executor.in_order(outs, ["a", "b", "c"])] == ["a", "b", "c"]
+
+
+# --- the experiments fan out on it ---------------------------------------------------------------
+class Spy(executor.Executor):
+    """The serial backend, recording what it was asked to run."""
+
+    def __init__(self):
+        self.calls: list[tuple] = []
+
+    def run(self, fn, tasks, **kw):
+        tasks = list(tasks)
+        self.calls.append((fn, [k for k, _ in tasks]))
+        return super().run(fn, tasks, **kw)
+
+
+def test_physics_audit_runs_its_clips_on_the_executor(tmp_path, monkeypatch):
+    from conftest import require_data
+
+    from mjmotion.commands.evaluate import evaluate_file
+    from mjmotion.experiments import physics_audit
+
+    data = require_data()
+    monkeypatch.setattr(physics_audit, "synthesized", lambda quick: {})  # only the captured clips matter here
+    monkeypatch.setattr(physics_audit, "cleanup_of_blends", lambda data_dir, out_dir: ([], []))
+    spy = Spy()
+    table = physics_audit.run(tmp_path, data, quick=True, executor=spy)
+    (fn, keys), *more = spy.calls
+    assert fn is evaluate_file and not more and len(keys) == len(table.rows) >= 4
+    assert [r[1] for r in table.rows] == [f"{Path(k).parent.name}/{Path(k).stem}" for k in keys]  # in file order
+
+
+def test_experiment_scripts_take_workers_and_scheduler(tmp_path, monkeypatch, capsys):
+    from mjmotion import experiments
+    from mjmotion.experiments import Table, hitpoint_grid
+
+    seen = {}
+
+    def fake_run(out_dir, data_dir=None, quick=False, jobs=2, executor=None):
+        seen.update(jobs=jobs, executor=executor, workers=executor.workers if executor else None)
+        return Table("fake", ["a"])
+
+    monkeypatch.setattr(hitpoint_grid, "run", fake_run)
+    assert experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--workers", "1"]) == 0
+    assert seen["executor"].kind == "dask" and seen["workers"] == 1
+    assert experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--jobs", "3"]) == 0
+    assert seen == {"jobs": 3, "executor": None, "workers": None}
+    capsys.readouterr()
+    assert experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--workers", "0"]) == 2
+    assert capsys.readouterr().err.startswith("error: --workers 0")
