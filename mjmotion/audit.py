@@ -479,16 +479,18 @@ def write_summary(
     metrics = numeric_metrics(rows)
     files = []
     varying = {k: [v for v, _ in vals] for k, vals in metrics.items() if len({v for v, _ in vals}) > 1}
-    if varying:
+    # Histograms of the report's own fields (a breakdown like sensitivity[h_c=…].x or hit.x is in the tables).
+    headline = {k: v for k, v in varying.items() if not any(c in k for c in ".[")}
+    if headline:
         png = out_dir / "histograms.png"
-        plots.histograms(varying, png, title=f"{len(ok)} clips of {root.name}")
+        plots.histograms(headline, png, title=f"{len(ok)} clips of {root.name}")
         files.append(str(png))
     if metrics:
         lines += [
             "",
             "## Distributions (ok clips, finite values)",
             "",
-            "![histograms of every metric that varies](histograms.png)" if varying else "",
+            "![histograms of the report's metrics that vary](histograms.png)" if headline else "",
             "",
             "| metric | clips | min | median | p90 | max |",
             "|---|---|---|---|---|---|",
