@@ -155,6 +155,8 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
         raise MjmotionError(f"{path}: not the file that was listed (changed since, or this worker sees another file at the path)")
     import argparse
 
+    if sources and "source" in opts:  # a judge that takes --source SRC.bvh judges the clip against them too
+        opts = {**opts, "source": list(sources)}
     try:
         motion, offset, report = evaluate_one(path, opts)
     except MjmotionError as e:
