@@ -111,10 +111,16 @@ def timed_start(kw: dict) -> tuple[executor.Executor, float]:
     return ex, time.perf_counter() - t
 
 
-def median_wall(cmd: list[str]) -> float:
+def wall_and_cpu(cmd: list[str]) -> tuple[float, float]:
+    """Wall seconds of a command and CPU seconds of it and every process it waited for (its workers)."""
+    import resource
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return time.perf_counter() - t
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def main() -> int:
@@ -168,7 +174,9 @@ def main() -> int:
                 f"{name:26s} {w:8.1f} {n_files / w:8.2f} {base / w:8.2f}x {statistics.median(starts[name]):8.2f} "
                 f"{statistics.median(closes[name]):8.2f} {1000 * statistics.median(per_task[name]):16.3f}"
             )
-        ok = [r for r in tables["serial"] if r["status"] == "ok" and r.get("seconds")]
+        # Per-clip cost on one busy core of this machine: the task times of the two-worker run (both cores in use).
+        two = "LocalCluster (2 workers)"
+        ok = [r for r in tables[two] if r["status"] == "ok" and r.get("seconds")]
         frames = np.array([r["frames"] for r in ok], dtype=float)
         secs = np.array([r["seconds"] for r in ok])
         a, b = np.linalg.lstsq(np.stack([np.ones_like(frames), frames], 1), secs, rcond=None)[0]
@@ -176,34 +184,36 @@ def main() -> int:
         mean_frames = float(np.mean([r["frames"] for r in orig]))
         clip_s = a + b * mean_frames
         print(
-            f"\nper-clip cost (serial run, worker seconds, least squares over {len(ok)} ok clips): "
+            f"\nper-clip cost (task seconds in the two-worker run, least squares over {len(ok)} ok clips): "
             f"{1000 * a:.1f} ms + {1000 * b:.4f} ms/frame; {clip_s:.3f} s for a clip of {mean_frames:.0f} frames "
-            f"(the mean of the {len(orig)} shared clips)"
+            f"(the mean of the {len(orig)} shared clips); tasks sum to {secs.sum():.0f} s against 2 × "
+            f"{statistics.median(runs[two]):.0f} s of wall time"
         )
 
         # The acceptance check: audit vs evaluate on the 42 shared clips, fresh processes, interleaved.
         cli = [sys.executable, "-m", "mjmotion.cli"]
-        walls: dict[str, list[float]] = {"evaluate --jobs 2": [], "audit --workers 2": []}
-        for i in range(1 if args.quick else 3):
-            walls["evaluate --jobs 2"].append(median_wall([*cli, "evaluate", str(data_dir()), "--jobs", "2"]))
-            walls["audit --workers 2"].append(median_wall([*cli, "audit", str(data_dir()), "-o", f"{tmp}/accept_{i}", "--workers", "2"]))
-        ev_w, au_w = (statistics.median(walls[k]) for k in walls)
-        print(f"\n## The 42 shared clips, whole commands (fresh processes, median of {len(walls['evaluate --jobs 2'])}, interleaved)\n")
-        print(f"mjmotion evaluate {data_dir()} --jobs 2          {ev_w:6.2f} s")
-        print(f"mjmotion audit {data_dir()} -o OUT --workers 2   {au_w:6.2f} s  (audit/evaluate = {au_w / ev_w:.2f})")
+        walls: dict[str, list[tuple[float, float]]] = {"evaluate": [], "audit": []}
+        for i in range(1 if args.quick else 5):
+            walls["evaluate"].append(wall_and_cpu([*cli, "evaluate", str(data_dir()), "--jobs", "2"]))
+            walls["audit"].append(wall_and_cpu([*cli, "audit", str(data_dir()), "-o", f"{tmp}/accept_{i}", "--workers", "2"]))
+        (ev_w, ev_c), (au_w, au_c) = ((statistics.median(w for w, _ in walls[k]), statistics.median(c for _, c in walls[k])) for k in walls)
+        print(f"\n## The 42 shared clips, whole commands (fresh processes, median of {len(walls['evaluate'])}, interleaved)\n")
+        print(f"mjmotion evaluate {data_dir()} --jobs 2          wall {ev_w:6.2f} s, CPU {ev_c:6.2f} s")
+        print(
+            f"mjmotion audit {data_dir()} -o OUT --workers 2   wall {au_w:6.2f} s, CPU {au_c:6.2f} s  "
+            f"(audit/evaluate: wall {au_w / ev_w:.2f}, CPU {au_c / ev_c:.2f})"
+        )
 
         # Projection for the whole CMU database from the measured cost and overheads.
-        w2 = statistics.median(runs["LocalCluster (2 workers)"])
-        efficiency = float(secs.sum() / (2 * w2))  # 1.0 = two workers each as fast as the serial run
-        o = statistics.median(per_task["LocalCluster (2 workers)"])
-        start2 = statistics.median(starts["LocalCluster (2 workers)"])
-        t2 = start2 + CMU_CLIPS * clip_s / (2 * efficiency) + CMU_CLIPS * o
+        o = statistics.median(per_task[two])
+        start2 = statistics.median(starts[two])
+        t2 = start2 + CMU_CLIPS * (clip_s + o) / 2
         t64 = CMU_CLIPS * clip_s / CLUSTER_CORES
         sched = CMU_CLIPS * o
         print(f"\n## Projection: the full CMU database ({CMU_CLIPS} clips of {mean_frames:.0f} frames on average)\n")
         print(
-            f"this machine, LocalCluster of 2 workers: {start2:.1f} s start + {CMU_CLIPS} × {clip_s:.3f} s / (2 × {efficiency:.2f} "
-            f"parallel efficiency measured) + {CMU_CLIPS} × {1000 * o:.2f} ms per task = {t2 / 60:.1f} min"
+            f"this machine, LocalCluster of 2 workers: {start2:.1f} s start + {CMU_CLIPS} × ({clip_s:.3f} s + "
+            f"{1000 * o:.2f} ms per task) / 2 = {t2 / 60:.1f} min"
         )
         print(
             f"a {CLUSTER_CORES}-core Dask cluster (one-thread workers, each core as fast as one here): {CMU_CLIPS} × {clip_s:.3f} s / "

@@ -344,6 +344,7 @@ def histograms(values: Mapping[str, Sequence[float]], out: str | os.PathLike[str
         ax.stairs(counts, edges, fill=True, color=COLORS[0])  # one artist per panel (ax.hist makes one per bar)
         ax.set_title(name, fontsize=8)
         ax.tick_params(labelsize=7)
+        ax.locator_params(axis="x", nbins=4)
     for ax in list(axes.flat)[len(series) :]:
         ax.set_visible(False)
     if title:
