@@ -118,7 +118,8 @@ def judge_options(**overrides: Any) -> dict[str, Any]:
 def metric_columns(report: Mapping[str, Any]) -> dict[str, Any]:
     """A report's ``to_dict()`` as flat columns: scalars by name, dicts as ``name.key``, lists of dicts as
     ``name[first=value].key`` (labelled by each entry's first item, e.g. ``sensitivity[h_c=0.03].skate_mm_per_s``).
-    ``name``, ``n_frames``, ``fps`` (row columns of their own) and ``params`` (a column of its own) are left out."""
+    ``name``, ``n_frames``, ``fps`` (row columns of their own), ``params`` (a column of its own) and ``None``
+    values (a metric that does not apply) are left out."""
     out: dict[str, Any] = {}
 
     def put(prefix: str, value: Any) -> None:
@@ -132,7 +133,9 @@ def metric_columns(report: Mapping[str, Any]) -> dict[str, Any]:
                     put(f"{prefix}[{k0}={v0}].{k}", v)
         elif isinstance(value, (list, tuple)):
             out[prefix] = json.dumps(list(value))
-        elif value is None or isinstance(value, (bool, int, float, str)):
+        elif value is None:
+            pass  # a metric that does not apply (``hit`` without a ball): no cell
+        elif isinstance(value, (bool, int, float, str)):
             out[prefix] = value
         else:
             out[prefix] = float(value)  # NumPy scalars
@@ -151,7 +154,11 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
     from .commands._common import load
     from .commands.evaluate import evaluate_one
 
-    if sha256_file(path) != sha256:
+    try:
+        seen = sha256_file(path)
+    except OSError as e:  # a worker on another machine without the file at this path
+        raise MjmotionError(f"{path}: cannot be read on this worker ({e.strerror or e})") from None
+    if seen != sha256:
         raise MjmotionError(f"{path}: not the file that was listed (changed since, or this worker sees another file at the path)")
     import argparse
 
