@@ -266,8 +266,12 @@ def dask_processes(tmp_path):
             c.wait_for_workers(2, timeout=120)
         yield address
     finally:
-        for p in reversed(procs):
-            p.send_signal(signal.SIGINT)
+        try:  # the scheduler closes its workers and itself
+            with Client(address, timeout=10) as c:
+                c.shutdown()
+        except Exception:
+            for p in procs:
+                p.send_signal(signal.SIGINT)
         for p in reversed(procs):
             try:
                 p.wait(timeout=20)
