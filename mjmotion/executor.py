@@ -290,11 +290,11 @@ class Dask(Executor):
         from distributed import KilledWorker, as_completed
 
         batch = uuid.uuid4().hex[:8]
-        futures = {}
+        futures: dict[Any, tuple[Any, Any]] = {}  # Dask key -> (our key, its future; None once yielded)
         for i, (key, args) in enumerate(tasks):
             f = self.client.submit(_call, fn, args, key=f"mjmotion-{batch}-{i}", retries=retries, pure=False)
             futures[f.key] = (key, f)
-        done: set[str] = set()
+        done: set[Any] = set()
         stream = as_completed([f for _, f in futures.values()], loop=self.client.loop)
         polled = time.perf_counter()
         lost: list[Any] = []
@@ -333,7 +333,7 @@ class Dask(Executor):
             if pending:
                 self.client.cancel(pending)
 
-    def _expire(self, futures: dict[str, tuple[Any, Any]], done: set[str], timeout: float) -> Iterator[Outcome]:
+    def _expire(self, futures: dict[Any, tuple[Any, Any]], done: set[Any], timeout: float) -> Iterator[Outcome]:
         """Tasks running longer than ``timeout``: an outcome each, the future cancelled, the worker restarted."""
         running = self.client.run(_executing, on_error="return")
         restart = []
