@@ -22,14 +22,14 @@ PATH_COLOR = "#ffffff"
 CURVE_COLOR = "#ff3030"
 
 
-def _figure(figsize: tuple[float, float], ncols: int = 1, nrows: int = 1, **kw):
+def _figure(figsize: tuple[float, float], ncols: int = 1, nrows: int = 1, layout: str | None = "constrained", **kw):
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure
 
     # A bare Figure (no pyplot): no global state, safe in threads and scripts.
-    fig = Figure(figsize=figsize, layout="constrained")
+    fig = Figure(figsize=figsize, layout=layout)
     axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
     return fig, axes
 
@@ -377,4 +377,28 @@ def skinning_artefacts(
         ax.view_init(elev=20, azim=-60)
         ax.set_title(f"{label}, 180° twist: the skin at the elbow")
         ax.set_axis_off()
+    return _save(fig, out, dpi)
+
+
+def histograms(values: Mapping[str, Sequence[float]], out: str | os.PathLike[str], *, title: str = "", bins: int = 30, dpi: int = 100) -> Path:
+    """One small histogram per named series (finite values only; a series with none is skipped), on a grid."""
+    series = {k: a[np.isfinite(a)] for k, v in values.items() if (a := np.asarray(v, dtype=float)).size}
+    series = {k: a for k, a in series.items() if a.size}
+    if not series:
+        raise MjmotionError(f"{out}: no finite values to draw")
+    ncols = min(4, len(series))
+    nrows = -(-len(series) // ncols)
+    # A fixed layout: the constrained one takes a second more on a grid of thirty panels.
+    fig, axes = _figure((3.2 * ncols, 2.3 * nrows + 0.4), ncols=ncols, nrows=nrows, layout=None)
+    fig.subplots_adjust(left=0.05, right=0.98, bottom=0.04, top=1 - 0.5 / (2.3 * nrows + 0.4), hspace=0.55, wspace=0.3)
+    for ax, (name, a) in zip(axes.flat, series.items()):
+        counts, edges = np.histogram(a, bins=bins)
+        ax.stairs(counts, edges, fill=True, color=COLORS[0])  # one artist per panel (ax.hist makes one per bar)
+        ax.set_title(name, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.locator_params(axis="x", nbins=4)
+    for ax in list(axes.flat)[len(series) :]:
+        ax.set_visible(False)
+    if title:
+        fig.suptitle(title, fontsize=10)
     return _save(fig, out, dpi)

@@ -10,11 +10,15 @@ import math
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import MjmotionError, require_number
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load_first
+
+if TYPE_CHECKING:
+    from ..evaluate import Report
+    from ..skeleton import Motion
 
 NAME = "evaluate"
 HELP = "footskate, ground, inverse-dynamics, limit and hitting metrics of a clip (or every clip in a folder)"
@@ -81,6 +85,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:
     """Evaluate one file; returns ``{"file", "skipped_frames", "report"}`` (runs in worker processes)."""
+    _, offset, rep = evaluate_one(path, opts)
+    return {"file": path, "skipped_frames": offset, "report": rep.to_dict(), "row": rep.row()}
+
+
+def evaluate_one(path: str, opts: dict[str, Any]) -> tuple[Motion, int, Report]:
+    """The one-file evaluation ``evaluate`` and ``audit`` share: the clip as evaluated (leading
+    transient or ``--frames`` cut off), the frames skipped, and its report. ``opts`` holds this
+    verb's options by their ``argparse`` names."""
     from .. import evaluate as ev
     from .. import mjcf
 
@@ -97,8 +109,8 @@ def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:
         if not 0 <= hit < m.n_frames:
             raise MjmotionError(f"--frame {args.frame}: outside the evaluated frames {offset}..{offset + m.n_frames - 1}")
     params = ev.Params(h_c=args.h_c, v_c=args.v_c)
-    rep = ev.evaluate(m.replace(name=Path(path).stem), props, ball, hit, params, ball_velocity=tuple(args.ball_velocity))
-    return {"file": path, "skipped_frames": offset, "report": rep.to_dict(), "row": rep.row()}
+    m = m.replace(name=Path(path).stem)
+    return m, offset, ev.evaluate(m, props, ball, hit, params, ball_velocity=tuple(args.ball_velocity))
 
 
 def _prop(motion, text: str):

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from .. import evaluate as ev
 from ..cleanup import CleanupResult
 from ..skeleton import Motion
 from . import Table
+
+if TYPE_CHECKING:
+    from ..executor import Executor
 
 COLUMNS = (
     "source", "clip", "frames", "fps", "skate mm/s", "planted skate mm/s", "skating ratio", "flight frac",
@@ -127,8 +131,9 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
     return lines, files
 
 
-def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: int = 2) -> Table:
-    """Evaluate everything and write ``out_dir/table.md``."""
+def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: int = 2, executor: Executor | None = None) -> Table:
+    """Evaluate everything and write ``out_dir/table.md``; captured clips run on ``executor`` (Dask,
+    :mod:`mjmotion.executor`) if given, else in ``jobs`` processes."""
     params = ev.Params()
     table = Table(
         "Physics audit: captured and synthesized motion",
@@ -146,7 +151,8 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
         ],
     )
     if data_dir is not None:
-        from ..commands.evaluate import evaluate_files
+        from ..commands.evaluate import evaluate_file
+        from ..executor import in_order, using
 
         files = sorted(str(p) for p in Path(data_dir).rglob("*.bvh"))
         if quick:
@@ -155,12 +161,14 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
             "units": "auto", "up": "y", "frames": None, "keep_start": False, "prop": [], "ball": None, "frame": None,
             "ball_radius": 0.036, "ball_velocity": (0.0, 0.0, 0.0), "h_c": params.h_c, "v_c": params.v_c,
         }  # fmt: skip
-        for r in evaluate_files(files, opts, jobs):
-            label = f"{Path(r['file']).parent.name}/{Path(r['file']).stem}"
-            if "error" in r:
-                table.notes.append(f"{label}: {r['error']}")
+        with using(executor, jobs) as ex:
+            outcomes = in_order(ex.run(evaluate_file, [(f, (f, opts)) for f in files], desc="evaluate", unit="clip"), files)
+        for out in outcomes:
+            label = f"{Path(out.key).parent.name}/{Path(out.key).stem}"
+            if out.kind == "input":
+                table.notes.append(f"{label}: {out.error}")
                 continue
-            table.add(*_row("captured", label, r["report"]))
+            table.add(*_row("captured", label, out.unwrap()["report"]))
     for name, (motion, props) in synthesized(quick).items():
         rep = ev.evaluate(motion, props, params=params)  # type: ignore[arg-type]
         table.add(*_row("synthesized", name, rep.to_dict()))
