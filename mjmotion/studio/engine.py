@@ -107,11 +107,15 @@ def make_blend(
         progress(0.6, "timewarp curve")
         curve = registration.discrete_timewarp(path) if method == "discrete timewarp" else registration.timewarp_curve(path)
         align = registration.alignment_curve(pos[0], pos[1], curve.samples, jw)
-        keep = np.r_[True, np.all(np.diff(curve.samples, axis=0) > 0, axis=1)]
-        times = curve.samples[keep]
+        # sampled once per frame of clip 1, as registration.register_many merges its curves
+        sa = curve.samples
+        tau = np.arange(sa[0, 0], sa[-1, 0] + 1e-9, 1.0)
+        times = np.stack([tau, np.interp(tau, sa[:, 0], sa[:, 1])], axis=1)
+        al = np.stack([np.interp(tau, sa[:, 0], align[:, c]) for c in range(3)], axis=1)
+        keep = np.r_[True, np.all(np.diff(times, axis=0) > 0, axis=1)]
         reg = registration.Registration(
-            times=times,
-            alignment=np.stack([np.zeros_like(align[keep]), align[keep]], axis=1),
+            times=times[keep],
+            alignment=np.stack([np.zeros_like(al[keep]), al[keep]], axis=1),
             reference=0,
             mean_costs=np.array([0.0, path.mean_cost]),
         )

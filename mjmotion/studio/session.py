@@ -344,24 +344,15 @@ class Session:
 
     # --- saving ---------------------------------------------------------------------------------
     def save(self, filename: str) -> Path | None:
-        """Write the main character's clip as ``filename`` inside the Studio's output folder."""
+        """Write the main character's clip (or the stream's last minute) as ``filename`` inside the Studio's output folder."""
         from .. import bvh
-        from ..outputs import check_output
 
         a = self.shown
         try:
             if a is None or (a.motion is None and not self.live_record):
                 raise MjmotionError("nothing to save: show a clip first")
-            if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*\.bvh", filename or ""):
-                raise MjmotionError(f"save as {filename!r}: expected a plain file name ending in .bvh (letters, digits, _ . -)")
-            folder = self.studio.out_dir
-            folder.mkdir(parents=True, exist_ok=True)
-            path = (folder / filename).resolve()
-            if path.parent != folder.resolve():
-                raise MjmotionError(f"save as {filename!r}: must stay inside {folder}")
-            check_output(path, force=False, inputs=self.library.inputs())
-            motion = a.motion if a.motion is not None else self.recorded_stream()
-            bvh.write(motion, path)
+            path = save_path(self.studio.out_dir, filename, self.library.inputs())
+            bvh.write(a.motion if a.motion is not None else self.recorded_stream(), path)
         except MjmotionError as e:
             self.set_status(str(e), error=True)
             return None
@@ -372,3 +363,17 @@ class Session:
         self._closed.set()
         self.worker.stop(timeout=3.0)
         self._ticker.join(timeout=3.0)
+
+
+def save_path(folder: Path, filename: str, inputs: list[Path]) -> Path:
+    """Where a save goes: a plain ``NAME.bvh`` inside ``folder`` (created), never over a file or an input."""
+    from ..outputs import check_output
+
+    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*\.bvh", filename or ""):
+        raise MjmotionError(f"save as {filename!r}: expected a plain file name ending in .bvh (letters, digits, _ . -)")
+    folder = Path(folder).resolve()
+    folder.mkdir(parents=True, exist_ok=True)
+    path = (folder / filename).resolve()
+    if path.parent != folder:
+        raise MjmotionError(f"save as {filename!r}: must stay inside {folder}")
+    return check_output(path, force=False, inputs=inputs)
