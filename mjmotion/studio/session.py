@@ -11,6 +11,7 @@ from __future__ import annotations
 import re
 import threading
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -35,6 +36,8 @@ TICK_HZ = 30.0
 #: Sideways spacing (metres) of characters shown side by side.
 SPACING = 1.4
 TAB_NAMES = ("Blend", "Stream", "Hit", "Vary", "Evaluate")
+# A page may close between a tick's check and its draw; viser then warns that the update is dropped.
+warnings.filterwarnings("ignore", message="Queued a .* on a closed connection")
 #: Seconds of the live stream kept for saving.
 RECORD_S = 60.0
 
@@ -72,6 +75,7 @@ class Session:
         self._stream_debt = 0.0
         self._follow_xy: np.ndarray | None = None
         self._readout_at = 0.0
+        self._dirty = True  # draw on the next tick even if the frame did not change
         self.worker = Worker(self._on_progress, self._on_error)
         self._build_gui()
         self.scene_floor = client.scene.add_grid("/floor", width=40.0, height=40.0, cell_size=0.5, section_size=2.0, position=(0.0, 0.0, 0.0))
@@ -181,6 +185,7 @@ class Session:
             self.timeline.value = 0
             self.play_button.label = "Pause"
             self._draw(0)
+            self._dirty = True
 
     @property
     def shown(self) -> Actor | None:
@@ -207,6 +212,7 @@ class Session:
             self._stream_debt = 0.0
             self.player = Player(1, live.fps)
             self.play_button.label = "Pause"
+            self._dirty = True
 
     # --- playback ---------------------------------------------------------------------------------
     def toggle_play(self) -> None:
@@ -289,29 +295,35 @@ class Session:
                     hook(frame)
 
     def tick(self, seconds: float) -> None:
-        """Advance playback by ``seconds`` of wall time and draw (the ticker calls this)."""
+        """Advance playback by ``seconds`` of wall time and draw what changed (the ticker calls this)."""
         with self.lock:
             if not self.cast:
                 return
             if self.live is not None:
+                n = 0
                 if self.player.playing:
                     self._stream_debt += seconds * self.live.fps * self.player.speed
                     n = int(self._stream_debt)
                     self._stream_debt -= n
                     self._advance_live(n)
                 if self.live_frame is None:
+                    n = 1
                     self._advance_live(1)
-                with self.client.atomic():
-                    self._draw(0)
+                if n or self._dirty:
+                    with self.client.atomic():
+                        self._draw(0)
                 now = time.perf_counter()
-                if now - self._readout_at > 0.3:
+                if now - self._readout_at > 0.3 and self.live_frame is not None:
                     self._readout_at = now
                     self.tabs["Stream"].on_live(self.live_frame)
             else:
+                before = self.player.index
                 f = self.player.tick(seconds)
-                with self.client.atomic():
-                    self._draw(f)
-                    self.timeline.value = f
+                if f != before or self._dirty:
+                    with self.client.atomic():
+                        self._draw(f)
+                        self.timeline.value = f
+            self._dirty = False
             if not self.player.playing and self.play_button.label != "Play":
                 self.play_button.label = "Play"
         self._follow()
