@@ -276,6 +276,10 @@ def score_image(v: Variant, label: str) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 # Evaluate (docs METRICS.md)
 # --------------------------------------------------------------------------------------------
+#: Depth (m) below the floor from which a frame is marked as penetrating on the timeline.
+PENETRATION_TOL = 0.001
+
+
 @dataclass(frozen=True, eq=False)
 class Evaluation:
     """The judge's numbers for a clip and the frames to highlight.
@@ -283,7 +287,7 @@ class Evaluation:
     Attributes:
         rows: ``(label, value)`` of every scalar the report has.
         foot_geoms: ``{side: geom ids}``; ``contacts``: ``(T, F)`` bool per side in ``sides``.
-        penetrating: ``(T,)`` a body geom below the floor; ``skating``: ``(T,)`` a low foot moving faster than ``v_c``.
+        penetrating: ``(T,)`` a body geom more than :data:`PENETRATION_TOL` below the floor; ``skating``: ``(T,)`` a low foot moving faster than ``v_c``.
     """
 
     rows: list[tuple[str, Any]]
@@ -308,7 +312,7 @@ def evaluate(motion: Motion, props: tuple[mjcf.Prop, ...] = (), progress: Progre
     track = ev.foot_heights_speeds(compiled, motion, pose)
     contacts = ev.contacts(track)
     skating = (ev.low_both(track) & (track.speeds > ev.V_C)).any(axis=1)
-    penetrating = ev.lowest_body_point(compiled, pose) < 0.0
+    penetrating = ev.lowest_body_point(compiled, pose) < -PENETRATION_TOL
     return Evaluation(rows, track.sides, dict(compiled.foot_geoms), contacts, penetrating, skating)
 
 

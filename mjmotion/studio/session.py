@@ -171,9 +171,12 @@ class Session:
             self.cast.append(actor)
             return actor
 
-    def show(self, motions: list[tuple[str, Motion, tuple[mjcf.Prop, ...]]], main: int = 0) -> None:
-        """Show clips side by side (the first at its place, the others ``SPACING`` apart) on one timeline."""
+    def show(self, motions: list[tuple[str, Motion, tuple[mjcf.Prop, ...]]], main: int = 0, keep_marks: bool = False) -> None:
+        """Show clips side by side (the first at its place, the others ``SPACING`` apart) on one timeline;
+        the Hit tab's ball, gizmo and flight go unless ``keep_marks``."""
         with self.lock:
+            if not keep_marks and "Hit" in getattr(self, "tabs", {}):
+                self.tabs["Hit"].clear_marks()
             self.clear_cast()
             for k, (label, m, props) in enumerate(motions):
                 if k:
@@ -204,6 +207,8 @@ class Session:
     def start_live(self, live: Any, props: tuple[mjcf.Prop, ...] = ()) -> None:
         """Play a :class:`~mjmotion.studio.live.LiveStream` (the Stream tab)."""
         with self.lock:
+            if "Hit" in getattr(self, "tabs", {}):
+                self.tabs["Hit"].clear_marks()
             self.clear_cast()
             first = live._loco[0]
             self.add_actor("stream", first, props, precompute=False)

@@ -52,19 +52,27 @@ class HitTab:
         self.shot = shot
         props = (shot.prop,) if shot.prop is not None else ()
         self.s.show([(shot.motion.name, shot.motion, props)])
+        self.clear_marks()
         scene = self.s.client.scene
         p = tuple(float(x) for x in shot.source_point)
         self._marks["source"] = scene.add_icosphere("/hit/source_point", radius=0.02, color=(250, 220, 30), position=p)
         self._marks["ball"] = scene.add_icosphere("/hit/ball", radius=0.036, color=(217, 26, 26), position=p)
-        if self._gizmo is not None:
-            self._gizmo.remove()
         self._gizmo = scene.add_transform_controls("/hit/gizmo", scale=0.35, disable_rotations=True, position=p, depth_test=False)
         self._gizmo.on_update(self._on_drag)
-        self._gizmo.on_drag_end(lambda e: self.solve(np.array(self._gizmo.position), "dls", final=True))
+        self._gizmo.on_update(self._on_release)
         self.ball.value = p
         self.report.content = f"{shot.motion.name}: effector {shot.effector}, hit frame {shot.hit_frame}; drag the gizmo to move the ball."
         self.s.set_status(f"loaded {shot.motion.name} at its hit frame; drag the ball or type its position")
         self._go_to_hit()
+
+    def clear_marks(self) -> None:
+        """Remove the ball, the source hit point, the gizmo and the flight from the scene."""
+        for h in self._marks.values():
+            h.remove()
+        self._marks.clear()
+        if self._gizmo is not None:
+            self._gizmo.remove()
+            self._gizmo = None
 
     def _go_to_hit(self) -> None:
         if self.shot is not None:
@@ -74,7 +82,13 @@ class HitTab:
                 self.s.play_button.label = "Play"
                 self.s._draw(self.shot.hit_frame)
 
+    def _on_release(self, event: Any) -> None:
+        if getattr(event, "phase", None) == "end" and self._gizmo is not None:
+            self.solve(np.array(self._gizmo.position), "dls", final=True)
+
     def _on_drag(self, event: Any) -> None:
+        if getattr(event, "phase", None) == "end":
+            return
         now = time.perf_counter()
         if now - self._last_drag < DRAG_INTERVAL:
             return
@@ -121,7 +135,7 @@ class HitTab:
         props = (shot.prop,) if shot is not None and shot.prop is not None else ()
         with self.s.lock:
             frame = self.s.player.index
-            self.s.show([(a.motion.name, a.motion, props)])
+            self.s.show([(a.motion.name, a.motion, props)], keep_marks=True)
             self.s.player.seek(frame)
             self.s.player.playing = False
             self.s.play_button.label = "Play"
@@ -142,6 +156,6 @@ class HitTab:
             ]
             scene = self.s.client.scene
             if len(flight.path) > 1:
-                self._marks["flight"] = scene.add_spline_catmull_rom("/hit/flight", flight.path, color=(217, 26, 26), line_width=2.0)
+                self._marks["flight"] = scene.add_spline_catmull_rom("/hit/flight", flight.path, color=(217, 26, 26))
         self.report.content = table(rows) + ("" if r["reachable"] else f"\n\n{r.get('message', '')}")
         self.s.set_status(f"adapted {a.motion.name} to the ball ({'reached' if r['reachable'] else 'not reached'})")
