@@ -15,21 +15,11 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-ARGS = [
-    "--no-sandbox",
-    "--use-gl=swiftshader",
-    "--enable-unsafe-swiftshader",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
-
 
 def main() -> int:
     from playwright.sync_api import sync_playwright
 
-    from mjmotion.studio.app import Studio
+    from mjmotion.studio.app import CHROMIUM_ARGS, Studio
     from mjmotion.studio.clips import ClipLibrary
 
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -38,7 +28,7 @@ def main() -> int:
     studio = Studio(ClipLibrary.bundled(), port=0, out_dir="/tmp/mjmotion_studio_shots")
     try:
         with sync_playwright() as pw:
-            browser = pw.chromium.launch(executable_path=shutil.which("chromium"), headless=True, args=ARGS)
+            browser = pw.chromium.launch(executable_path=shutil.which("chromium"), headless=True, args=list(CHROMIUM_ARGS))
             page = browser.new_page(viewport={"width": 1280, "height": 760})
             page.goto(studio.url)
             page.get_by_role("tab", name="Stream").wait_for(timeout=60_000)

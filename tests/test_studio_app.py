@@ -16,17 +16,9 @@ import numpy as np
 import pytest
 
 from mjmotion import bvh, kinematics, mjcf, synth
+from mjmotion.studio.app import CHROMIUM_ARGS as ARGS
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-ARGS = [
-    "--no-sandbox",
-    "--use-gl=swiftshader",
-    "--enable-unsafe-swiftshader",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 
 
 def _need(ok: bool, what: str) -> None:
@@ -54,7 +46,7 @@ def browser():
         _need(False, "playwright")
     _need(CHROMIUM is not None, "chromium")
     with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        b = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=list(ARGS))
         yield b
         b.close()
 

@@ -13,6 +13,16 @@ from ..errors import MjmotionError
 from .clips import ClipLibrary
 
 LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+#: Headless Chromium flags for driving the Studio offline with software WebGL (tests, screenshots).
+CHROMIUM_ARGS = (
+    "--no-sandbox",
+    "--use-gl=swiftshader",
+    "--enable-unsafe-swiftshader",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+)
 
 
 def check_port(host: str, port: int) -> None:
