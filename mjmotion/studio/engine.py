@@ -102,8 +102,10 @@ def make_blend(
     grid = registration.distance_grid(pos[0], pos[1], jw)
     if len(motions) == 2:
         progress(0.4, f"path search ({path_method})")
-        options = {"area_threshold": threshold} if path_method == "threshold" else {}
-        path = registration.find_path(grid.cost, path_method, start="auto", **options)
+        if path_method == "threshold":
+            path = registration.find_path(grid.cost, path_method, start="auto", area_threshold=threshold)
+        else:
+            path = registration.find_path(grid.cost, path_method, start="auto")
         progress(0.6, "timewarp curve")
         curve = registration.discrete_timewarp(path) if method == "discrete timewarp" else registration.timewarp_curve(path)
         align = registration.alignment_curve(pos[0], pos[1], curve.samples, jw)
@@ -120,7 +122,8 @@ def make_blend(
             mean_costs=np.array([0.0, path.mean_cost]),
         )
         note = f"{method}, {path_method} path ({len(path.cells)} cells, mean cost {path.mean_cost:.4f} m²)"
-        cells, samples = path.cells, curve.samples
+        cells: np.ndarray | None = path.cells
+        samples: np.ndarray | None = curve.samples
     else:
         progress(0.4, "n-way registration")
         reg = registration.register_many(motions, reference=0, positions=pos)
@@ -139,7 +142,8 @@ def grid_image(result: BlendResult, labels: tuple[str, str]) -> np.ndarray | Non
         return None
     from .. import plots
 
-    return png(lambda p: plots.distance_grid(result.grid, result.path, result.curve, p, labels=labels, figsize=(4.2, 3.4), dpi=80))
+    grid = result.grid
+    return png(lambda p: plots.distance_grid(grid, result.path, result.curve, p, labels=labels, figsize=(4.2, 3.4), dpi=80))
 
 
 # --------------------------------------------------------------------------------------------
@@ -311,8 +315,8 @@ def evaluate(motion: Motion, props: tuple[mjcf.Prop, ...] = (), progress: Progre
     pose = kinematics.forward(compiled, motion)
     track = ev.foot_heights_speeds(compiled, motion, pose)
     contacts = ev.contacts(track)
-    skating = (ev.low_both(track) & (track.speeds > ev.V_C)).any(axis=1)
-    penetrating = ev.lowest_body_point(compiled, pose) < -PENETRATION_TOL
+    skating = np.asarray((ev.low_both(track) & (track.speeds > ev.V_C)).any(axis=1))
+    penetrating = np.asarray(ev.lowest_body_point(compiled, pose) < -PENETRATION_TOL)
     return Evaluation(rows, track.sides, dict(compiled.foot_geoms), contacts, penetrating, skating)
 
 

@@ -22,7 +22,7 @@ from .. import kinematics, mjcf
 from .. import rotations as rot
 from ..errors import MjmotionError
 from ..skeleton import Motion
-from .clips import ClipLibrary
+from .clips import MAX_CLIP_BYTES, ClipLibrary
 from .jobs import Job, Worker
 from .player import SPEEDS, Player
 from .scene import DRAW_MODES, PALETTE, Kinematics, Pose
@@ -101,7 +101,7 @@ class Session:
             self.loop = gui.add_checkbox("Loop", True)
             self.follow = gui.add_checkbox("Follow camera", True)
         with gui.add_folder("Files", expand_by_default=False):
-            self.upload = gui.add_upload_button("Load BVH", mime_type="*/*", hint=f"a .bvh file (validated; at most {32} MiB)")
+            self.upload = gui.add_upload_button("Load BVH", mime_type="*/*", hint=f"a .bvh file (validated; at most {MAX_CLIP_BYTES // 2**20} MiB)")
             self.save_name = gui.add_text("Save as", "result.bvh")
             self.save_button = gui.add_button("Save shown clip")
             self.draw_menu = gui.add_dropdown("Draw", tuple(DRAW_MODES), initial_value=self.draw_mode)
@@ -261,7 +261,7 @@ class Session:
         if len(fr) < 2:
             raise MjmotionError("nothing to save: the stream has not played yet")
         skel = self.cast[0].compiled.skeleton
-        trans = None if fr[0].translations is None else np.stack([f.translations for f in fr])
+        trans = None if fr[0].translations is None else np.stack([f.translations for f in fr if f.translations is not None])
         q = rot.make_continuous(np.stack([f.rotations for f in fr]))
         return Motion(skel, self.live.fps, np.stack([f.root_position for f in fr]), q, trans, "stream")
 

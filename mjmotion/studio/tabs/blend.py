@@ -36,9 +36,17 @@ class BlendTab:
         self.button = gui.add_button("Blend")
         self.note = gui.add_markdown("")
         self.grid = gui.add_image(np.zeros((2, 2, 3), np.uint8), label="grid", visible=False)
-        self.weights_kind.on_update(lambda e: [setattr(h, "visible", self.weights_kind.value == "curve") for h in self.w_end])
+        self.weights_kind.on_update(lambda e: self._show_end_weights())
         self.button.on_click(lambda e: self.run())
-        session.on_library(lambda n: [refresh(d, n, optional=k == 2) for k, d in enumerate(self.clips)])
+        session.on_library(self._refresh)
+
+    def _show_end_weights(self) -> None:
+        for h in self.w_end:
+            h.visible = self.weights_kind.value == "curve"
+
+    def _refresh(self, names: list[str]) -> None:
+        for k, d in enumerate(self.clips):
+            refresh(d, names, optional=k == 2)
 
     def _weights(self, sliders: list[Any], n: int) -> np.ndarray:
         v = np.array([float(h.value) for h in sliders[:n]])
