@@ -25,15 +25,17 @@ examples:
   mjmotion studio
   mjmotion studio walk.bvh run.bvh kick.bvh --port 8090
   mjmotion studio --data ../shared/mocap/cmu_asfamc_converted
+  mjmotion studio walk.bvh run.bvh --check
 """
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("files", nargs="*", metavar="CLIP.bvh", help="clips to open (default: the bundled library)")
+    p.add_argument("files", nargs="*", default=[], metavar="CLIP.bvh", help="clips to open (default: the bundled library)")
     p.add_argument("--data", metavar="DIR", help="also list every .bvh file under DIR")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=int, default=8080, help="port (default 8080)")
     p.add_argument("--out", default="studio_output", metavar="DIR", help="the folder saved clips go to (default ./studio_output)")
+    p.add_argument("--check", action="store_true", help="read and validate the clips, print what would be served, and exit (no server)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -44,6 +46,9 @@ def run(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         raise MjmotionError(f"--port {args.port}: expected 0-65535")
     library = ClipLibrary.from_paths(args.files, args.data)
+    if args.check:
+        print(f"mjmotion studio: {len(library.names())} clips ready: {', '.join(library.names())}")
+        return 0
     if args.host not in LOCAL_HOSTS:
         sys.stderr.write(f"warning: listening on {args.host}: anyone who can reach this machine on that network can use the studio\n")
     studio = Studio(library, args.host, args.port, args.out)
