@@ -30,7 +30,7 @@ from .errors import MjmotionError
 #: Order of verbs in ``--help``; verbs not listed follow alphabetically.
 VERB_ORDER = (
     "info", "convert", "compile", "fk", "synth", "register", "blend", "stream",
-    "hit", "vary", "evaluate", "audit", "cleanup", "render", "demo",
+    "hit", "vary", "evaluate", "audit", "cleanup", "render", "demo", "studio",
 )  # fmt: skip
 
 

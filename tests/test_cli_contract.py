@@ -114,6 +114,8 @@ VERBS: dict[str, Verb] = {
         bad=(("--frames", "500:600"), ("--h-c", "-1"), ("--ball", "0.5", "0", "0.03", "--frame", "99999")),
         humanoid=True,
     ),
+    # serving runs until Ctrl-C: the contract is checked on --check (read and validate the clips, exit)
+    "studio": Verb(lambda i, o: [i, "--check"], bad=(("--port", "70000"), ("--data", "/no/such/mocap"))),
     "blend": Verb(
         lambda i, o: [i, i, "--weights", "0.5,0.5", "-o", o],
         ".bvh",

@@ -25,7 +25,7 @@ from .align import alignment_curve
 from .blendability import Blendability, blendability, self_similarity
 from .curves import TimewarpCurve, discrete_timewarp, timewarp_curve
 from .grid import DEFAULT_WINDOW, MAX_CELLS, Grid, check_grid_size, distance_grid, joint_weights, rigid_2d
-from .nway import Registration, choose_reference, register_many
+from .nway import Registration, choose_reference, combine, register_many
 from .pairs import PairRegistration, positions_of, register
 from .paths import (
     BRUTE_TIME_LIMIT_S,
@@ -66,6 +66,7 @@ __all__ = [
     "check_grid_size",
     "check_path",
     "choose_reference",
+    "combine",
     "count_paths",
     "discrete_timewarp",
     "distance_grid",

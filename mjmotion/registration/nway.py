@@ -10,9 +10,9 @@ import numpy as np
 from ..errors import MjmotionError
 from ..skeleton import Motion
 from .blendability import Blendability
-from .curves import TimewarpCurve, monotone_bspline
+from .curves import monotone_bspline
 from .grid import DEFAULT_WINDOW, distance_grid, joint_weights
-from .pairs import positions_of, prepare, register
+from .pairs import PairRegistration, positions_of, prepare, register
 from .paths import SlopeLimit, auto_start, dp_path
 
 #: Seed 000 §3.1: the reference is sampled every 5–10 frames and the n clips' times there are the
@@ -116,31 +116,36 @@ def register_many(
     prepare(motions)
     pos = positions if positions is not None else [positions_of(m) for m in motions]
     ref = choose_reference(motions, pos, window, weights) if reference is None else int(reference)
-    n = len(motions)
-    curves: list[TimewarpCurve | None] = []
-    aligns: list[np.ndarray | None] = []
-    costs = np.zeros(n)
-    blends: list[Blendability | None] = []
-    for k in range(n):
-        if k == ref:
-            curves.append(None)
-            aligns.append(None)
-            blends.append(None)
-            continue
-        pr = register(motions[ref], motions[k], window, slope_limit, loop, "dp", start, weights=weights, positions=(pos[ref], pos[k]))
-        curves.append(pr.curve)
-        aligns.append(pr.alignment)
-        costs[k] = pr.path.mean_cost
-        blends.append(pr.blendability)
+    pairs = [
+        None
+        if k == ref
+        else register(motions[ref], motions[k], window, slope_limit, loop, "dp", start, weights=weights, positions=(pos[ref], pos[k]))
+        for k in range(len(motions))
+    ]
+    return combine(pairs, ref, motions[ref].n_frames, sample_every)
+
+
+def combine(pairs: list[PairRegistration | None], reference: int, n_reference: int, sample_every: float | None = SAMPLE_EVERY) -> Registration:
+    """One :class:`Registration` from each clip's registration to the reference (``None`` at the
+    reference): the clips' times gathered at every frame of the reference over the span every pair
+    covers, fitted by one n-dimensional B-spline (:func:`ndim_curve`, a control point every
+    ``sample_every`` frames); ``sample_every=None`` keeps the gathered times as they are (a
+    discrete timewarp stays discrete)."""
+    ref, n = int(reference), len(pairs)
+    curves = [None if p is None else p.curve for p in pairs]
+    aligns = [None if p is None else p.alignment for p in pairs]
+    costs = np.array([0.0 if p is None else p.path.mean_cost for p in pairs])
+    blends = [None if p is None else p.blendability for p in pairs]
+
     lo = max([c.samples[0, 0] for c in curves if c is not None], default=0.0)
-    hi = min([c.samples[-1, 0] for c in curves if c is not None], default=motions[ref].n_frames - 1.0)
+    hi = min([c.samples[-1, 0] for c in curves if c is not None], default=n_reference - 1.0)
     if hi - lo < 1:
         raise MjmotionError("the registered clips share less than one frame of the reference; they cannot be blended")
     # the n-vectors of corresponding times at every frame of the reference, and one curve through them
     tau = np.linspace(lo, hi, int(np.ceil(hi - lo - 1e-9)) + 1)
     gathered = np.column_stack([tau if c is None else np.interp(tau, c.samples[:, 0], c.samples[:, 1]) for c in curves])
-    spline = ndim_curve(gathered, ref, sample_every)
-    times = spline(tau)
+    spline = None if sample_every is None else ndim_curve(gathered, ref, sample_every)
+    times = gathered if spline is None else spline(tau)
     keep = np.r_[True, np.all(np.diff(times, axis=0) > 0, axis=1)]
     times = times[keep]
     align = np.zeros((len(times), n, 3))
