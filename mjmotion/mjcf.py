@@ -22,6 +22,7 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
+from . import limits
 from . import rotations as rot
 from .errors import MjmotionError
 from .skeleton import Skeleton
@@ -325,6 +326,9 @@ def compile(
     foot_boxes = _foot_boxes(skeleton, feet)
     ankles = {a for a, _ in feet.values()}
     segment_of = segments(skeleton)
+    # Joint ranges (mjmotion/limits.py): the largest rotation from rest, in the compiler's angle unit.
+    ranges = limits.joint_limits(skeleton)
+    to_unit = np.degrees if spec.compiler.degree else (lambda x: x)
     volumes: dict[str, float] = {}
     class_geoms: dict[str, list[mujoco.MjsGeom]] = {}
     for j, name in enumerate(skeleton.names):
@@ -343,7 +347,9 @@ def compile(
             if skeleton.has_positions(j):
                 for axis, label in zip(np.eye(3), "xyz"):
                     body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, name=f"{name}/slide_{label}", axis=axis.tolist())
-            body.add_joint(type=mujoco.mjtJoint.mjJNT_BALL, name=name)
+            body.add_joint(
+                type=mujoco.mjtJoint.mjJNT_BALL, name=name, limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=[0.0, float(to_unit(ranges[j]))]
+            )
         tips = [(skeleton.offsets[c], None) for c in skeleton.children(j)]
         ends = np.flatnonzero(skeleton.end_parents == j)
         for k, e in enumerate(ends):

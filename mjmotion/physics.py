@@ -87,7 +87,8 @@ def finite_differences(model: mujoco.MjModel, q: np.ndarray, fps: float, step: i
 
 def _no_contact_model(model: mujoco.MjModel) -> mujoco.MjModel:
     m = copy.copy(model)
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    # Contacts and joint limits off: the residual is the wrench the motion needs, not constraint forces.
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT) | int(mujoco.mjtDisableBit.mjDSBL_LIMIT)
     return m
 
 
