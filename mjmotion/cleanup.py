@@ -237,24 +237,6 @@ def hold_orientations(plants: list[Plant], rotations: np.ndarray, fps: float, bl
     return held, w
 
 
-def two_bone_ik(
-    hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, target: np.ndarray, fallback: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Analytic two-bone IK of a leg, vectorised over frames (:func:`mjmotion.ik.analytic.two_bone`).
-
-    ``hip, knee, ankle, target: (T, 3)``. Returns world rotations ``(T, 4)`` wxyz to apply to
-    the thigh (``r_hip``, about the hip) and to the shin (``r_knee``, about the knee, applied
-    before ``r_hip``), and ``reached: (T,)`` bool. The knee stays in its current bending plane;
-    a straight leg bends about ``fallback: (T, 3)`` (default: the axis perpendicular to the
-    thigh and the target; :func:`knee_hinge_axis` gives the knee's own).
-    """
-    if fallback is None:
-        fallback = np.cross(knee - hip, target - hip)
-    axis = analytic.bend_axes(hip, knee, ankle, fallback=fallback)
-    r_hip, r_knee, short = analytic.two_bone(hip, knee, ankle, target, axis)
-    return r_hip, r_knee, short <= 1e-9
-
-
 def knee_hinge_axis(pose: kinematics.Pose, hip: int, knee: int, ankle: int) -> np.ndarray | None:
     """The knee's bend axis in the thigh's frame ``(3,)``: the mean over the frames where the
     captured knee is bent (over 3°) of ``(knee − hip) × (ankle − knee)``, or None if it never is.
@@ -536,7 +518,7 @@ def _solve_legs(
             continue
         hinge = knee_hinge_axis(pose, h, k, a)
         fallback = None if hinge is None else rot.rotate(wr[act, h], np.broadcast_to(hinge, (int(act.sum()), 3)))
-        r_hip, r_knee, ok = two_bone_ik(jp[act, h], jp[act, k], jp[act, a], targets[act, f], fallback)
+        r_hip, r_knee, ok = analytic.two_bone_ik(jp[act, h], jp[act, k], jp[act, a], targets[act, f], fallback)
         unreached += int((~ok).sum())
         w_hip = rot.multiply(r_hip, wr[act, h])
         w_knee = rot.multiply(r_hip, rot.multiply(r_knee, wr[act, k]))
