@@ -423,9 +423,9 @@ def evaluate(
     pose = kinematics.forward(compiled, motion)
     src_poses = [(kinematics.forward(compiled, s), s.fps) for s in sources]
     soles = calibrate_soles(motion.skeleton, src_poses if sources else [(pose, motion.fps)])
-    own = foot_heights_speeds(compiled, motion, pose, floor=0.0, soles=soles, cutoff_hz=params.cutoff_hz)
+    own = foot_heights_speeds(compiled, motion, pose, floor=0.0, soles=soles, speed_window=params.speed_window)
     src_floors = [
-        foot_heights_speeds(compiled, s, p, floor=0.0, soles=soles, cutoff_hz=params.cutoff_hz).detected_floor()
+        foot_heights_speeds(compiled, s, p, floor=0.0, soles=soles, speed_window=params.speed_window).detected_floor()
         for s, (p, _) in zip(sources, src_poses)
     ]
     fl = floors.resolve(floor, src_floors, own.detected_floor())

@@ -12,8 +12,8 @@ as the foot's own joints and End Sites), the heel ``mjcf.HEEL_BACK`` × stature 
 too short to calibrate use the rest pose, as :func:`mjmotion.mjcf.compile` does for its boxes.
 
 A foot's *height* is its lowest sole point above the floor (:mod:`mjmotion.floor`); its *speed*
-is the horizontal speed of that point, differentiated after a low-pass filter
-(:func:`mjmotion.filters.lowpass`). :func:`contacts` labels a foot in contact with hysteresis.
+is the horizontal speed of that point, the slope of a local quadratic over 0.1 s
+(:func:`mjmotion.filters.velocity`, ``Params.speed_window``). :func:`contacts` labels a foot in contact with hysteresis.
 
 Reusable pieces:
 
@@ -35,11 +35,11 @@ from . import floor as floors
 from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
-from .filters import lowpass
+from .filters import lowpass, velocity
 from .kinematics import Pose
 from .mjcf import CompiledModel
 from .skeleton import Motion, Skeleton
-from .thresholds import CUTOFF_HZ, H_C, HYSTERESIS, V_C
+from .thresholds import CUTOFF_HZ, H_C, HYSTERESIS, SPEED_WINDOW, V_C
 
 # The 8 corner sign patterns of a box, (8, 3).
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
@@ -315,7 +315,7 @@ class FootTrack:
         heights: ``(T, F)`` lowest sole point above the floor, metres.
         lowest: ``(T, F, 3)`` the lowest sole point (world).
         speeds: ``(T, F)`` horizontal speed of the lowest point (that material point's velocity,
-            from low-pass filtered positions), m/s.
+            smoothed: :func:`mjmotion.filters.velocity`), m/s.
         floor: the floor height the heights are measured from (m, world z).
         soles: the sole points' placement, when the track came from a skeleton.
         climb: ``(T, F)`` vertical speed of the lowest point (m/s, signed), or None.
@@ -345,16 +345,16 @@ class FootTrack:
         return floors.detect(self.heights + self.floor, still)
 
 
-def foot_track(sides: tuple[str, ...], points: np.ndarray, fps: float, floor: float = 0.0, cutoff_hz: float | None = None) -> FootTrack:
-    """A :class:`FootTrack` from foot points ``(T, F, P, 3)``, heights above ``floor``; speeds
-    from positions low-passed at ``cutoff_hz`` (None: raw central differences)."""
+def foot_track(sides: tuple[str, ...], points: np.ndarray, fps: float, floor: float = 0.0, speed_window: float | None = None) -> FootTrack:
+    """A :class:`FootTrack` from foot points ``(T, F, P, 3)``, heights above ``floor``; velocities
+    from :func:`mjmotion.filters.velocity` over ``speed_window`` seconds (None: raw central differences)."""
     if points.shape[0] < 2:
         raise MjmotionError("a clip needs at least 2 frames for foot speeds")
     z = points[..., 2]
     k = np.argmin(z, axis=2)  # (T, F) lowest point index
     heights = np.take_along_axis(z, k[..., None], axis=2)[..., 0] - float(floor)
     lowest = np.take_along_axis(points, k[..., None, None], axis=2)[:, :, 0]
-    vel = np.gradient(lowpass(points, fps, cutoff_hz), 1.0 / fps, axis=0)  # (T, F, P, 3), per second
+    vel = velocity(points, fps, speed_window)  # (T, F, P, 3), per second
     v_low = np.take_along_axis(vel, k[..., None, None], axis=2)[:, :, 0]
     return FootTrack(sides, float(fps), points, heights, lowest, np.linalg.norm(v_low[..., :2], axis=-1), float(floor), climb=v_low[..., 2])
 
@@ -365,7 +365,7 @@ def foot_heights_speeds(
     pose: Pose | None = None,
     floor: float | None = None,
     soles: Soles | None = None,
-    cutoff_hz: float | None = CUTOFF_HZ,
+    speed_window: float | None = SPEED_WINDOW,
 ) -> FootTrack:
     """The :class:`FootTrack` of ``motion``.
 
@@ -376,7 +376,7 @@ def foot_heights_speeds(
         compiled = compiled if compiled is not None else mjcf.compile(motion.skeleton)
         pose = kinematics.forward(compiled, motion)
     soles = soles if soles is not None else calibrate_soles(motion.skeleton, [(pose, motion.fps)])
-    tr = foot_track(soles.sides, sole_points(soles, pose), motion.fps, 0.0, cutoff_hz)
+    tr = foot_track(soles.sides, sole_points(soles, pose), motion.fps, 0.0, speed_window)
     tr = replace(tr, soles=soles)
     return tr.at_floor(tr.detected_floor() if floor is None else floor)
 

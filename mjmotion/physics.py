@@ -417,7 +417,7 @@ def residuals(
     params = params if params is not None else Params()
     pose = pose if pose is not None else kinematics.forward(compiled, motion)
     if track is None or ground is None:
-        track = track if track is not None else feet.foot_heights_speeds(compiled, motion, pose, cutoff_hz=params.cutoff_hz)
+        track = track if track is not None else feet.foot_heights_speeds(compiled, motion, pose, speed_window=params.speed_window)
         if ground is None:
             ground = feet.lowest_body_point(compiled, pose, track.heights.min(axis=1) + track.floor) - track.floor
     force, torque = whole_body_wrench(compiled, pose, motion.fps, params.cutoff_hz)

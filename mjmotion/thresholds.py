@@ -24,6 +24,8 @@ H_C_SENSITIVITY = (0.03, 0.05, 0.08)
 #: Low-pass cutoff (Hz) of the zero-lag 2nd-order Butterworth filter applied to positions before
 #: they are differentiated (foot speeds, inverse dynamics): Winter's cutoff for walking marker data.
 CUTOFF_HZ = 6.0
+#: Foot speeds: the slope of a local quadratic fitted over this many seconds (Savitzky–Golay).
+SPEED_WINDOW = 0.1
 MU = 1.0  #: friction coefficient of the ground-reaction feasibility test
 #: A frame fails the physics check when the ground cannot supply the wrench the motion needs to
 #: within this fraction of body weight (see :func:`mjmotion.physics.residuals`).
@@ -54,7 +56,8 @@ class Params:
         skate_window: GMD's window for ``skating_ratio`` (frames).
         float_tol: PhysDiff's float tolerance (m).
         mu: friction coefficient of the ground-reaction test.
-        cutoff_hz: low-pass cutoff before differentiating positions (Hz).
+        cutoff_hz: low-pass cutoff before differentiating positions for inverse dynamics (Hz).
+        speed_window: window of the local quadratic foot speeds are the slope of (s).
         residual_tol: ground-reaction residual (fraction of m·g) above which a frame fails.
         support_height: sole points below this height (m) can push on the floor.
         penetration_tol: depth below the floor (m) beyond which a frame fails.
@@ -70,6 +73,7 @@ class Params:
     float_tol: float = FLOAT_TOL
     mu: float = MU
     cutoff_hz: float = CUTOFF_HZ
+    speed_window: float = SPEED_WINDOW
     residual_tol: float = RESIDUAL_TOL
     support_height: float = SUPPORT_HEIGHT
     penetration_tol: float = PENETRATION_TOL
@@ -80,7 +84,7 @@ class Params:
     h_c_sensitivity: tuple[float, ...] = H_C_SENSITIVITY
 
     def __post_init__(self) -> None:
-        positive = ("h_c", "v_c", "float_tol", "mu", "cutoff_hz", "residual_tol", "pop_factor", "peak_percentile")
+        positive = ("h_c", "v_c", "float_tol", "mu", "cutoff_hz", "speed_window", "residual_tol", "pop_factor", "peak_percentile")
         for name in (*positive, "support_height", "penetration_tol", "speed_floor", "accel_floor"):
             require_number(f"Params.{name} =", getattr(self, name), strict=name in positive)
         require_number("Params.hysteresis =", self.hysteresis, 0.0, False, 1.0)
