@@ -453,3 +453,42 @@ def test_params_refuse_non_physical_thresholds():
     with pytest.raises(ev.MjmotionError, match="h_c_sensitivity"):
         ev.Params(h_c_sensitivity=(0.03, -1.0))
     assert ev.Params(h_c=0.03, v_c=0.2).h_c == 0.03
+
+
+def test_cli_evaluate_floor_and_source(tmp_path, capsys):
+    d = require_data()
+    walk = d / "cmu_asfamc_converted/16_15.bvh"
+    m = bvh.read(walk)
+    up = tmp_path / "up.bvh"
+    bvh.write(m.replace(root_positions=m.root_positions + [0, 0, 0.05]), up)
+    out = tmp_path / "r.json"
+    assert main(["evaluate", str(up), "--source", str(walk), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "against 1 source(s): worst_joint_speed_ratio 1.00" in text
+    rep = json.loads(out.read_text())[0]["report"]
+    assert rep["floor_from"] == "source" and rep["float_mm"] > 40 and rep["sources"] == 1
+    assert main(["evaluate", str(up), "--floor", "0.05"]) == 0
+    assert " given" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("case", ["floor nan", "floor inf", "other skeleton", "other fps", "itself", "a copy of itself", "folder"])
+def test_cli_evaluate_refuses_a_bad_floor_or_source(case, tmp_path, capsys):
+    d = require_data()
+    clip = tmp_path / "walk.bvh"
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh")[10:80]
+    bvh.write(m, clip)
+    extra = {
+        "floor nan": ["--floor", "nan"],
+        "floor inf": ["--floor", "inf"],
+        "other skeleton": ["--source", str(d / "cmu_cgspeed_daz/07_01.bvh")],
+        "other fps": ["--source", str(tmp_path / "slow.bvh")],
+        "itself": ["--source", str(clip)],
+        "a copy of itself": ["--source", str(tmp_path / "copy.bvh")],
+        "folder": ["--source", str(clip)],
+    }[case]
+    bvh.write(m.resample(60.0), tmp_path / "slow.bvh")
+    (tmp_path / "copy.bvh").write_bytes(clip.read_bytes())
+    target = str(tmp_path) if case == "folder" else str(clip)
+    assert main(["evaluate", target, *extra]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {extra[0]} ") and err.count("\n") == 1 and "Traceback" not in err, err
