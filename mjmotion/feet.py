@@ -125,22 +125,18 @@ def _support_points(compiled: CompiledModel, geom_ids: np.ndarray) -> tuple[np.n
         joints = np.array([body_to_joint[int(m.geom_bodyid[g])] for g in geom_ids], dtype=int)
     except KeyError:
         raise MjmotionError("lowest point: a geom is not on a skeleton body") from None
-    pts = np.zeros((len(geom_ids), 8, 3))
-    radius = np.zeros(len(geom_ids))
-    for i, g in enumerate(geom_ids):
-        r = rot.to_matrix(m.geom_quat[g])
-        size, kind = m.geom_size[g], m.geom_type[g]
-        if kind == mujoco.mjtGeom.mjGEOM_BOX:
-            local = _CORNERS * size
-        elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
-            local = np.array([[0.0, 0.0, size[1]], [0.0, 0.0, -size[1]]])[[0, 1, 0, 1, 0, 1, 0, 1]]
-            radius[i] = size[0]
-        elif kind == mujoco.mjtGeom.mjGEOM_SPHERE:
-            local = np.zeros((8, 3))
-            radius[i] = size[0]
-        else:
-            raise MjmotionError(f"lowest point: unsupported geom type {int(kind)}")
-        pts[i] = m.geom_pos[g] + local @ r.T
+    gids = np.asarray(geom_ids, dtype=int)
+    size, kind = m.geom_size[gids], m.geom_type[gids]
+    box = kind == mujoco.mjtGeom.mjGEOM_BOX
+    cap = kind == mujoco.mjtGeom.mjGEOM_CAPSULE
+    sph = kind == mujoco.mjtGeom.mjGEOM_SPHERE
+    if not (box | cap | sph).all():
+        raise MjmotionError(f"lowest point: unsupported geom types {sorted(set(kind[~(box | cap | sph)].tolist()))}")
+    # In the geom's frame: a box's corners; a capsule's two axis ends (repeated); a sphere's centre.
+    ends = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])[[0, 1, 0, 1, 0, 1, 0, 1]]
+    local = np.where(box[:, None, None], _CORNERS[None] * size[:, None, :], ends[None] * size[:, None, 1:2] * cap[:, None, None])
+    radius = np.where(cap | sph, size[:, 0], 0.0)
+    pts = m.geom_pos[gids][:, None, :] + np.einsum("gij,gkj->gki", rot.to_matrix(m.geom_quat[gids]), local)
     return pts, radius, joints
 
 

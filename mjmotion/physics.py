@@ -187,11 +187,11 @@ def body_frames(compiled: CompiledModel, pose: kinematics.Pose) -> tuple[np.ndar
     pos = np.empty((t_count, len(ids), 3))
     quat = np.empty((t_count, len(ids), 4))
     col = {int(b): i for i, b in enumerate(ids)}
+    cols = np.array([i for i, b in enumerate(ids) if int(b) in joint_of], dtype=int)
+    pos[:, cols] = pose.joint_positions[:, [joint_of[int(ids[i])] for i in cols]]
+    quat[:, cols] = pose.joint_rotations[:, [joint_of[int(ids[i])] for i in cols]]
     for i, b in enumerate(ids):
-        j = joint_of.get(int(b))
-        if j is not None:
-            pos[:, i], quat[:, i] = pose.joint_positions[:, j], pose.joint_rotations[:, j]
-        else:
+        if int(b) not in joint_of:  # a prop: its parent's frame and its fixed offset
             k = col[int(m.body_parentid[b])]
             quat[:, i] = rot.multiply(quat[:, k], np.broadcast_to(m.body_quat[b], (t_count, 4)))
             pos[:, i] = pos[:, k] + rot.rotate(quat[:, k], np.broadcast_to(m.body_pos[b], (t_count, 3)))
