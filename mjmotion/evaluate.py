@@ -241,7 +241,7 @@ def pop_frames(
     least ``floor`` rad/s²) in ``reference`` (the sources; None: the clip itself)."""
     acc = joint_angular_accelerations(result)
     refs = [acc] if reference is None else [joint_angular_accelerations(m) for m in _as_list(reference)]
-    return (acc > factor * _robust_peaks(refs, percentile, floor)).any(axis=1)
+    return np.asarray((acc > factor * _robust_peaks(refs, percentile, floor)).any(axis=1))
 
 
 def max_joint_speed_ratio(result: Motion, sources: Motion | Sequence[Motion]) -> float:

@@ -56,7 +56,7 @@ MIN_CALIBRATION_FRAMES = 20
 # --------------------------------------------------------------------------- geometry
 
 
-def geom_frames(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+def geom_frames(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """World pose of character geoms from the joints' world poses.
 
     Returns ``pos: (T, G, 3)`` metres and ``mat: (T, G, 3, 3)`` (columns are the geom's axes).
@@ -83,7 +83,7 @@ def box_corners(pos: np.ndarray, mat: np.ndarray, half: np.ndarray) -> np.ndarra
     return pos[:, :, None, :] + np.einsum("tgij,gkj->tgki", mat, local)
 
 
-def lowest_points(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int]) -> np.ndarray:
+def lowest_points(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int] | np.ndarray) -> np.ndarray:
     """``(T, G, 3)`` lowest world point of each geom (boxes, capsules, spheres; exact for a plane floor)."""
     m = compiled.model
     gids = np.asarray(geom_ids, dtype=int)
@@ -140,7 +140,7 @@ def _support_points(compiled: CompiledModel, geom_ids: np.ndarray) -> tuple[np.n
     return pts, radius, joints
 
 
-def lowest_heights(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int]) -> np.ndarray:
+def lowest_heights(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int] | np.ndarray) -> np.ndarray:
     """``(T, G)`` world height of the lowest point of each geom (boxes, capsules, spheres; exact
     for a plane floor) — only heights, from the third row of each body's rotation, so it costs a
     fraction of :func:`lowest_points`."""
@@ -407,9 +407,9 @@ def contacts(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C, hyst
     t = np.arange(event.shape[0])[:, None]
     last = np.maximum.accumulate(np.where(event != 0, t, -1), axis=0)  # last frame with an event
     state = np.take_along_axis(event, np.maximum(last, 0), axis=0)
-    return (last >= 0) & (state == 1)
+    return np.asarray((last >= 0) & (state == 1))
 
 
 def flight_frames(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C, hysteresis: float = HYSTERESIS) -> np.ndarray:
     """``(T,)`` frames where no foot is in contact."""
-    return ~contacts(track, h_c, v_c, hysteresis).any(axis=1)
+    return np.asarray(~contacts(track, h_c, v_c, hysteresis).any(axis=1))

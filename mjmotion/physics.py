@@ -425,7 +425,7 @@ def residuals(
     weight = mass * GRAVITY
     ratio = np.linalg.norm(force, axis=1) / weight
     con = feet.contacts(track, params.h_c, params.v_c, params.hysteresis)  # (T, F)
-    flight = ~con.any(axis=1)
+    flight = np.asarray(~con.any(axis=1))
     # Support: sole points touching the floor (within support_height), and those of feet in
     # contact within h_c. A foot sliding on the floor still pushes (a retargeted run's stance
     # foot often slides faster than v_c).

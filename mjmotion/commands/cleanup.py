@@ -67,8 +67,8 @@ def _metrics(motion, sources, floor, params) -> dict[str, float]:
         "float_mm": r.float_mm,
         "physics_violation_ratio": r.physics_violation_ratio,
         "pop_frames": float(r.pop_frames),
-        "worst_joint_speed_ratio": float(r.worst_joint_speed_ratio),
-        "max_joint_speed_ratio": float(r.max_joint_speed_ratio),
+        "worst_joint_speed_ratio": float("nan") if r.worst_joint_speed_ratio is None else r.worst_joint_speed_ratio,
+        "max_joint_speed_ratio": float("nan") if r.max_joint_speed_ratio is None else r.max_joint_speed_ratio,
     }
 
 
@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"wrote {out}: {len(res.plants)} plants ({info['raised_plants']} raised onto the floor), "
         f"{int(res.changed_frames.sum())}/{m.n_frames} frames changed, root moved ≤ {res.max_root_shift_m * 1000:.1f} mm"
-        + (f", {info['lifted_frames']} swing frames lifted ≤ {info['max_lift_m'] * 1000:.1f} mm" if params.swing_clearance > 0 else "")
+        + (f", {info['lifted_frames']} swing frames lifted ≤ {float(res.lift.max()) * 1000:.1f} mm" if params.swing_clearance > 0 else "")
     )
     print(
         f"floor {res.floor.height:+.3f} m ({res.floor.from_}); judged against {'the ' + str(len(sources)) + ' source(s)' if sources else 'the input'}"

@@ -91,8 +91,8 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
     pairs = [("bundled walk+run", *_bundled_linear_blend())]
     for a, b in BLEND_PAIRS if data_dir is not None else ():
         if (data_dir / a).is_file() and (data_dir / b).is_file():
-            clips = [_read(data_dir / x) for x in (a, b)]
-            lin = blend.blend(clips, [0.5, 0.5], method="linear")
+            clips = (_read(data_dir / a), _read(data_dir / b))
+            lin = blend.blend(list(clips), [0.5, 0.5], method="linear")
             pairs.append((f"{a.split('/')[0]} {Path(a).stem}+{Path(b).stem}", clips, lin, cleanup.cleanup(lin, sources=clips)))
     lines = []
     for rel in CLEAN_WALKS if data_dir is not None else ():
