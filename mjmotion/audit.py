@@ -35,7 +35,7 @@ from .outputs import write_text_atomic, write_with
 #: Columns every row has, before the metrics (``status`` is ``ok`` or ``error``).
 META = (
     "path", "size", "sha256", "status", "error", "error_kind", "frames", "fps", "flavour", "joints",
-    "skipped_frames", "seconds", "sources", "options", "mjmotion_version", "params",
+    "skipped_frames", "seconds", "source_files", "options", "mjmotion_version", "params",
 )  # fmt: skip
 _TYPES = {"size": int, "frames": int, "joints": int, "skipped_frames": int, "fps": float, "seconds": float}
 #: Seconds between rewrites of ``audit.parquet`` while an audit runs.
@@ -431,7 +431,7 @@ def run(
                 {
                     "path": c.rel, "size": c.size, "sha256": c.sha256, "status": "ok" if err is None else "error",
                     "error": err, "error_kind": kind, "seconds": out.seconds if math.isfinite(out.seconds) else None,
-                    "sources": json.dumps(list(c.sources)) if c.sources else None, "options": options[c.rel],
+                    "source_files": json.dumps(list(c.sources)) if c.sources else None, "options": options[c.rel],
                     "mjmotion_version": __version__, **{k: v for k, v in value.items() if k != "error"},
                 }
             )  # fmt: skip

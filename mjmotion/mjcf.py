@@ -23,6 +23,7 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
+from . import limits
 from . import rotations as rot
 from .errors import MjmotionError
 from .skeleton import Skeleton
@@ -33,6 +34,13 @@ BALL = "ball"
 TRACK_CAMERA = "track"
 #: Body mass index used to give the character a realistic mass for its size (kg / m²).
 BODY_MASS_INDEX = 21.5
+#: Ankle joint centre above the sole in stance, × stature: measured on the shared rigs whose feet have
+#: toe joints (ASF 0.047, iClone 0.049, cgspeed 3dsMax 0.049; median ankle height over stance frames
+#: above the detected floor). A toe-less foot whose End Site is shallower (cgspeed daz: 3.7 cm below
+#: the ankle, at the ball of the foot) gets its sole this deep, so it stands on the floor.
+ANKLE_HEIGHT = 0.048
+#: Heel behind the ankle, × stature (foot length 0.152 × stature, the ankle about a fifth of it from the heel).
+HEEL_BACK = 0.03
 #: Deepest joint chain ``compile`` accepts. MuJoCo's compile time grows with the cube of the chain
 #: depth (measured: 200 deep 0.16 s, 400 deep 1.2 s, 1,000 deep 21 s), a human skeleton is < 40 deep.
 MAX_DEPTH = 256
@@ -357,6 +365,9 @@ def compile(
     foot_boxes = _foot_boxes(skeleton, feet)
     ankles = {a for a, _ in feet.values()}
     segment_of = segments(skeleton)
+    # Joint ranges (mjmotion/limits.py): the largest rotation from rest, in the compiler's angle unit.
+    ranges = limits.joint_limits(skeleton)
+    to_unit = np.degrees if spec.compiler.degree else (lambda x: x)
     volumes: dict[str, float] = {}
     class_geoms: dict[str, list[mujoco.MjsGeom]] = {}
     for j, name in enumerate(skeleton.names):
@@ -375,7 +386,9 @@ def compile(
             if skeleton.has_positions(j):
                 for axis, label in zip(np.eye(3), "xyz"):
                     body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, name=f"{name}/slide_{label}", axis=axis.tolist())
-            body.add_joint(type=mujoco.mjtJoint.mjJNT_BALL, name=name)
+            body.add_joint(
+                type=mujoco.mjtJoint.mjJNT_BALL, name=name, limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=[0.0, float(to_unit(ranges[j]))]
+            )
         tips = [(skeleton.offsets[c], None) for c in skeleton.children(j)]
         ends = np.flatnonzero(skeleton.end_parents == j)
         for k, e in enumerate(ends):
@@ -542,10 +555,14 @@ def _foot_boxes(skeleton: Skeleton, feet: dict[str, tuple[int, int | None]]) -> 
         frame = np.column_stack([fwd, side_axis, up])
         quat = _mat_quat(frame)
         sole = min(float(np.dot(p - a, up)) for p in pts_arr)
+        heel = 0.25 * flen
+        if toe is None and -sole < ANKLE_HEIGHT * height:
+            # A foot chain that stops at the ball of the foot: the sole and heel from foot proportions.
+            sole, heel = -ANKLE_HEIGHT * height, max(heel, HEEL_BACK * height)
         top = min(0.0, sole + 0.09 * height / 1.75)
         half_w = 0.045 * height / 1.75
         if toe is None:
-            lo, hi = -0.25 * flen, flen
+            lo, hi = -heel, flen
             center = a + fwd * (lo + hi) / 2 + up * (sole + top) / 2
             half = np.array([(hi - lo) / 2, half_w, max((top - sole) / 2, 0.01)])
             out.setdefault(ankle, {})[f"foot/{side}"] = (center - a, quat, half)

@@ -212,6 +212,7 @@ def build_scene(
     ball: mjcf.Ball | None = None,
     spacing: float = 1.2,
     view: View = View(),
+    floor: float | None = 0.0,
 ) -> Scene:
     """Put ``actors`` side by side in one model and pose them for every video frame.
 
@@ -223,6 +224,10 @@ def build_scene(
         spacing: metres between neighbouring characters, across the first clip's travel
             direction; 0 overlays them.
         view: camera settings.
+        floor: the floor height (m, world z) of the clips, drawn at the checker floor (default
+            z = 0, as captured); None: the first clip's stance floor, as ``mjmotion evaluate``
+            detects it (docs/METRICS.md). Every character moves by the same amount, so one
+            floating over another's floor still shows.
     """
     if not actors:
         raise MjmotionError("render: no characters to render")
@@ -230,6 +235,13 @@ def build_scene(
         raise MjmotionError(f"render: fps must be a positive number, got {fps}")
     if not (np.isfinite(spacing) and spacing >= 0):
         raise MjmotionError(f"render: spacing must be a non-negative number of metres, got {spacing}")
+    if floor is None:
+        from .feet import foot_heights_speeds
+
+        first = actors[0].motion
+        floor = foot_heights_speeds(None, first).floor if first.skeleton.feet() and first.n_frames > 1 else 0.0
+    if not np.isfinite(floor):
+        raise MjmotionError(f"render: floor must be a finite height in metres, got {floor}")
     motions = [a.motion.resample(fps) for a in actors]
     n = len(actors)
     forward, lateral = travel_axes(motions[0])
@@ -261,7 +273,7 @@ def build_scene(
     ball_offsets = offsets if spacing > 0 else offsets[:1]
     if ball is not None:
         for k in range(len(ball_offsets)):
-            body = spec.worldbody.add_body(name=f"ball{k}", pos=list(np.add(ball.position, ball_offsets[k])))
+            body = spec.worldbody.add_body(name=f"ball{k}", pos=list(np.add(ball.position, ball_offsets[k]) - [0.0, 0.0, floor]))
             body.add_geom(
                 name=f"ball{k}",
                 type=mujoco.mjtGeom.mjGEOM_SPHERE,
@@ -278,7 +290,7 @@ def build_scene(
     root_tracks: list[np.ndarray] = []
     for i, (c, m) in enumerate(zip(compiled, motions)):
         qi = kinematics.qpos(c, m)
-        qi[:, 0:3] += offsets[i]  # the root's free joint is world position
+        qi[:, 0:3] += offsets[i] - [0.0, 0.0, floor]  # the root's free joint is world position; the floor at z = 0
         idx = _qpos_map(c.model, model, _prefix(i))
         hold = np.minimum(np.arange(t), m.n_frames - 1)
         q[:, idx] = qi[hold]

@@ -28,6 +28,7 @@ from conftest import require_data
 from mjmotion import audit, bvh, cli, executor
 from mjmotion import evaluate as ev
 from mjmotion.commands.evaluate import evaluate_file
+from mjmotion.trim import leading_transient
 
 BAD = Path(__file__).resolve().parent / "data" / "bad"
 #: Shared clips cut short, one per flavour (path under the data folder, frames kept).
@@ -229,7 +230,7 @@ def test_source_map_adds_source_measures_and_reruns_on_a_source_change(tmp_path,
     res = audit.run(root, out, dask2, source_map=source_map, progress=False)
     by = {r["path"]: r for r in res.rows}
     lifted = bvh.read(root / "lifted.bvh")
-    start = ev.leading_transient(lifted)
+    start = leading_transient(lifted)
     assert by["lifted.bvh"]["vs_source.max_joint_speed_ratio"] == ev.max_joint_speed_ratio(lifted[start:], [m])
     assert by["lifted.bvh"]["vs_source.root_jump_m"] == ev.root_jump_m(lifted[start:], [m])
     assert by["plain.bvh"].get("vs_source.root_jump_m") is None

@@ -39,9 +39,6 @@ def test_skip_returns_the_clip_from_the_first_captured_frame(mocap):
     np.testing.assert_array_equal(cut.rotations, m.rotations[4:])
     steady = cut[:20]  # too short to judge: nothing is skipped
     assert trim.skip_leading_transient(steady) == (steady, 0)
-    from mjmotion import evaluate
-
-    assert evaluate.leading_transient is trim.leading_transient  # the judge's name, kept as an alias
 
 
 def _note_lines(err: str) -> list[str]:

@@ -191,7 +191,7 @@ def _struck_geom(compiled, shot: Shot, q_hit: np.ndarray, point: np.ndarray) -> 
 
 def run_grid(shot: Shot, solver: str, wrist: str, spacings: Sequence[float], launch: bool = True) -> GridResult:
     """Adapt ``shot`` to every target of its grids with ``solver`` and ``wrist``; simulate the launches."""
-    from .. import hitpoint, physics
+    from .. import hitpoint, launchgrid, physics
 
     start = time.perf_counter()
     offsets = grid_offsets(shot, spacings)
@@ -212,7 +212,7 @@ def run_grid(shot: Shot, solver: str, wrist: str, spacings: Sequence[float], lau
         if launch:
             if geom is None:
                 geom = _struck_geom(p.compiled, shot, p.qpos[p.hit], p.effector_fk[p.hit])
-            pos, quat, h = physics.effector_path(p.compiled, a.motion, geom, p.hit, LAUNCH_WINDOW)
+            pos, quat, h = launchgrid.effector_path(p.compiled, a.motion, geom, p.hit, LAUNCH_WINDOW)
             paths.append((pos, quat))
     pred = None
     if launch and geom is not None:

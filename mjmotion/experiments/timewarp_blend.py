@@ -303,9 +303,9 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
             f"source: {source}",
             ("linear: frame n of both clips averaged (seed 004 §6.2.2; clips first moved to start at the same place and heading); "
                 "registered: along the DP registration curve with incremental root (seed 000 §3.2)"),
-            ("skate@h_c: METRICS skate_mm_per_s, mean horizontal speed of the lowest foot point over frames it is below h_c (m) "
-                "— counts low swing feet too; planted skate: the same over frames in contact by height (5 cm) and speed (< 0.5 m/s)"),
-            "every clip first set on its floor (METRICS floor offset: the daz feet stand ~5 cm above z = 0)",
+            ("skate@h_c: docs/METRICS.md skate_mm_per_s, the height-weighted footskate (speed × (2 − 2^(h/h_c)) over frames a "
+                "foot is below h_c, m); planted skate: planted_skate_mm_per_s, over contact frames (5 cm, 0.5 m/s, with hysteresis)"),
+            "every clip first set on its floor (its detected stance floor: the daz feet stand 1–6 cm above z = 0)",
             ("steps/s: changes of the stance (lower) foot per second, with 2 cm hysteresis (contact rhythm); "
                 "speed: root path length / duration"),
         ],
