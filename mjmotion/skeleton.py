@@ -16,6 +16,7 @@ import numpy as np
 
 from . import rotations as rot
 from .errors import MjmotionError, SkeletonMismatchError
+from .limits import MAX_FPS, MIN_FPS, check_motion_size
 
 #: Known metres-per-unit scales, detected from a skeleton's rest extent (see ``detect_scale``).
 CM = 0.01
@@ -392,8 +393,10 @@ class Motion:
 
     def resample(self, fps: float) -> Motion:
         """The same motion at another frame rate (slerp of rotations, linear positions)."""
-        if not (np.isfinite(fps) and fps > 0):
-            raise MjmotionError(f"fps must be a positive number, got {fps}")
+        if not (MIN_FPS <= fps <= MAX_FPS):  # (NaN fails too)
+            raise MjmotionError(f"fps {fps:g}: expected a frame rate from {MIN_FPS:g} to {MAX_FPS:g} frames per second")
+        # Checked before anything is allocated: --fps 1e9 on a 2 s clip would ask for 2e9 frames.
+        check_motion_size(self.duration * fps + 1, self.skeleton.n_joints, f"resampling a {self.duration:.4g} s clip to {fps:g} fps")
         n = int(np.floor(self.duration * fps + 1e-9)) + 1
         frames = np.arange(n) * (self.fps / fps)
         root, q, tr = self.sample(frames)

@@ -266,8 +266,8 @@ def cases() -> list[Case]:
             "frames_huge",
             "Frames: 10^13 (must not allocate for it)",
             _edit(FRAMES, "Frames: 10000000000000"),
-            DATA + 4,
-            "but the motion section has 3",
+            FRAMES + 1,
+            "more than the limit of 1,000,000 frames",
         ),  # fmt: skip
         _err(
             "frames_zero",
@@ -285,6 +285,36 @@ def cases() -> list[Case]:
         ),  # fmt: skip
         _err("frame_time_nan", "Frame Time: nan", _edit(FRAME_TIME, "Frame Time: nan"), FRAME_TIME + 1, "not a finite number"),
         _err("frame_time_word", "Frame Time: fast", _edit(FRAME_TIME, "Frame Time: fast"), FRAME_TIME + 1, "not a number"),
+        # --- valid text, extreme values (issue 17) -------------------------------------------
+        _err(
+            "frame_time_tiny", "Frame Time: 1e-300 (10^300 fps)", _edit(FRAME_TIME, "Frame Time: 1e-300"), FRAME_TIME + 1, "seconds per frame"
+        ),  # fmt: skip
+        _err("frame_time_huge", "Frame Time: 1e300", _edit(FRAME_TIME, "Frame Time: 1e300"), FRAME_TIME + 1, "seconds per frame"),
+        _err(
+            "frame_time_denormal", "Frame Time: 5e-324 (1/x overflows)", _edit(FRAME_TIME, "Frame Time: 5e-324"), FRAME_TIME + 1, "seconds per frame"
+        ),  # fmt: skip
+        _err(
+            "root_position_huge",
+            "a root position of 1e308 (frame 2)",
+            _data_line(1, lambda t: _set(t, 0, "1e308")),
+            DATA + 2,
+            "value 1 (hips xposition) is 1e+308",
+        ),  # fmt: skip
+        _err("offset_huge", "an OFFSET of 1e308", _edit(head_off, "\t\t\tOFFSET 0.00 1e308 0.00"), head_off + 1, "beyond the ±100000 m"),
+        _err(
+            "name_escape_sequence",
+            "a joint name with a terminal escape sequence (ESC [2J)",
+            _edit(head_joint, "\t\tJOINT Head\x1b[2J"),
+            head_joint + 1,
+            "control character (u+001b)",
+        ),  # fmt: skip
+        _err(
+            "name_control_char",
+            "a joint name with a C1 control character",
+            _edit(head_joint, "\t\tJOINT He\x85ad\x9b"),
+            head_joint + 1,
+            "control character",
+        ),  # fmt: skip
         # --- bytes -------------------------------------------------------------------------
         _err("binary_garbage", "4 KiB of random bytes", garbage, garbage.count(b"\n", 0, garbage.find(b"\x00")) + 1, "binary data"),
         _err("binary_png", "a PNG header", b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", 3, "binary data"),
@@ -377,6 +407,17 @@ def big_clip_bytes(target_bytes: int) -> tuple[bytes, int]:
     return data, n
 
 
+def wide_hierarchy(width: int, frames: int = 2) -> bytes:
+    """A root with ``width`` - 1 children (each with an End Site), 180 file units tall."""
+    lines = ["HIERARCHY", "ROOT j0", "{", "OFFSET 0 0 0", "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"]
+    for i in range(1, width):
+        lines += [f"JOINT j{i}", "{", "OFFSET 0 90 0", "CHANNELS 3 Zrotation Xrotation Yrotation", "End Site", "{", "OFFSET 0 90 0", "}", "}"]
+    lines += ["}", "MOTION", f"Frames: {frames}", "Frame Time: 0.0333333"]
+    n = 6 + 3 * (width - 1)
+    lines += [" ".join(["0"] * n) for _ in range(frames)]
+    return ("\n".join(lines) + "\n").encode()
+
+
 def deep_hierarchy(depth: int, frames: int = 2) -> bytes:
     """A chain ``depth`` joints deep, 180 file units tall (so the unit detected is centimetres)."""
     bone = f"OFFSET 0 {180.0 / depth:.9g} 0"  # 180 units tall in all: read as centimetres
@@ -425,6 +466,12 @@ def readme(all_cases: list[Case]) -> str:
         "| 100,000-frame clip | memory | loads with a tracemalloc peak under 5x the motion arrays (3.5x measured) |",
         "| 10,000-level hierarchy | a chain 10,000 joints deep | loads and writes (no RecursionError); `mjcf.compile` raises a clear MjmotionError above `mjcf.MAX_DEPTH` = 256 nested joints (MuJoCo's compile time grows with the cube of the depth: 1,000 deep takes 21 s) |",
         "| 50 MB on one line | a single line of garbage | BvhError on line 1 |",
+        "| 10,001 joints | a skeleton one joint wider than `limits.MAX_JOINTS` (one root with 10,000 children) | BvhError on the line of joint 10,001, in seconds |",
+        "| 1,001 joints | a skeleton one joint wider than `limits.MAX_MODEL_JOINTS` | loads; `mjcf.compile` (compile, fk, render, …) refuses it at once |",
+        "| 100,000-deep chain | the hierarchy that made `convert` use 7 GB (indentation growing with depth²) | BvhError (more than 10,000 joints); the writer's indentation stops at 32 levels |",
+        "| a FIFO with no writer, `/dev/zero`, a folder | not regular files | refused before they are opened (`mjmotion.inputs`), every verb |",
+        "| a 2 GB sparse file | larger than `limits.MAX_FILE_BYTES` | refused from its size, nothing read |",
+        "| a symbolic-link loop | `a.bvh -> b.bvh -> a.bvh` | BvhError: too many levels of symbolic links, every verb |",
         "| random mutations | hypothesis (`tests/test_fuzz.py`) | loads or BvhError, never another exception |",
         "",
     ]
