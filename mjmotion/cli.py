@@ -18,6 +18,7 @@ from types import ModuleType
 
 from . import __version__
 from .errors import MjmotionError
+from .outputs import reset_claims
 
 #: Order of verbs in ``--help``; verbs not listed follow alphabetically.
 VERB_ORDER = (
@@ -73,11 +74,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _one_line(message: str) -> str:
-    """The message on one line (a file name or a verb's message may hold line breaks)."""
-    return message.replace("\r", "\\r").replace("\n", "\\n")
+    """The message on one printable line: a file name, a script's text or a verb's message may hold
+    line breaks or terminal escape sequences (they are shown escaped, as Python writes them)."""
+    if message.isprintable():
+        return message
+    return "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in message)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    reset_claims()  # outputs checked by an earlier command in this process are not this one's
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "verb", None):

@@ -530,7 +530,7 @@ def test_verbose_shows_the_traceback(name, tmp_path, capsys):
 
 @pytest.mark.parametrize("name", _verb_params("atomic"))
 def test_outputs_are_written_atomically(name, tmp_path, clip, human, capsys, monkeypatch):
-    """The final rename fails (a full disk, say): the verb refuses, and nothing is left behind."""
+    """Flushing the written file fails (a full disk): the verb refuses, and nothing is left behind."""
     spec = verb(name)
     if not writes(spec):
         pytest.skip(f"{name} writes no file")
@@ -546,10 +546,10 @@ def test_outputs_are_written_atomically(name, tmp_path, clip, human, capsys, mon
     for n in made:
         (out_dir / n).unlink()
 
-    def full_disk(src, dst):
-        raise OSError(28, "No space left on device (simulated)", str(dst))
+    def full_disk(fd):  # where a full disk shows with delayed allocation: flushing the written file
+        raise OSError(28, "No space left on device (simulated)")
 
-    monkeypatch.setattr(os, "replace", full_disk)
+    monkeypatch.setattr(os, "fsync", full_disk)
     rc, _, err = run(argv, capsys)
     monkeypatch.undo()
     refused(rc, err, "No space left on device")
