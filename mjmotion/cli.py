@@ -34,6 +34,17 @@ class _Parser(argparse.ArgumentParser):
         sys.stderr.write(f"error: {_one_line(message)} (see '{self.prog} --help')\n")
         raise SystemExit(2)
 
+    def _get_value(self, action: argparse.Action, arg_string: str) -> object:
+        # An option domain (mjmotion.commands._options) says "VALUE: expected …": the line reads
+        # "--fps 1e308: expected …", like the checks made after parsing.
+        try:
+            return super()._get_value(action, arg_string)
+        except argparse.ArgumentError as e:
+            if not getattr(action.type, "option_domain", False):
+                raise
+            name = max(action.option_strings, key=len) if action.option_strings else action.metavar or action.dest
+            raise argparse.ArgumentError(None, f"{name} {e.message}") from None
+
 
 def _verbs() -> list[ModuleType]:
     from . import commands
@@ -84,7 +95,10 @@ def _one_line(message: str) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     reset_claims()  # outputs checked by an earlier command in this process are not this one's
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:  # a usage error (exit status 2, already reported) or --help (0)
+        return e.code if isinstance(e.code, int) else 2
     if not getattr(args, "verb", None):
         parser.print_help()
         return 2

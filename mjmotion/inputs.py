@@ -124,10 +124,11 @@ def read_text(path: str | os.PathLike[str], limit: int = MAX_FILE_BYTES, what: s
     data = read_input(path, limit, what)
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
-    nul = data.find(b"\x00")
-    if nul >= 0:
-        raise InputError(os.fspath(path), f"binary data (a NUL byte at byte {nul}); expected {what}")
     try:
-        return data.decode("utf-8")
+        text = data.decode("utf-8")
     except UnicodeDecodeError as e:
         raise InputError(os.fspath(path), f"not a text file (invalid UTF-8 at byte {e.start}); expected {what}") from None
+    nul = text.find("\x00")
+    if nul >= 0:
+        raise InputError(os.fspath(path), f"binary data (a NUL byte at character {nul}); expected {what}")
+    return text

@@ -15,6 +15,7 @@ from typing import Any
 from ..errors import MjmotionError, require_number
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load, parse_frames
+from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, UniqueProps, integer, number
 
 NAME = "evaluate"
 HELP = "footskate, ground, inverse-dynamics, limit and hitting metrics of a clip (or every clip in a folder)"
@@ -53,30 +54,55 @@ _COLUMNS = (
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("path", help="a .bvh file, or a folder (searched recursively for .bvh files)")
-    p.add_argument("--prop", action="append", default=[], metavar="KIND[:JOINT]", help="attach a prop (club, bat); the first is the effector")
-    p.add_argument("--ball", nargs=3, type=float, metavar=("X", "Y", "Z"), help="ball centre (m, world Z-up) for the hitting metrics")
-    p.add_argument("--ball-radius", type=float, default=0.036, metavar="R", help="ball radius in m (default 0.036, cricket)")
+    p.add_argument("--prop", action=UniqueProps, default=[], metavar="KIND[:JOINT]", help="attach a prop (club, bat); the first is the effector")
     p.add_argument(
-        "--ball-velocity", nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar=("VX", "VY", "VZ"), help="incoming ball velocity at impact, m/s"
+        "--ball", nargs=3, type=COORD, metavar=("X", "Y", "Z"), help="ball centre (m, world Z-up, each within ±1000) for the hitting metrics"
     )
-    p.add_argument("--frame", type=int, metavar="H", help="hit frame (0-based, of the file) for --ball")
+    p.add_argument(
+        "--ball-radius",
+        type=number(0.001, 1, what="a ball radius in metres"),
+        default=0.036,
+        metavar="R",
+        help="ball radius in m, 0.001 to 1 (default 0.036, cricket)",
+    )
+    p.add_argument(
+        "--ball-velocity",
+        nargs=3,
+        type=VELOCITY,
+        default=(0.0, 0.0, 0.0),
+        metavar=("VX", "VY", "VZ"),
+        help="incoming ball velocity at impact, m/s (each within ±1000)",
+    )
+    p.add_argument("--frame", type=FRAME, metavar="H", help="hit frame (0-based, of the file) for --ball")
     p.add_argument(
         "--hit-grid",
-        type=int,
+        type=integer(2, 9, what="a grid size"),
         metavar="N",
         help="seed 003 Figure 2.6: adapt the shot to an N x N grid of hit points around "
         "the sweet spot at --frame (arm IK, wrist locked vs club orientation kept), launch a ball from each and print "
-        "the rank correlation of launch direction with hit point (needs --prop and --frame)",
+        "the rank correlation of launch direction with hit point (needs --prop and --frame; N from 2 to 9)",
     )
-    p.add_argument("--grid-step", type=float, default=0.05, metavar="M", help="hit-grid spacing in m (default 0.05)")
+    p.add_argument(
+        "--grid-step",
+        type=number(0, 1, lo_open=True, what="a spacing in metres"),
+        default=0.05,
+        metavar="M",
+        help="hit-grid spacing in m, at most 1 (default 0.05)",
+    )
     p.add_argument("--frames", metavar="A:B", help="evaluate only these frames")
     p.add_argument("--keep-start", action="store_true", help="do not skip a leading T-pose/transition")
-    p.add_argument("--h-c", type=float, default=0.05, metavar="M", help="contact height threshold (default 0.05 m)")
-    p.add_argument("--v-c", type=float, default=0.5, metavar="M/S", help="contact speed threshold (default 0.5 m/s)")
+    p.add_argument("--h-c", type=CONTACT_HEIGHT, default=0.05, metavar="M", help="contact height threshold, at most 1 m (default 0.05 m)")
+    p.add_argument("--v-c", type=CONTACT_SPEED, default=0.5, metavar="M/S", help="contact speed threshold, at most 100 m/s (default 0.5 m/s)")
     p.add_argument("--json", metavar="OUT.json", help="write every metric (and the parameters) as JSON")
     p.add_argument("--csv", action="store_true", help="print the table as CSV instead of aligned text")
     p.add_argument("--force", action="store_true", help="replace OUT.json if it exists")
-    p.add_argument("--jobs", type=int, default=2, metavar="N", help="parallel processes for a folder (default 2)")
+    p.add_argument(
+        "--jobs",
+        type=integer(1, 64, what="a number of processes"),
+        default=2,
+        metavar="N",
+        help="parallel processes for a folder, 1 to 64 (default 2)",
+    )
     add_input_options(p)
 
 

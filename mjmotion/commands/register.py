@@ -8,6 +8,7 @@ import json
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load, parse_frames
+from ._options import FPS, integer, resample
 
 NAME = "register"
 HELP = "timewarp and alignment curves between two clips (distance grid + minimal-cost path)"
@@ -39,7 +40,7 @@ def add_clip_options(p: argparse.ArgumentParser) -> None:
         metavar="A:B[,A:B...]",
         help="frame range of every clip, or one range per clip separated by commas (e.g. 4: for cgspeed clips whose first frames are a T-pose)",
     )
-    p.add_argument("--fps", type=float, metavar="F", help="resample every clip to F frames per second first")
+    p.add_argument("--fps", type=FPS, metavar="F", help="resample every clip to F frames per second first (0.1 to 10000)")
     add_input_options(p)
 
 
@@ -50,15 +51,13 @@ def load_clips(files: list[str], args: argparse.Namespace) -> list:
         ranges = ranges * len(files)
     if len(ranges) != len(files):
         raise MjmotionError(f"--frames: give one range for all clips or one per clip ({len(files)}), got {len(ranges)}")
-    if args.fps is not None and not (args.fps > 0 and args.fps < float("inf")):
-        raise MjmotionError(f"--fps {args.fps}: expected a positive frame rate")
     clips = []
     for f, r in zip(files, ranges, strict=True):
         m = load(f, args)
         if r:
             m = m[parse_frames(r, m.n_frames)]
         if args.fps is not None:
-            m = m.resample(args.fps)
+            m = resample(m, args.fps)
         clips.append(m)
     return clips
 
@@ -68,8 +67,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("b", metavar="B.bvh", help="the second clip (columns)")
     p.add_argument("--json", required=True, metavar="OUT.json", help="where to write the registration")
     p.add_argument("--plot", metavar="GRID.png", help="also draw the grid with the path and the curve")
-    p.add_argument("--window", type=int, default=5, metavar="N", help="frames per point cloud, odd (default 5)")
-    p.add_argument("--slope-limit", type=int, metavar="W", help="most consecutive steps along one clip only (default: seed 000 Eq. 6)")
+    p.add_argument(
+        "--window",
+        type=integer(1, 1001, what="an odd number of frames"),
+        default=5,
+        metavar="N",
+        help="frames per point cloud, odd, at most the shorter clip's frames (default 5)",
+    )
+    p.add_argument(
+        "--slope-limit",
+        type=integer(0, 100, what="a number of steps"),
+        metavar="W",
+        help="most consecutive steps along one clip only, 0 to 100 (default: seed 000 Eq. 6)",
+    )
     p.add_argument("--loop", action="store_true", help="fixed corners: the path joins (0,0) and (nA-1,nB-1)")
     p.add_argument("--method", choices=("dp", "greedy", "threshold", "brute"), default="dp", help="path search (default dp, exact)")
     p.add_argument("--curve", choices=("bspline", "discrete"), default="bspline", help="timewarp fit (default bspline)")
@@ -85,6 +95,8 @@ def run(args: argparse.Namespace) -> int:
     if args.window < 1 or args.window % 2 == 0:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
     a, b = load_clips([args.a, args.b], args)
+    if args.window > min(a.n_frames, b.n_frames):
+        raise MjmotionError(f"--window {args.window}: longer than the shorter clip ({min(a.n_frames, b.n_frames)} frames); use a smaller odd window")
     pr = registration.register(a, b, window=args.window // 2, slope_limit=args.slope_limit, loop=args.loop, method=args.method, curve=args.curve)
     write_text_atomic(out, json.dumps(pr.to_json()))
     if plot:
