@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from . import __version__
-from .errors import MjmotionError
+from .errors import MjmotionError, printable
 from .outputs import reset_claims
 
 #: Order of verbs in ``--help``; verbs not listed follow alphabetically.
@@ -87,9 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _one_line(message: str) -> str:
     """The message on one printable line: a file name, a script's text or a verb's message may hold
     line breaks or terminal escape sequences (they are shown escaped, as Python writes them)."""
-    if message.isprintable():
-        return message
-    return "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in message)
+    return printable(message)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -49,4 +49,6 @@ def check_motion_size(frames: int | float, joints: int, what: str) -> None:
 
 
 def _count(n: int | float) -> str:
-    return f"{n:,}" if isinstance(n, int) or (n == n and abs(n) < 1e15 and float(n).is_integer()) else f"{n:.3g}"
+    if isinstance(n, int) or (n == n and abs(n) < 1e15 and float(n).is_integer()):
+        return f"{int(n):,}"
+    return f"{n:.3g}"

@@ -87,7 +87,7 @@ def check_output(
                 raise OutputExistsError(f"{out}: is an input of this command; choose another output path")
         except FileNotFoundError:
             pass
-        if out.resolve() == Path(src).resolve():
+        if os.path.realpath(out) == os.path.realpath(src):  # (realpath, unlike resolve, takes a symlink loop)
             raise OutputExistsError(f"{out}: is an input of this command; choose another output path")
     st = _lstat(out)
     if st is not None:

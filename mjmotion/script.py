@@ -180,15 +180,21 @@ def _int_or_float(text: str) -> int | float:
 
 def load(path: str | os.PathLike[str]) -> dict:
     """A script's JSON from ``path``, checked against :data:`SCRIPT`; messages name the file."""
+    return load_json(path, SCRIPT, "a JSON stream script", "script")
+
+
+def load_json(path: str | os.PathLike[str], schema: Any, what: str, root: str) -> Any:
+    """Any small JSON input (a joint-weight file: ``Map(Num(), 1, MAX_JOINTS)``) read safely and
+    checked against ``schema``; messages are ``FILE: ROOT.key[i]: expected …``."""
     p = os.fspath(path)
-    text = read_text(p, MAX_JSON_BYTES, "a JSON stream script")
+    text = read_text(p, MAX_JSON_BYTES, what)
     try:
         data = json.loads(text, parse_int=_int_or_float, parse_constant=float)  # NaN → refused by validate, with its key
     except json.JSONDecodeError as e:
         raise MjmotionError(f"{p}:{e.lineno}: not valid JSON ({e.msg})") from None
     except RecursionError:
-        raise MjmotionError(f"{p}: JSON nested too deeply; expected a stream script") from None
+        raise MjmotionError(f"{p}: JSON nested too deeply; expected {what}") from None
     try:
-        return validate(data)
+        return validate(data, schema, root)
     except MjmotionError as e:
         raise MjmotionError(f"{p}: {e}") from None

@@ -396,8 +396,8 @@ class Motion:
         if not (MIN_FPS <= fps <= MAX_FPS):  # (NaN fails too)
             raise MjmotionError(f"fps {fps:g}: expected a frame rate from {MIN_FPS:g} to {MAX_FPS:g} frames per second")
         # Checked before anything is allocated: --fps 1e9 on a 2 s clip would ask for 2e9 frames.
-        check_motion_size(self.duration * fps + 1, self.skeleton.n_joints, f"resampling a {self.duration:.4g} s clip to {fps:g} fps")
         n = int(np.floor(self.duration * fps + 1e-9)) + 1
+        check_motion_size(n, self.skeleton.n_joints, f"resampling a {self.duration:.4g} s clip to {fps:g} fps")
         frames = np.arange(n) * (self.fps / fps)
         root, q, tr = self.sample(frames)
         return self.replace(root_positions=root, rotations=q, translations=tr, fps=float(fps))

@@ -65,7 +65,7 @@ def check_same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> boo
             return True
     except OSError:
         pass
-    return Path(a).resolve() == Path(b).resolve()
+    return os.path.realpath(a) == os.path.realpath(b)  # (a symlink loop is not an error here)
 
 
 def output_path(args: argparse.Namespace, *inputs: str) -> Path:

@@ -37,7 +37,7 @@ def _fmt(x: float) -> str:
 def _shown(text: str) -> str:
     """The value as the user typed it, shortened and escaped (it is quoted in the error line)."""
     t = text if len(text) <= 40 else text[:40] + "…"
-    return t if t.isprintable() else repr(t)
+    return t if t.isprintable() else repr(t)  # quoted: a blank or a line break shows
 
 
 def _range_text(lo: float | None, hi: float | None, lo_open: bool, hi_open: bool) -> str:
@@ -159,7 +159,7 @@ def resample(motion: Motion, fps: float, option: str = "--fps") -> Motion:
 
 
 def check_resample(motion: Motion, fps: float, option: str = "--fps") -> None:
-    frames = motion.duration * fps + 1
+    frames = math.floor(motion.duration * fps + 1e-9) + 1  # as Motion.resample counts them
     try:
         check_motion_size(frames, motion.skeleton.n_joints, f"a {motion.duration:.4g} s clip at {fps:g} fps")
     except MjmotionError as e:

@@ -220,8 +220,8 @@ def run(args: argparse.Namespace) -> int:
         if args.ball is not None:
             raise MjmotionError("--ball applies to one clip; give a file, not a folder")
     else:
-        if not os.path.isfile(args.path):
-            raise MjmotionError(f"{args.path}: no such file or folder")
+        if not os.path.lexists(args.path):
+            raise MjmotionError(f"{args.path}: no such file or folder")  # anything else: the reader says what it is
         files = [args.path]
     # Checked before any work: the report may never replace one of the clips it reads.
     out = check_output(args.json, force=args.force, inputs=files) if args.json else None

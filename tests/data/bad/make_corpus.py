@@ -432,6 +432,98 @@ def deep_hierarchy(depth: int, frames: int = 2) -> bytes:
     return ("\n".join(lines) + "\n").encode()
 
 
+# --- stream scripts and score files (issue 17), made at test time -------------------------------
+@dataclass(frozen=True)
+class FileCase:
+    """A hostile input that is not a BVH file: its bytes and a phrase the one error line must hold."""
+
+    name: str
+    what: str
+    data: bytes
+    match: str
+
+
+def _script(**change) -> dict:
+    data = {
+        "duration": 0.2,
+        "loop_blend": 0.05,
+        "clips": {"a": {"file": "CLIP"}},
+        "locomotion": ["a"],
+        "commands": [{"time": 0, "weights": {"a": 1}}],
+    }
+    data.update(change)
+    return data
+
+
+def script_cases() -> list[FileCase]:
+    """Stream scripts of the wrong shape; ``CLIP`` stands for a valid clip's path."""
+    import json
+
+    def case(name: str, what: str, match: str, text: str | None = None, **change) -> FileCase:
+        return FileCase(name, what, (text if text is not None else json.dumps(_script(**change))).encode(), match)
+
+    w = {"time": 0, "weights": {"a": 1}}
+    return [
+        case(
+            "weights_word", 'weights {"a": "abc"}', "commands[0].weights.a: expected a finite number", commands=[{"time": 0, "weights": {"a": "abc"}}]
+        ),
+        case("weights_list", "weights [1]", "commands[0].weights: expected an object", commands=[{"time": 0, "weights": [1]}]),
+        case("weights_null", "weights null", "commands[0].weights: expected an object", commands=[{"time": 0, "weights": None}]),
+        case("frames_number", '"frames": 5', "clips.a.frames: expected a string", clips={"a": {"file": "CLIP", "frames": 5}}),
+        case("frames_list", '"frames": [0, 10]', "clips.a.frames: expected a string", clips={"a": {"file": "CLIP", "frames": [0, 10]}}),
+        case("play_list", '"play" as a list', "commands[1].play: expected a string", commands=[w, {"time": 0.1, "play": ["a"]}]),
+        case("play_object", '"play" as an object', "commands[1].play: expected a string", commands=[w, {"time": 0.1, "play": {"a": 1}}]),
+        case("commands_object", '"commands" as an object', "commands: expected a list", commands={"time": 0}),
+        case("long_number", "a 5000-digit duration", "duration: expected a finite number", text='{"duration": ' + "9" * 5000 + "}"),
+        case("nan", "duration NaN", "duration: expected a finite number", text='{"duration": NaN}'),
+        case("overflow", "duration 1e999", "duration: expected a finite number", text='{"duration": 1e999}'),
+        case("return_word", '"return": "yes"', "commands[1].return: expected true", commands=[w, {"time": 0.1, "return": "yes"}]),
+        case("escape_name", "a clip name with a terminal escape", "is not 1 to 256 printable characters", clips={"a\x1b[2J": {"file": "CLIP"}}),
+        case("deep", "JSON nested 100,000 deep", "nested too deeply", text="[" * 100_000),
+        FileCase("binary", "every byte value", bytes(range(256)) * 4, "not a text file"),
+    ]
+
+
+def _npy_header(shape: tuple[int, ...], descr: str = "<f8") -> bytes:
+    """An .npy version 1.0 header, as numpy.save writes it (padded to 64 bytes)."""
+    head = f"{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}"
+    pad = 64 - (10 + len(head) + 1) % 64
+    text = (head + " " * pad + "\n").encode("latin-1")
+    return b"\x93NUMPY\x01\x00" + len(text).to_bytes(2, "little") + text
+
+
+def score_cases() -> list[FileCase]:
+    """Score files for ``vary --scores`` (the name's suffix is the case's: .npy or .csv)."""
+    import io
+
+    import numpy as np
+
+    def npy(arr: np.ndarray) -> bytes:
+        buf = io.BytesIO()
+        np.save(buf, arr, allow_pickle=True)
+        return buf.getvalue()
+
+    npz = io.BytesIO()
+    np.savez(npz, scores=np.zeros((10, 2)))
+    good = np.zeros((10, 2))
+    return [
+        FileCase("npz.npy", "an .npz archive named .npy", npz.getvalue(), "zip archive"),
+        FileCase("strings.npy", "an array of strings", npy(np.array([["a", "b"], ["c", "d"]])), "expected real numbers"),
+        FileCase("objects.npy", "an object array (pickled)", npy(np.array([[None, 1], [2, 3]], dtype=object)), "expected real numbers"),
+        FileCase("huge_values.npy", "scores of 1e300", npy(np.full((10, 2), 1e300)), "expected a finite score within"),
+        FileCase("nan.npy", "a NaN score", npy(np.where(np.eye(10, 2) > 0, np.nan, good)), "expected a finite score"),
+        FileCase("rows_1e11.npy", "a header claiming 10^11 rows", _npy_header((10**11, 2)) + b"\x00" * 160, "at most 1,000,000 frames"),
+        FileCase("truncated.npy", "a header for 1000 rows, data for 10", _npy_header((1000, 2)) + b"\x00" * 160, "truncated"),
+        FileCase("one_row.npy", "one frame", npy(np.zeros((1, 2))), "at least 2 rows"),
+        FileCase("3d.npy", "a 3-D array", npy(np.zeros((4, 2, 2))), "at least 2 rows"),
+        FileCase("not_npy.npy", "text named .npy", b"1,2\n3,4\n", "not an .npy file"),
+        FileCase("word.csv", "a word among the scores", b"0,0\n0,abc\n0,0\n", "cannot read scores"),
+        FileCase("ragged.csv", "rows of different lengths", b"0,0\n0,0,0\n0,0\n", "expected 2 like the first row"),
+        FileCase("huge.csv", "1e300 in a CSV", b"0,0\n0,1e300\n0,0\n", "expected a finite score within"),
+        FileCase("binary.csv", "binary data", bytes(range(256)), "not a text file"),
+    ]
+
+
 # --- writing the committed corpus ---------------------------------------------------------------
 def readme(all_cases: list[Case]) -> str:
     rows = [
@@ -473,6 +565,19 @@ def readme(all_cases: list[Case]) -> str:
         "| a 2 GB sparse file | larger than `limits.MAX_FILE_BYTES` | refused from its size, nothing read |",
         "| a symbolic-link loop | `a.bvh -> b.bvh -> a.bvh` | BvhError: too many levels of symbolic links, every verb |",
         "| random mutations | hypothesis (`tests/test_fuzz.py`) | loads or BvhError, never another exception |",
+        "",
+        "Stream scripts (`script_cases()`, run through `mjmotion stream` by `tests/test_cli_contract.py`;",
+        "each gives one `error:` line naming the script and the key path; `tests/test_script.py` has more):",
+        "",
+        "| case | what | message contains |",
+        "|---|---|---|",
+        *(f"| `{c.name}` | {c.what} | {c.match} |" for c in script_cases()),
+        "",
+        "Score files for `vary --scores` (`score_cases()`; each refused naming the file, before its data is read):",
+        "",
+        "| case | what | message contains |",
+        "|---|---|---|",
+        *(f"| `{c.name}` | {c.what} | {c.match} |" for c in score_cases()),
         "",
     ]
     return "\n".join(rows)
