@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     from .. import registration
 
     out = check_output(args.json, args.force, (args.a, args.b))
-    plot = check_output(args.plot, args.force, (args.a, args.b)) if args.plot else None
+    plot = check_output(args.plot, args.force, (args.a, args.b, args.json)) if args.plot else None  # (not the JSON's path either)
     if args.window < 1 or args.window % 2 == 0:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
     a, b = load_clips([args.a, args.b], args)
