@@ -259,6 +259,17 @@ def refused(rc: int, err: str, *phrases: str) -> str:
     return lines[0]
 
 
+def works_or_refuses(spec: Verb, rc: int, err: str, out: Path) -> None:
+    """Exit 0 with the output written and no error line, or the contract of a refusal with
+    nothing written (hit writes its best effort by design, and says so)."""
+    if rc == 0:
+        assert "Traceback" not in err and not any(ln.startswith("error:") for ln in err.splitlines()), err
+        assert not writes(spec) or out.exists()
+    else:
+        line = refused(rc, err)
+        assert not out.exists() or "best effort written" in line
+
+
 @pytest.fixture(scope="module")
 def clip(tmp_path_factory) -> Path:
     """A small valid clip (the corpus' base file: five joints, three frames)."""
@@ -405,11 +416,7 @@ def test_valid_corpus_file_never_gives_a_traceback(name, tmp_path, capsys):
         out = tmp_path / f"out_{case.name}{spec.ext}"
         rc, _, err = run([name, *spec.argv(str(as_input(spec, inp)), str(out))], capsys)
         try:
-            if rc == 0:
-                assert "Traceback" not in err and not any(ln.startswith("error:") for ln in err.splitlines()), err
-                assert not writes(spec) or out.exists()
-            else:
-                refused(rc, err)
+            works_or_refuses(spec, rc, err, out)
         except AssertionError as e:
             failures.append(f"{case.name}: {str(e).splitlines()[0]}")
     assert not failures, f"{name}: " + "; ".join(failures)
@@ -626,31 +633,16 @@ def test_deep_hierarchy_through_the_cli(tmp_path, capsys):
 
 
 # --- issue 17: hostile options, files and faults, for every verb ---------------------------------
-import contextlib  # noqa: E402
 import signal  # noqa: E402
 import stat  # noqa: E402
 import tracemalloc  # noqa: E402
+
+from conftest import within  # noqa: E402
 
 from mjmotion import outputs  # noqa: E402
 from mjmotion.limits import MAX_JOINTS, MAX_MODEL_JOINTS  # noqa: E402
 
 HOSTILE_VALUES = ("nan", "inf", "-inf", "1e308", "-1e308", "abc")
-
-
-@contextlib.contextmanager
-def within(seconds: int, what: str):
-    """Fail (not hang) if the block runs longer than ``seconds``."""
-
-    def alarm(signum, frame):
-        raise AssertionError(f"{what} took more than {seconds} s")
-
-    old = signal.signal(signal.SIGALRM, alarm)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
 
 
 def _numeric_actions(name: str) -> list[argparse.Action]:
@@ -807,11 +799,7 @@ def test_one_two_and_three_frame_clips(name, tmp_path, human, capsys):
         with within(60, f"{name} on {n} frames"):
             rc, _, err = run([name, *spec.argv(str(as_input(spec, short)), str(out))], capsys)
         try:
-            if rc == 0:
-                assert not any(ln.startswith("error:") for ln in err.splitlines()), err
-            else:
-                line = refused(rc, err)
-                assert not out.exists() or "best effort written" in line  # hit keeps its best effort (by design)
+            works_or_refuses(spec, rc, err, out)
         except AssertionError as e:
             failures.append(f"{n} frames: {str(e).splitlines()[0]}")
     assert not failures, f"{name}: " + "; ".join(failures)
