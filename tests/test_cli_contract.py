@@ -967,3 +967,15 @@ def test_info_prints_no_terminal_escapes(tmp_path, clip, capsys):
     inp.write_bytes(clip.read_bytes())
     rc, out, err = run(["info", str(inp)], capsys)
     assert rc == 0 and "\x1b" not in out and "a\\x1b[2Jb" in out, err
+
+
+def test_file_names_with_escapes_are_printed_and_drawn_escaped(tmp_path, human, capsys):
+    """evaluate DIR prints clip names it found, render draws file names as labels: neither raw."""
+    folder = tmp_path / "clips"
+    folder.mkdir()
+    odd = folder / "a\x1b[2J\nb.bvh"
+    odd.write_bytes(_human(human).read_bytes())
+    rc, out, err = run(["evaluate", str(folder), "--jobs", "1"], capsys)
+    assert rc == 0 and "\x1b" not in out + err and "a\\x1b[2J\\nb" in out, err
+    rc, out, err = run(["render", str(odd), "-o", str(tmp_path / "v.gif"), "--width", "64", "--height", "48", "--fast"], capsys)
+    assert rc == 0 and (tmp_path / "v.gif").exists(), err

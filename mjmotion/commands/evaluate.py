@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ..errors import MjmotionError, require_number
+from ..errors import MjmotionError, printable, require_number
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load, parse_frames
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, UniqueProps, integer, number
@@ -145,7 +145,7 @@ def _prop(motion, text: str):
 def _fmt(v: Any, spec: str) -> str:
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return "-"
-    return format(v, spec) if spec != "s" else str(v)
+    return format(v, spec) if spec != "s" else printable(v)  # a clip's name comes from a file name: no raw escapes
 
 
 def format_table(rows: list[dict[str, Any]], as_csv: bool = False) -> str:
@@ -238,7 +238,7 @@ def run(args: argparse.Namespace) -> int:
     sys.stdout.write(format_table(rows, args.csv))
     if ok and not args.csv:
         print(_params_line(ok[0]["report"]))
-        skipped = [f"{Path(r['file']).stem}:{r['skipped_frames']}" for r in ok if r["skipped_frames"]]
+        skipped = [f"{printable(Path(r['file']).stem)}:{r['skipped_frames']}" for r in ok if r["skipped_frames"]]
         if skipped:
             print("leading frames skipped: " + ", ".join(skipped))
         if len(ok) == 1:
@@ -258,7 +258,7 @@ def run(args: argparse.Namespace) -> int:
                     print("   " + "  ".join(f"{k}={v:8.3f}" for k, v in row.items()))
     for r in results:
         if "error" in r:
-            sys.stderr.write(f"error: {r['file']}: {r['error']}\n")
+            sys.stderr.write(f"error: {printable(r['file'])}: {printable(r['error'])}\n")
     if out is not None:
         write_text_atomic(
             out,

@@ -9,7 +9,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import argparse
 
-from ..errors import MjmotionError
+from ..errors import MjmotionError, printable
 from ..limits import MAX_MODEL_JOINTS, check_motion_size
 from ._common import add_input_options, load, output_path, parse_frames
 from ._options import COORD, VIDEO_FPS, UniqueProps, check_actors, integer, number
@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     if args.labels is not None and len(args.labels) != len(args.files):
         raise MjmotionError(f"--labels: got {len(args.labels)} labels for {len(args.files)} clips; give one per clip")
     check_actors(len(args.files))
-    labels = args.labels or [os.path.splitext(os.path.basename(f))[0] for f in args.files]
+    labels = args.labels or [printable(os.path.splitext(os.path.basename(f))[0]) for f in args.files]  # drawn: one printable line
     actors = []
     for path, label in zip(args.files, labels):
         m = load(path, args)
