@@ -443,7 +443,7 @@ def _merge(plants: list[Plant], ankles_xy: np.ndarray, gap: int) -> list[Plant]:
     return [Plant(side, a, b, (float(m[0]), float(m[1]))) for (a, b), m in zip(spans, means)]
 
 
-def grow_plants(plants: list[Plant], residual: np.ndarray, ankles_xy: np.ndarray, gap: int) -> list[Plant]:
+def grow_plants(plants: list[Plant], residual: np.ndarray, ankles_xy: np.ndarray, gap: int, side: str | None = None) -> list[Plant]:
     """One foot's plants grown over ``residual: (T,)`` frames (contact in the result but not held still).
 
     A residual frame becomes a plant's inner frame (the plant covers it and one frame either side,
@@ -451,7 +451,7 @@ def grow_plants(plants: list[Plant], residual: np.ndarray, ankles_xy: np.ndarray
     of each other join one plant, and plants that come within ``gap`` frames merge.
     """
     t_count = len(residual)
-    side = plants[0].side if plants else ""
+    side = side if side is not None else plants[0].side if plants else ""  # a foot with no plant yet: the caller's side
     extra = [Plant(side, max(0, a - 1), min(t_count, b + 1), (0.0, 0.0)) for a, b in _runs(residual)]
     return _merge(list(plants) + extra, ankles_xy, gap)
 
@@ -505,7 +505,9 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
             held[p.start + (p.start > 0) : p.stop - (p.stop < t_count), track.sides.index(p.side)] = True
         residual = ft.contacts(tr, params.h_c, params.v_c, params.hysteresis) & ~held
         grown = [
-            q for f, side in enumerate(track.sides) for q in grow_plants([p for p in plants if p.side == side], residual[:, f], ankles[:, f, :2], gap)
+            q
+            for f, side in enumerate(track.sides)
+            for q in grow_plants([p for p in plants if p.side == side], residual[:, f], ankles[:, f, :2], gap, side)
         ]
         if sorted(grown, key=lambda p: (p.side, p.start)) == sorted(plants, key=lambda p: (p.side, p.start)):
             break

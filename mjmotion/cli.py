@@ -25,7 +25,8 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from . import __version__
-from .errors import MjmotionError
+from .errors import MjmotionError, printable
+from .outputs import reset_claims
 
 #: Order of verbs in ``--help``; verbs not listed follow alphabetically.
 VERB_ORDER = (
@@ -40,6 +41,17 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         sys.stderr.write(f"error: {_one_line(message)} (see '{self.prog} --help')\n")
         raise SystemExit(2)
+
+    def _get_value(self, action: argparse.Action, arg_string: str) -> object:
+        # An option domain (mjmotion.commands._options) says "VALUE: expected …": the line reads
+        # "--fps 1e308: expected …", like the checks made after parsing.
+        try:
+            return super()._get_value(action, arg_string)
+        except argparse.ArgumentError as e:
+            if not getattr(action.type, "option_domain", False):
+                raise
+            name = max(action.option_strings, key=len) if action.option_strings else action.metavar or action.dest
+            raise argparse.ArgumentError(None, f"{name} {e.message}") from None
 
 
 def _verbs() -> list[ModuleType]:
@@ -98,8 +110,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
 
 
 def _one_line(message: str) -> str:
-    """The message on one line (a file name or a verb's message may hold line breaks)."""
-    return message.replace("\r", "\\r").replace("\n", "\\n")
+    """The message on one printable line: a file name, a script's text or a verb's message may hold
+    line breaks or terminal escape sequences (they are shown escaped, as Python writes them)."""
+    return printable(message)
 
 
 #: Thread-count variables OpenBLAS reads; when none is set, the CLI runs BLAS on one thread.
@@ -112,12 +125,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         # of CPU at NumPy's import, and our products (600 × 210) are too small to gain from two
         # threads on a shared 2-core machine; verbs that parallelise use processes (--jobs).
         os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    reset_claims()  # outputs checked by an earlier command in this process are not this one's
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:  # a usage error (exit status 2, already reported) or --help (0)
+        return e.code if isinstance(e.code, int) else 2
     if not getattr(args, "verb", None):
         parser.print_help()
         return 2
+    try:
+        return _run(args)
+    finally:
+        reset_claims()  # a library write after this command is not bound by its outputs' --force
+
+
+def _run(args: argparse.Namespace) -> int:
     verbose = bool(getattr(args, "verbose", False))
     try:
         return int(args._run(args) or 0)

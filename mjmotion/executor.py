@@ -389,9 +389,11 @@ def start(
 def add_options(p: argparse.ArgumentParser, default: str = "") -> None:
     """``--workers N`` and ``--scheduler ADDRESS`` (the experiments and ``audit`` share them); ``default``
     says in the help what runs without them."""
+    from .commands._options import integer
+
     p.add_argument(
         "--workers",
-        type=int,
+        type=integer(1, 4096, what="a number of worker processes"),
         metavar="N",
         help="run on a Dask LocalCluster of N worker processes on this machine (bound to 127.0.0.1)" + (f" ({default})" if default else ""),
     )

@@ -230,7 +230,7 @@ def detect_hit_frame(effector: np.ndarray, fps: float) -> int:
     if len(effector) < 3:
         return 0
     vel = np.gradient(effector, axis=0) * fps
-    width = max(1, round(0.025 * fps))
+    width = max(1, min(round(0.025 * fps), (len(effector) - 1) // 2))  # no longer than the clip (np.convolve 'same')
     kernel = np.ones(2 * width + 1) / (2 * width + 1)
     vel = np.column_stack([np.convolve(vel[:, i], kernel, mode="same") for i in range(3)])
     speed = np.linalg.norm(vel, axis=1)

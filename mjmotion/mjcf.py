@@ -25,6 +25,7 @@ import numpy as np
 
 from . import limits
 from . import rotations as rot
+from .caps import MAX_MODEL_JOINTS
 from .errors import MjmotionError
 from .skeleton import Skeleton
 
@@ -347,6 +348,11 @@ def compile(
             f"skeleton is {depth.max() + 1} joints deep (joint {skeleton.names[int(depth.argmax())]!r}); "
             f"MuJoCo models are limited to {MAX_DEPTH} nested bodies here (compile time grows with the "
             "cube of the depth) — is this a character skeleton?"
+        )
+    if skeleton.n_joints > MAX_MODEL_JOINTS:
+        raise MjmotionError(
+            f"skeleton has {skeleton.n_joints} joints; MuJoCo models are limited to {MAX_MODEL_JOINTS} joints here "
+            "(compile time grows faster than the joint count) — is this a character skeleton?"
         )
     reserved = {FLOOR, BALL} | {p.name for p in props}
     clash = reserved.intersection(skeleton.names)

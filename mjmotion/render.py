@@ -705,11 +705,49 @@ def write_video(
     if suffix == ".mp4" and (width % 2 or height % 2):
         raise MjmotionError(f"{out}: MP4 (yuv420p) needs an even width and height, got {width}x{height}")
     with atomic_path(out) as tmp:
-        if suffix == ".mp4":
-            _write_mp4(frames, tmp, fps, size, progress)
-        else:
-            _write_gif(frames, tmp, fps, progress)
+        try:
+            if suffix == ".mp4":
+                _write_mp4(frames, tmp, fps, size, progress)
+            else:
+                _write_gif(frames, tmp, fps, progress)
+        except MjmotionError as e:  # name the output, not its temporary file
+            raise MjmotionError(f"{out}: {str(e).replace(f'{tmp}: ', '')}") from None
+        check_video_file(tmp, suffix, shown=out)  # a full disk truncates quietly: never "wrote" a broken video
     return out
+
+
+def check_video_file(path: str | os.PathLike[str], suffix: str, shown: str | os.PathLike[str] | None = None) -> None:
+    """Refuse a video file that is not complete: an MP4 whose top-level boxes do not add up to
+    the file (or lack ``ftyp``, ``mdat`` or ``moov``, which ffmpeg writes last), a GIF without
+    its header or trailer byte."""
+    name = shown or path
+    data_size = os.path.getsize(path)
+    with open(path, "rb") as fh:
+        if suffix == ".gif":
+            head = fh.read(6)
+            fh.seek(max(0, data_size - 1))
+            if head not in (b"GIF87a", b"GIF89a") or fh.read(1) != b";":
+                raise MjmotionError(f"{name}: the GIF written is incomplete ({data_size} bytes; a full disk?)")
+            return
+        kinds, pos = set(), 0
+        while pos < data_size:
+            fh.seek(pos)
+            head = fh.read(16)
+            if len(head) < 8:
+                break
+            size, kind = int.from_bytes(head[:4], "big"), head[4:8]
+            if size == 1 and len(head) == 16:
+                size = int.from_bytes(head[8:16], "big")
+            elif size == 0:
+                size = data_size - pos
+            if size < 8:
+                break
+            kinds.add(kind)
+            pos += size
+    if pos != data_size or not {b"ftyp", b"mdat", b"moov"} <= kinds:
+        raise MjmotionError(
+            f"{name}: the MP4 written is incomplete ({data_size} bytes, boxes {sorted(k.decode('latin-1') for k in kinds)}; a full disk?)"
+        )
 
 
 def _write_mp4(frames: Iterable[np.ndarray], path: Path, fps: float, size: tuple[int, int], progress) -> None:
@@ -729,7 +767,10 @@ def _write_mp4(frames: Iterable[np.ndarray], path: Path, fps: float, size: tuple
     writer.send(None)
     try:
         for img in frames:
-            writer.send(np.ascontiguousarray(img))
+            try:
+                writer.send(np.ascontiguousarray(img))
+            except OSError as e:  # ffmpeg stopped (a full disk, a write error): its message, on one line
+                raise MjmotionError(f"the video encoder (ffmpeg) failed: {str(e).splitlines()[0]}") from None
             if progress:
                 progress(1)
     finally:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import rotations as rot
+from .caps import MAX_FPS, MIN_FPS, check_motion_size
 from .errors import MjmotionError, SkeletonMismatchError
 
 #: Known metres-per-unit scales, detected from a skeleton's rest extent (see ``detect_scale``).
@@ -401,12 +402,14 @@ class Motion:
         120.00005 fps and its 510 frames resample to 510 at 120 fps, where flooring the duration
         dropped the last.
         """
-        if not (np.isfinite(fps) and fps > 0):
-            raise MjmotionError(f"fps must be a positive number, got {fps}")
+        if not (MIN_FPS <= fps <= MAX_FPS):  # (NaN fails too)
+            raise MjmotionError(f"fps {fps:g}: expected a frame rate from {MIN_FPS:g} to {MAX_FPS:g} frames per second")
         x = self.duration * fps  # output frame steps the clip spans
         steps = int(np.floor(x))
         if x - steps > 1.0 - 1e-4 * max(x, 1.0):
             steps += 1
+        # Checked before anything is allocated: --fps 1e9 on a 2 s clip would ask for 2e9 frames.
+        check_motion_size(steps + 1, self.skeleton.n_joints, f"resampling a {self.duration:.4g} s clip to {fps:g} fps")
         frames = np.minimum(np.arange(steps + 1) * (self.fps / fps), self.n_frames - 1)
         root, q, tr = self.sample(frames)
         return self.replace(root_positions=root, rotations=q, translations=tr, fps=float(fps))

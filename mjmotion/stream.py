@@ -44,7 +44,6 @@ the locomotion's pace and ends at its own. :attr:`MotionStream.transitions` repo
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, overload
@@ -52,6 +51,7 @@ from typing import Literal, overload
 import numpy as np
 
 from . import registration as reg
+from . import script as script_schema
 from .blend import Track, WeightCurve, bezier_ease, check_weights, compose
 from .errors import MjmotionError
 from .skeleton import Motion
@@ -146,6 +146,7 @@ def parse_script(data: dict, base: Path, load) -> Script:
 
     Every mistake is an :class:`MjmotionError` naming the field.
     """
+    data = script_schema.validate(data)  # types, ranges, lengths and keys (mjmotion.script)
     if not isinstance(data, dict):
         raise MjmotionError("script: expected a JSON object with clips, locomotion, commands, duration")
     for key in ("clips", "locomotion", "commands", "duration"):
@@ -219,18 +220,16 @@ def parse_script(data: dict, base: Path, load) -> Script:
 
 
 def load_script(path: str, load) -> Script:
-    """Read a stream script; ``load(path, frames_text)`` reads a clip (the CLI passes its loader)."""
+    """Read a stream script; ``load(path, frames_text)`` reads a clip (the CLI passes its loader).
+
+    The file is read and checked by :func:`mjmotion.script.load` (a regular file, safe JSON, the schema)."""
+    data = script_schema.load(path)
     try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise MjmotionError(f"{path}: no such script") from None
-    except UnicodeDecodeError as e:
-        raise MjmotionError(f"{path}: not a text file (invalid UTF-8 at byte {e.start}); expected a JSON stream script") from None
-    except json.JSONDecodeError as e:
-        raise MjmotionError(f"{path}:{e.lineno}: not valid JSON ({e.msg})") from None
-    except RecursionError:
-        raise MjmotionError(f"{path}: JSON nested too deeply; expected a stream script") from None
-    return parse_script(data, Path(path).resolve().parent, load)
+        return parse_script(data, Path(path).resolve().parent, load)
+    except MjmotionError as e:
+        if str(e).startswith("script"):  # the script's own fields (not a clip's error): name the file
+            raise MjmotionError(f"{path}: {e}") from None
+        raise
 
 
 class _Cursor:

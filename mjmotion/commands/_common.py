@@ -27,7 +27,7 @@ def add_input_options(p: argparse.ArgumentParser, trim: bool = True) -> None:
         default="auto",
         metavar="UNIT",
         help="file length unit: auto (detect from the skeleton's size), m, cm, mm, asf (CMU's 5.644 cm), "
-        "or a number of metres per unit (default: auto)",
+        "or a number of metres per unit, 1e-6 to 1000 (default: auto)",
     )
     p.add_argument("--up", choices=("y", "z"), default="y", help="the file's up axis (default: y, the BVH norm)")
     if trim:
@@ -56,8 +56,8 @@ def units_scale(text: str) -> float | None:
         value = float(text)
     except ValueError:
         raise MjmotionError(f"--units {text!r}: expected auto, m, cm, mm, asf or a number of metres per unit") from None
-    if not (value > 0 and value < float("inf")):
-        raise MjmotionError(f"--units {text!r}: expected a positive number of metres per unit")
+    if not (1e-6 <= value <= 1e3):  # (NaN fails too)
+        raise MjmotionError(f"--units {text!r}: expected a number of metres per unit from 1e-6 to 1000")
     return value
 
 
@@ -119,7 +119,7 @@ def check_same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> boo
             return True
     except OSError:
         pass
-    return Path(a).resolve() == Path(b).resolve()
+    return os.path.realpath(a) == os.path.realpath(b)  # (a symlink loop is not an error here)
 
 
 def output_path(args: argparse.Namespace, *inputs: str) -> Path:

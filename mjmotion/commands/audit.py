@@ -9,6 +9,7 @@ from pathlib import Path
 from ..errors import MjmotionError
 from ..executor import add_options
 from ._common import add_input_options
+from ._options import number
 
 NAME = "audit"
 HELP = "judge every .bvh under a folder on Dask workers into one table (CSV + Parquet), resumable, with a summary"
@@ -58,8 +59,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     again.add_argument("--resume", action="store_true", help="continue an audit in OUT_DIR: keep the rows whose file and options are unchanged")
     again.add_argument("--force", action="store_true", help="start over in an existing OUT_DIR (its audit files are replaced)")
     p.add_argument("--source-map", metavar="FILE", help="JSON: clip path under DIR -> the source clip(s) it was made from")
-    p.add_argument("--timeout", type=float, metavar="S", help="per-clip time limit in seconds: a clip still running after S is an error row")
-    p.add_argument("--connect-timeout", type=float, default=10.0, metavar="S", help="seconds to wait for --scheduler to answer (default 10)")
+    p.add_argument(
+        "--timeout",
+        type=number(0, 1e6, lo_open=True, what="a number of seconds"),
+        metavar="S",
+        help="per-clip time limit in seconds: a clip still running after S is an error row",
+    )
+    p.add_argument(
+        "--connect-timeout",
+        type=number(0, 3600, lo_open=True, what="a number of seconds"),
+        default=10.0,
+        metavar="S",
+        help="seconds to wait for --scheduler to answer (default 10)",
+    )
     add_input_options(p)
 
 

@@ -8,6 +8,7 @@ import math
 
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load, output_path
+from ._options import CONTACT_HEIGHT, CONTACT_SPEED, number
 from .evaluate import _finite, _nan_to_none, add_judge_options, check_floor, load_sources
 
 NAME = "cleanup"
@@ -37,15 +38,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="the cleaned clip")
     p.add_argument("--json", metavar="REPORT.json", help="write the plants and before/after metrics")
     p.add_argument("--force", action="store_true", help="replace outputs that exist")
-    p.add_argument("--h-c", type=float, default=0.05, metavar="M", help="contact height (default 0.05 m)")
-    p.add_argument("--v-c", type=float, default=0.5, metavar="M/S", help="contact speed (default 0.5 m/s)")
-    p.add_argument("--blend", type=float, default=0.2, metavar="S", help="blend-in/out time (default 0.2 s)")
+    p.add_argument("--h-c", type=CONTACT_HEIGHT, default=0.05, metavar="M", help="contact height, at most 1 m (default 0.05 m)")
+    p.add_argument("--v-c", type=CONTACT_SPEED, default=0.5, metavar="M/S", help="contact speed, at most 100 m/s (default 0.5 m/s)")
+    p.add_argument(
+        "--blend", type=number(0, 10, what="a time in seconds"), default=0.2, metavar="S", help="blend-in/out time, at most 10 s (default 0.2 s)"
+    )
     p.add_argument(
         "--clearance",
-        type=float,
+        type=number(0, 1, what="a height in metres"),
         default=0.0,
         metavar="M",
-        help="lift a foot moving faster than --v-c within M of the floor outside plants up to M (default 0: swings stay as captured)",
+        help="lift a foot moving faster than --v-c within M of the floor outside plants up to M, at most 1 m (default 0: swings stay as captured)",
     )
     p.add_argument("--hold-orientation", action="store_true", help="hold each plant's foot at one orientation (stiller feet, knee pops at toe-off)")
     add_judge_options(p)

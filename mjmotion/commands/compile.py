@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ._common import add_input_options, output_path, read_motion
+from ._options import UniqueProps
 
 NAME = "compile"
 HELP = "compile a BVH skeleton to a MuJoCo model (.xml)"
@@ -36,10 +37,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="replace the output if it exists")
     p.add_argument(
         "--prop",
-        action="append",
+        action=UniqueProps,
         default=[],
         metavar="KIND[:JOINT]",
-        help="attach a prop (club or bat) to JOINT (default: the right hand); repeatable",
+        help="attach a prop (club or bat) to JOINT (default: the right hand); repeatable, each kind once",
     )
     p.add_argument("--ball", action="store_true", help="add a free ball (cricket-ball size)")
     p.add_argument("--skin", action="store_true", help="add the character's skinned surface (a MuJoCo <skin>)")

@@ -12,9 +12,10 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..errors import MjmotionError, require_number
+from ..errors import MjmotionError, printable, require_number
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, check_same_file, load, load_first
+from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, UniqueProps, integer, number
 
 if TYPE_CHECKING:
     from ..evaluate import Report
@@ -69,30 +70,55 @@ _COLUMNS = (
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("path", help="a .bvh file, or a folder (searched recursively for .bvh files)")
-    p.add_argument("--prop", action="append", default=[], metavar="KIND[:JOINT]", help="attach a prop (club, bat); the first is the effector")
-    p.add_argument("--ball", nargs=3, type=float, metavar=("X", "Y", "Z"), help="ball centre (m, world Z-up) for the hitting metrics")
-    p.add_argument("--ball-radius", type=float, default=0.036, metavar="R", help="ball radius in m (default 0.036, cricket)")
+    p.add_argument("--prop", action=UniqueProps, default=[], metavar="KIND[:JOINT]", help="attach a prop (club, bat); the first is the effector")
     p.add_argument(
-        "--ball-velocity", nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar=("VX", "VY", "VZ"), help="incoming ball velocity at impact, m/s"
+        "--ball", nargs=3, type=COORD, metavar=("X", "Y", "Z"), help="ball centre (m, world Z-up, each within ±1000) for the hitting metrics"
     )
-    p.add_argument("--frame", type=int, metavar="H", help="hit frame (0-based, of the file) for --ball")
+    p.add_argument(
+        "--ball-radius",
+        type=number(0.001, 1, what="a ball radius in metres"),
+        default=0.036,
+        metavar="R",
+        help="ball radius in m, 0.001 to 1 (default 0.036, cricket)",
+    )
+    p.add_argument(
+        "--ball-velocity",
+        nargs=3,
+        type=VELOCITY,
+        default=(0.0, 0.0, 0.0),
+        metavar=("VX", "VY", "VZ"),
+        help="incoming ball velocity at impact, m/s (each within ±1000)",
+    )
+    p.add_argument("--frame", type=FRAME, metavar="H", help="hit frame (0-based, of the file) for --ball")
     p.add_argument(
         "--hit-grid",
-        type=int,
+        type=integer(2, 9, what="a grid size"),
         metavar="N",
         help="seed 003 Figure 2.6: adapt the shot to an N x N grid of hit points around "
         "the sweet spot at --frame (arm IK, wrist locked vs club orientation kept), launch a ball from each and print "
-        "the rank correlation of launch direction with hit point (needs --prop and --frame)",
+        "the rank correlation of launch direction with hit point (needs --prop and --frame; N from 2 to 9)",
     )
-    p.add_argument("--grid-step", type=float, default=0.05, metavar="M", help="hit-grid spacing in m (default 0.05)")
+    p.add_argument(
+        "--grid-step",
+        type=number(0, 1, lo_open=True, what="a spacing in metres"),
+        default=0.05,
+        metavar="M",
+        help="hit-grid spacing in m, at most 1 (default 0.05)",
+    )
     p.add_argument("--frames", metavar="A:B", help="evaluate only these frames")
     add_judge_options(p)
-    p.add_argument("--h-c", type=float, default=0.05, metavar="M", help="contact height threshold (default 0.05 m)")
-    p.add_argument("--v-c", type=float, default=0.5, metavar="M/S", help="contact speed threshold (default 0.5 m/s)")
+    p.add_argument("--h-c", type=CONTACT_HEIGHT, default=0.05, metavar="M", help="contact height threshold, at most 1 m (default 0.05 m)")
+    p.add_argument("--v-c", type=CONTACT_SPEED, default=0.5, metavar="M/S", help="contact speed threshold, at most 100 m/s (default 0.5 m/s)")
     p.add_argument("--json", metavar="OUT.json", help="write every metric (and the parameters) as JSON")
     p.add_argument("--csv", action="store_true", help="print the table as CSV instead of aligned text")
     p.add_argument("--force", action="store_true", help="replace OUT.json if it exists")
-    p.add_argument("--jobs", type=int, default=2, metavar="N", help="parallel processes for a folder (default 2)")
+    p.add_argument(
+        "--jobs",
+        type=integer(1, 64, what="a number of processes"),
+        default=2,
+        metavar="N",
+        help="parallel processes for a folder, 1 to 64 (default 2)",
+    )
     add_input_options(p)
 
 
@@ -100,9 +126,9 @@ def add_judge_options(p: argparse.ArgumentParser) -> None:
     """``--floor`` and ``--source``: where the judge's floor and references come from (evaluate, cleanup)."""
     p.add_argument(
         "--floor",
-        type=float,
+        type=number(-100, 100, what="a floor height in metres"),
         metavar="METRES",
-        help="the floor height (world z, m) every ground metric measures from (default: from --source, else detected)",
+        help="the floor height (world z, m, within ±100) every ground metric measures from (default: from --source, else detected)",
     )
     p.add_argument(
         "--source",
@@ -190,7 +216,7 @@ def _prop(motion, text: str):
 def _fmt(v: Any, spec: str) -> str:
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return "-"
-    return format(v, spec) if spec != "s" else str(v)
+    return format(v, spec) if spec != "s" else printable(v)  # a clip's name comes from a file name: no raw escapes
 
 
 def format_table(rows: list[dict[str, Any]], as_csv: bool = False) -> str:
@@ -269,8 +295,8 @@ def run(args: argparse.Namespace) -> int:
         if args.ball is not None:
             raise MjmotionError("--ball applies to one clip; give a file, not a folder")
     else:
-        if not os.path.isfile(args.path):
-            raise MjmotionError(f"{args.path}: no such file or folder")
+        if not os.path.lexists(args.path):
+            raise MjmotionError(f"{args.path}: no such file or folder")  # anything else: the reader says what it is
         files = [args.path]
     # Checked before any work: the report may never replace one of the clips it reads.
     out = check_output(args.json, force=args.force, inputs=[*files, *args.source]) if args.json else None
@@ -287,12 +313,12 @@ def run(args: argparse.Namespace) -> int:
     sys.stdout.write(format_table(rows, args.csv))
     if ok and not args.csv:
         print(_params_line(ok[0]["report"]))
-        skipped = [f"{Path(r['file']).stem}:{r['skipped_frames']}" for r in ok if r["skipped_frames"]]
+        skipped = [f"{printable(Path(r['file']).stem)}:{r['skipped_frames']}" for r in ok if r["skipped_frames"]]
         if skipped:
             print("leading frames skipped: " + ", ".join(skipped))
         for r in ok:
             for note in r.get("notes", ()):
-                print(note)
+                print(printable(note))
         if len(ok) == 1:
             rep = ok[0]["report"]
             print(
@@ -320,7 +346,7 @@ def run(args: argparse.Namespace) -> int:
                     print("   " + "  ".join(f"{k}={v:8.3f}" for k, v in row.items()))
     for r in results:
         if "error" in r:
-            sys.stderr.write(f"error: {r['file']}: {r['error']}\n")
+            sys.stderr.write(f"error: {printable(r['file'])}: {printable(r['error'])}\n")
     if out is not None:
         write_text_atomic(
             out,

@@ -7,6 +7,7 @@ import io
 
 from ..outputs import write_bytes_atomic
 from ._common import add_input_options, load, output_path
+from ._options import UniqueProps
 
 NAME = "fk"
 HELP = "forward kinematics of a BVH clip to an .npz of world positions (metres, Z-up)"
@@ -24,7 +25,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help="a .bvh file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.npz", help="the .npz file to write")
     p.add_argument("--force", action="store_true", help="replace the output if it exists")
-    p.add_argument("--prop", action="append", default=[], metavar="KIND[:JOINT]", help="attach a prop and export its sites")
+    p.add_argument("--prop", action=UniqueProps, default=[], metavar="KIND[:JOINT]", help="attach a prop and export its sites (each kind once)")
     add_input_options(p)
 
 

@@ -9,6 +9,7 @@ import sys
 from ..errors import MjmotionError
 from ..outputs import write_text_atomic
 from ._common import add_input_options, clip_frame, load_first, output_path
+from ._options import COORD, FRAME, number
 
 NAME = "hit"
 HELP = "move a swing's hit point (IK with importance-based blending, keeping the style)"
@@ -31,12 +32,18 @@ examples:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="SHOT.bvh", help="the source clip")
     g = p.add_mutually_exclusive_group(required=True)
-    g.add_argument("--target", nargs=3, type=float, metavar=("X", "Y", "Z"), help="new hit point (metres, world)")
-    g.add_argument("--offset", nargs=3, type=float, metavar=("DX", "DY", "DZ"), help="move the hit point by this (metres)")
-    p.add_argument("--frame", type=int, default=None, metavar="H", help="hit frame (default: peak effector speed in the downswing)")
+    g.add_argument("--target", nargs=3, type=COORD, metavar=("X", "Y", "Z"), help="new hit point (metres, world; each within ±1000)")
+    g.add_argument("--offset", nargs=3, type=COORD, metavar=("DX", "DY", "DZ"), help="move the hit point by this (metres, each within ±1000)")
+    p.add_argument("--frame", type=FRAME, default=None, metavar="H", help="hit frame (default: peak effector speed in the downswing)")
     p.add_argument("--effector", default="club", metavar="NAME", help="club|left_foot|right_foot|left_fist|right_fist|SITE (default: club)")
     p.add_argument("--solver", default="nlp", choices=("nlp", "nlp-shot", "dls", "ccd"), help="IK solver (default: nlp)")
-    p.add_argument("--falloff", type=float, default=None, metavar="D", help="importance falloff distance in metres (default: 0.6)")
+    p.add_argument(
+        "--falloff",
+        type=number(0, 100, lo_open=True, what="a distance in metres"),
+        default=None,
+        metavar="D",
+        help="importance falloff distance in metres, at most 100 (default: 0.6)",
+    )
     p.add_argument("--wrist", default="locked", choices=("locked", "swing", "ball"), help="freedom of the effector's wrist (default: locked)")
     p.add_argument("--lock", nargs="+", default=[], metavar="JOINT", help="joints to lock in the chain")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="the adapted clip")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from ..errors import printable as _shown
 from ._common import add_input_options, read_motion
 
 NAME = "info"
@@ -52,22 +53,22 @@ def describe(path: str, args: argparse.Namespace) -> dict:
 def run(args: argparse.Namespace) -> int:
     d = describe(args.file, args)
     if args.json:
-        print(json.dumps(d, indent=2))
+        print(json.dumps(d, indent=2))  # (JSON escapes control characters itself)
         return 0
-    print(f"{d['file']}")
+    print(_shown(d["file"]))
     print(f"  joints      {d['joints']} (+{d['end_sites']} End Sites), {d['channels']} channels")
     print(f"  frames      {d['frames']} at {d['fps']:.4g} fps ({d['duration_s']:.3f} s)")
     if d["leading_transient_frames"]:
         k = d["leading_transient_frames"]
         print(f"  start       frames 0-{k - 1} are a leading T-pose/transition: the other verbs skip them unless --keep-start")
     print(f"  units       {d['scale_m_per_unit']:.6g} m per file unit, up axis {d['up']}; stature ≈ {d['stature_m']:.2f} m")
-    print(f"  feet        {d['feet']}")
-    print(f"  hands       {d['hands']}")
+    print(f"  feet        {_shown(d['feet'])}")
+    print(f"  hands       {_shown(d['hands'])}")
     layouts: dict[tuple[str, ...], list[str]] = {}
     for j in d["joint_list"]:
         layouts.setdefault(tuple(j["channels"]), []).append(j["name"])
     print("  channel layouts:")
     for chans, names in layouts.items():
         shown = ", ".join(names[:6]) + (f", … ({len(names)} joints)" if len(names) > 6 else "")
-        print(f"    {' '.join(chans) or '(none)'}: {shown}")
+        print(f"    {' '.join(chans) or '(none)'}: {_shown(shown)}")
     return 0

@@ -10,6 +10,7 @@ from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from . import _joint_weights as joint_weights
 from ._common import add_input_options, load
+from ._options import FPS, integer, number, resample
 
 NAME = "register"
 HELP = "timewarp and alignment curves between two clips (distance grid + minimal-cost path)"
@@ -47,7 +48,7 @@ def add_clip_options(p: argparse.ArgumentParser) -> None:
         metavar="A:B[,A:B...]",
         help="frame range of every clip (the file's frames), or one range per clip separated by commas; without one a leading T-pose is skipped",
     )
-    p.add_argument("--fps", type=float, metavar="F", help="resample every clip to F frames per second first")
+    p.add_argument("--fps", type=FPS, metavar="F", help="resample every clip to F frames per second first (0.1 to 10000)")
     add_input_options(p)
     joint_weights.add_option(p)
 
@@ -59,13 +60,11 @@ def load_clips(files: list[str], args: argparse.Namespace) -> list:
         ranges = ranges * len(files)
     if len(ranges) != len(files):
         raise MjmotionError(f"--frames: give one range for all clips or one per clip ({len(files)}), got {len(ranges)}")
-    if args.fps is not None and not (args.fps > 0 and args.fps < float("inf")):
-        raise MjmotionError(f"--fps {args.fps}: expected a positive frame rate")
     clips = []
     for f, r in zip(files, ranges, strict=True):
         m = load(f, args, r or None)
         if args.fps is not None:
-            m = m.resample(args.fps)
+            m = resample(m, args.fps)
         clips.append(m)
     return clips
 
@@ -75,8 +74,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("b", metavar="B.bvh", help="the second clip (columns)")
     p.add_argument("--json", required=True, metavar="OUT.json", help="where to write the registration")
     p.add_argument("--plot", metavar="GRID.png", help="also draw the grid with the path and the curve")
-    p.add_argument("--window", type=int, default=5, metavar="N", help="frames per point cloud, odd (default 5)")
-    p.add_argument("--slope-limit", type=int, metavar="W", help="most consecutive steps along one clip only (default: seed 000 Eq. 6)")
+    p.add_argument(
+        "--window",
+        type=integer(1, 1001, what="an odd number of frames"),
+        default=5,
+        metavar="N",
+        help="frames per point cloud, odd, at most the shorter clip's frames (default 5)",
+    )
+    p.add_argument(
+        "--slope-limit",
+        type=integer(0, 100, what="a number of steps"),
+        metavar="W",
+        help="most consecutive steps along one clip only, 0 to 100 (default: seed 000 Eq. 6)",
+    )
     p.add_argument("--loop", action="store_true", help="fixed corners: the path joins (0,0) and (nA-1,nB-1)")
     p.add_argument(
         "--method",
@@ -85,7 +95,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="path search (default dp: exact for --free-end and --loop; brute: exact by enumeration, slow)",
     )
     p.add_argument("--free-end", choices=("per-end", "mean"), default="per-end", help="free-end objective (default per-end, see above)")
-    p.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="brute force: give up after S seconds (default 60)")
+    p.add_argument(
+        "--time-limit",
+        type=number(0, 86400, lo_open=True, what="a number of seconds"),
+        default=60.0,
+        metavar="S",
+        help="brute force: give up after S seconds (default 60)",
+    )
     p.add_argument("--curve", choices=("bspline", "discrete"), default="bspline", help="timewarp fit (default bspline)")
     p.add_argument("--force", action="store_true", help="replace outputs that exist")
     add_clip_options(p)
@@ -95,12 +111,14 @@ def run(args: argparse.Namespace) -> int:
     from .. import registration
 
     out = check_output(args.json, args.force, (args.a, args.b))
-    plot = check_output(args.plot, args.force, (args.a, args.b)) if args.plot else None
+    plot = check_output(args.plot, args.force, (args.a, args.b, args.json)) if args.plot else None  # (not the JSON's path either)
     if args.window < 1 or args.window % 2 == 0:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
     if not 0 < args.time_limit < float("inf"):
         raise MjmotionError(f"--time-limit {args.time_limit}: expected a positive number of seconds")
     a, b = load_clips([args.a, args.b], args)
+    if args.window > min(a.n_frames, b.n_frames):
+        raise MjmotionError(f"--window {args.window}: longer than the shorter clip ({min(a.n_frames, b.n_frames)} frames); use a smaller odd window")
     pr = registration.register(
         a,
         b,

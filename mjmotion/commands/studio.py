@@ -6,6 +6,8 @@ import argparse
 import sys
 import threading
 
+from ._options import integer
+
 NAME = "studio"
 HELP = "serve the interactive Studio (blend, stream, hit, vary, evaluate) to a browser on this machine"
 DESCRIPTION = """Serve the Studio, a local web app (viser), and print its URL. Tabs:
@@ -33,7 +35,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("files", nargs="*", default=[], metavar="CLIP.bvh", help="clips to open (default: the bundled library)")
     p.add_argument("--data", metavar="DIR", help="also list every .bvh file under DIR")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
-    p.add_argument("--port", type=int, default=8080, help="port (default 8080)")
+    p.add_argument("--port", type=integer(1, 65535, what="a TCP port"), default=8080, help="port, 1 to 65535 (default 8080)")
     p.add_argument("--out", default="studio_output", metavar="DIR", help="the folder saved clips go to (default ./studio_output)")
     p.add_argument("--check", action="store_true", help="read and validate the clips, print what would be served, and exit (no server)")
 

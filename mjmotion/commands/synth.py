@@ -8,6 +8,7 @@ import json
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from ._common import output_path
+from ._options import integer, number
 
 NAME = "synth"
 HELP = "generate a bundled clip (walk, run, sneak, limp, drive, pull, kick, punch) or the whole library"
@@ -34,11 +35,30 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("kind", choices=(*KINDS, "library"), help="what to generate")
     p.add_argument("directory", nargs="?", help="for `library`: the folder to write (created if missing)")
     p.add_argument("-o", "--output", metavar="OUT.bvh", help="the BVH file to write (not for `library`)")
-    p.add_argument("--speed", type=float, metavar="V", help="gaits: speed in m/s (default per gait)")
-    p.add_argument("--turn", type=float, default=0.0, metavar="DEG_PER_S", help="gaits: turning rate, + to the left (default 0)")
-    p.add_argument("--seconds", type=float, metavar="S", help="gaits: duration (default 4 s; run 3 s)")
-    p.add_argument("--step-length", type=float, metavar="M", help="gaits: metres per step (default per gait, scaled with speed)")
-    p.add_argument("--seed", type=int, default=0, metavar="N", help="small deterministic variations (default 0: the nominal clip)")
+    p.add_argument("--speed", type=number(0, 20, lo_open=True, what="a speed in m/s"), metavar="V", help="gaits: speed in m/s (default per gait)")
+    p.add_argument(
+        "--turn",
+        type=number(-90, 90, what="a turning rate in degrees per second"),
+        default=0.0,
+        metavar="DEG_PER_S",
+        help="gaits: turning rate, + to the left, at most ±90 (default 0)",
+    )
+    p.add_argument(
+        "--seconds", type=number(0.5, 120, what="a duration in seconds"), metavar="S", help="gaits: duration, 0.5 to 120 s (default 4 s; run 3 s)"
+    )
+    p.add_argument(
+        "--step-length",
+        type=number(0, 10, lo_open=True, what="metres per step"),
+        metavar="M",
+        help="gaits: metres per step (default per gait, scaled with speed)",
+    )
+    p.add_argument(
+        "--seed",
+        type=integer(0, 2**32 - 1, what="a seed"),
+        default=0,
+        metavar="N",
+        help="small deterministic variations (default 0: the nominal clip)",
+    )
     p.add_argument("--truth", metavar="OUT.json", help="also write the clip's ground truth as JSON")
     p.add_argument("--force", action="store_true", help="replace existing outputs")
 

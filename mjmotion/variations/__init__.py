@@ -14,6 +14,7 @@ from .fixes import FEET_METHODS, CleanupReport, clean_up, copied_frames, grip_jo
 from .measure import effector_path_length, first_hand_for, fitted_club, grip_error_m, report
 from .paths import (
     DEFAULT_VARIANCE,
+    MAX_SCORE,
     SEGMENT_TAPER,
     ScorePath,
     aborted_path,
@@ -29,6 +30,7 @@ from .paths import (
 
 __all__ = [
     "DEFAULT_VARIANCE",
+    "MAX_SCORE",
     "FEET_METHODS",
     "SEGMENT_TAPER",
     "CleanupReport",
