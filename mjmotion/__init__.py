@@ -26,5 +26,7 @@ def __getattr__(name: str) -> Any:
     if name in ("Motion", "Skeleton"):
         from . import skeleton
 
-        return getattr(skeleton, name)
+        value = getattr(skeleton, name)
+        globals()[name] = value  # loaded once: the next access does not come here
+        return value
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
