@@ -727,7 +727,7 @@ def format_motion(motion: Motion) -> str:
     _write_hierarchy(out, skel, channels_out, file_offsets, file_ends)
     out.write("MOTION\n")
     out.write(f"Frames: {t}\n")
-    out.write(f"Frame Time: {_frame_time_text(motion.fps)}\n")
+    out.write(f"Frame Time: {frame_time_text(motion.fps)}\n")
     if columns:
         data = np.column_stack(columns)
         dec = np.array(decimals)
@@ -738,7 +738,7 @@ def format_motion(motion: Motion) -> str:
     return out.getvalue()
 
 
-def _frame_time_text(fps: float) -> str:
+def frame_time_text(fps: float) -> str:
     """The shortest frame time (≥ 6 significant digits) that reads back as exactly ``fps``."""
     ft = 1.0 / fps
     for digits in range(6, 18):

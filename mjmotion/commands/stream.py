@@ -10,6 +10,7 @@ from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from . import _joint_weights as joint_weights
 from ._common import add_input_options, load, output_path
+from ._progress import steps
 
 NAME = "stream"
 HELP = "play a script of timed commands (blend weights, transitions to clips and back) into a BVH"
@@ -61,16 +62,21 @@ def run(args: argparse.Namespace) -> int:
     report = check_output(args.json, args.force, (args.script,)) if args.json else None
     if report is not None and report == out:
         raise MjmotionError("--json and -o name the same file")
-    script = stream.load_script(args.script, load_clip)
-    controller = stream.MotionStream(script, joint_weights.load(args, script.clips[script.locomotion[0]].skeleton))
+    with steps("stream", ("read", "register", "stream", "write")) as step:
+        step("read")
+        script = stream.load_script(args.script, load_clip)
+        step("register")
+        controller = stream.MotionStream(script, joint_weights.load(args, script.clips[script.locomotion[0]].skeleton))
+        step("stream")
+        result = controller.run(name=out.stem)
+        step("write")
+        bvh.write(result, out)
     registration = controller.registration
     blends = {script.locomotion[k]: b for k, b in enumerate(registration.blendability) if b is not None}
     for name, b in blends.items():
         warning = b.warning(script.locomotion[registration.reference], name)
         if warning:
             sys.stderr.write(f"warning: {warning}\n")
-    result = controller.run(name=out.stem)
-    bvh.write(result, out)
     print(f"wrote {out}: {result.n_frames} frames at {result.fps:g} fps from {len(script.commands)} commands")
     if report is not None:
         data = {
