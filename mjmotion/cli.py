@@ -86,7 +86,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         description=(
             "Make new character motion out of motion capture and check it against physics.\n"
             "Clips are BVH files; lengths are metres in MuJoCo's Z-up world unless a verb says otherwise.\n"
-            "Run 'mjmotion VERB --help' for each verb's options and examples."
+            "Run 'mjmotion VERB --help' for each verb's options and examples. The methods, the papers they\n"
+            "come from (Macleod 2006, Sako 2008, Hicks 2010) and where we differ: docs/algorithms.md;\n"
+            "the metrics: docs/METRICS.md."
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

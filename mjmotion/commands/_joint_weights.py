@@ -1,4 +1,4 @@
-"""``--joint-weights FILE``: per-joint weights of the registration distance (seed 000 §3.1), for
+"""``--joint-weights FILE``: per-joint weights of the registration distance (Macleod 2006, §3.1), for
 register, blend and stream.
 
 Seed 000 reads them from an XML file; ours is JSON or TOML, a table of joint name → non-negative
@@ -26,7 +26,7 @@ def add_option(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--joint-weights",
         metavar="FILE",
-        help="JSON or TOML table of joint name -> non-negative weight in the frame distance (seed 000 §3.1); "
+        help="JSON or TOML table of joint name -> non-negative weight in the frame distance (Macleod 2006, §3.1); "
         "joints not named keep 1 (fingers, thumbs, eyes 0)",
     )
 

@@ -17,7 +17,7 @@ DESCRIPTION = """Blend clips of the same skeleton topology (bone lengths may dif
 clip's skeleton). registered (default): the clips are registered (timewarp + alignment), sampled
 at corresponding times, their joint rotations averaged as quaternions and the root built from
 the weighted per-frame steps, so the blend walks one continuous path at an in-between pace.
-linear: frame n of every clip averaged (the seed 004 baseline). Weights are non-negative and
+linear: frame n of every clip averaged (the Sako 2008 baseline). Weights are non-negative and
 must sum to 1.
 
 examples:

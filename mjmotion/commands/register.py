@@ -1,4 +1,4 @@
-"""``mjmotion register``: the registration curve of two clips (seed 000 §3.1, seed 004 §4–5)."""
+"""``mjmotion register``: the registration curve of two clips (Macleod 2006, §3.1; Sako 2008, §4–5)."""
 
 from __future__ import annotations
 
@@ -26,14 +26,14 @@ in both; alignment [[theta_rad, tx_m, ty_m], ...] one per timewarp sample, the f
 that moves B onto A (rotate by theta about the vertical axis through the origin, then translate);
 timing_s {grid, path, curve, blendability} seconds; blendability {score, threshold, blendable,
 mean_cost, self_similarity [A, B]}: mean_cost over the smaller self-similarity (mean distance
-between two frames of one clip), above threshold (0.9) the pair looks unblendable (seed 004 §7.2).
+between two frames of one clip), above threshold (0.9) the pair looks unblendable (Sako 2008, §7.2).
 
 By default the path starts at the best cell of the first third of the first row or column and
-ends on the last frame of either clip (--free-end): per-end (default; Kovar & Gleicher, seed 004
+ends on the last frame of either clip (--free-end): per-end (default; Kovar & Gleicher, in Sako 2008,
 §4.3) takes the least-total path to each end cell, then the one of least average cost; mean the
 least average cost over every path (Dinkelbach's parametric search over DP passes). --method dp
 solves either exactly, as brute does by enumerating every path (within --time-limit). --loop pins
-the path to both corners (looping clips, seed 000) and minimises its total.
+the path to both corners (looping clips, Macleod 2006) and minimises its total.
 
 examples:
   mjmotion register walk.bvh run.bvh --json reg.json --plot grid.png
@@ -87,7 +87,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--slope-limit",
         type=integer(0, 100, what="a number of steps"),
         metavar="W",
-        help="most consecutive steps along one clip only, 0 to 100 (default: seed 000 Eq. 6)",
+        help="most consecutive steps along one clip only, 0 to 100 (default: Macleod 2006, Eq. 6)",
     )
     p.add_argument("--loop", action="store_true", help="fixed corners: the path joins (0,0) and (nA-1,nB-1)")
     p.add_argument(

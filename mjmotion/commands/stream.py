@@ -14,7 +14,7 @@ from ._progress import steps
 
 NAME = "stream"
 HELP = "play a script of timed commands (blend weights, transitions to clips and back) into a BVH"
-DESCRIPTION = """Run a motion-stream script (seed 000 §3.3): a registered locomotion set blended with weights
+DESCRIPTION = """Run a motion-stream script (Macleod 2006, §3.3): a registered locomotion set blended with weights
 that ramp on command, looped as long as needed, with transitions into other clips (a kick, a
 punch) and back. The script is JSON; clip paths are relative to it:
 
@@ -31,7 +31,7 @@ Optional: "fps" (default the first locomotion clip's), "loop_blend" seconds (0.4
 {"time": t, "return": true, "blend": b} ends a played clip early.
 
 A blend is seconds of the first locomotion clip (the reference): fading from or back to a faster
-mix takes longer, by the mix's pace relative to the reference (seed 000 §3.3), and the played
+mix takes longer, by the mix's pace relative to the reference (Macleod 2006, §3.3), and the played
 clip's clock runs between the mix's pace and its own over the fade. --json writes, per played
 clip, its start, fade-in, fade-out start, fade-out and end (frames and seconds), the nominal fades
 (blend x fps) and the paces (rate_in, rate_out); and the locomotion's blendability.
