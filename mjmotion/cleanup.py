@@ -147,9 +147,10 @@ class CleanupResult:
         from .summary import markdown_table
 
         d = self.to_dict()
-        params = d.pop("params")
+        del d["params"]
         d["plants"] = len(self.plants)
-        return markdown_table({**d, **{f"params.{k}": v for k, v in params.items()}}, header=("cleanup", self.motion.name or "value"))
+        params = {f"params.{k}": v for k, v in vars(self.params).items()}
+        return markdown_table({**d, **params}, header=("cleanup", self.motion.name or "value"))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import re
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -365,7 +366,7 @@ class Motion:
         out[:, 0] = self.root_positions
         return out
 
-    def replace(self, **changes: object) -> Motion:
+    def replace(self, **changes: Any) -> Motion:
         """A copy with some fields changed (the input is never mutated)."""
         return dataclasses.replace(self, **changes)
 

@@ -9,6 +9,7 @@ eyes and end nubs: :func:`mjmotion.registration.joint_weights`).
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
 import os
@@ -60,8 +61,8 @@ def parse(text: str, path: str) -> dict[str, float]:
     """Joint name → weight from the text of ``path`` (TOML for a ``.toml`` file, else JSON)."""
     what = "a table of joint name -> non-negative weight"
     if Path(path).suffix.lower() == ".toml":
-        try:
-            import tomllib
+        try:  # (by name: the type checker targets Python 3.10, which has no tomllib)
+            tomllib = importlib.import_module("tomllib")
         except ImportError:  # Python 3.10
             raise MjmotionError(f"{path}: reading TOML needs Python 3.11 or later; write the weights as JSON") from None
         try:
