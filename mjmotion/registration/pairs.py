@@ -36,8 +36,8 @@ class PairRegistration:
             "path_cost": self.path.cost,
             "mean_cost": self.path.mean_cost,
             "method": self.path.method,
-            "timewarp": np.round(self.curve.samples, 4).tolist(),
-            "alignment": np.round(self.alignment, 6).tolist(),
+            "timewarp": self.curve.samples.tolist(),
+            "alignment": self.alignment.tolist(),
             "timing_s": self.timing_s,
             **({"blendability": self.blendability.to_json()} if self.blendability is not None else {}),
         }
