@@ -62,7 +62,7 @@ def _specs(names: list[str]) -> list[str]:
     for name in names:
         if name not in covered:
             specs.append(name)
-            walk(pdoc.doc.Module(importlib.import_module(name)))
+            walk(pdoc.doc.Module.from_name(name))
     return specs
 
 
@@ -191,7 +191,7 @@ def build(out: Path, source: bool = True) -> list[str]:
         for name in getattr(package, "__all__", ()):
             getattr(package, name)  # lazy names (PEP 562 __getattr__) are loaded before pdoc reads __all__
         names = public_modules()
-        modules = [pdoc.doc.Module(importlib.import_module(n)) for n in names]
+        modules = [pdoc.doc.Module.from_name(n) for n in names]  # (cached: the same objects pdoc renders)
         pdoc.pdoc(*_specs(names), output_directory=out)
     problems = [f"pdoc: {w.category.__name__}: {w.message}" for w in caught if _is_pdoc(w)]
     return problems + broken_references(modules)
