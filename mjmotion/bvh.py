@@ -551,8 +551,12 @@ def _diagnose_values(lines: list[str], start: int, n_channels: int, path: str) -
 # --- building the data model ----------------------------------------------------------------
 def _build_skeleton(nodes: list[_Node], path: str, scale: float | None, up: str) -> Skeleton:
     index: dict[int, int] = {}
-    names, parents, offsets, channels = [], [], [], []
-    end_parents, end_offsets = [], []
+    names: list[str] = []
+    parents: list[int] = []
+    offsets: list[np.ndarray] = []
+    channels: list[tuple[str, ...]] = []
+    end_parents: list[int] = []
+    end_offsets: list[np.ndarray] = []
     for i, n in enumerate(nodes):
         off = n.offset if n.offset is not None else np.zeros(3)
         if n.is_end:
@@ -697,8 +701,8 @@ def format_motion(motion: Motion) -> str:
     pos_decimals = max(6, int(np.ceil(8 + np.log10(skel.scale))))
     decimals: list[int] = []
     channels_out: list[tuple[str, ...]] = []
-    for j, chans in enumerate(skel.channels):
-        chans = list(chans)
+    for j, file_chans in enumerate(skel.channels):
+        chans = list(file_chans)
         disp = disps[:, j]
         pos_axes = [ch[0] for ch in chans if ch in POSITION_CHANNELS]
         missing_pos = [a for a in "XYZ" if a not in pos_axes]
@@ -727,7 +731,7 @@ def format_motion(motion: Motion) -> str:
     _write_hierarchy(out, skel, channels_out, file_offsets, file_ends)
     out.write("MOTION\n")
     out.write(f"Frames: {t}\n")
-    out.write(f"Frame Time: {_frame_time_text(motion.fps)}\n")
+    out.write(f"Frame Time: {frame_time_text(motion.fps)}\n")
     if columns:
         data = np.column_stack(columns)
         dec = np.array(decimals)
@@ -738,7 +742,7 @@ def format_motion(motion: Motion) -> str:
     return out.getvalue()
 
 
-def _frame_time_text(fps: float) -> str:
+def frame_time_text(fps: float) -> str:
     """The shortest frame time (≥ 6 significant digits) that reads back as exactly ``fps``."""
     ft = 1.0 / fps
     for digits in range(6, 18):

@@ -134,6 +134,24 @@ class CleanupResult:
             "params": self.params.__dict__,
         }
 
+    def __repr__(self) -> str:
+        """What the cleanup did, in a line (:meth:`to_dict` has the plants)."""
+        from .summary import fields
+
+        d = self.to_dict()
+        keep = ("changed_frames", "max_root_shift_m", "unreached_frames", "raised_plants", "floor_m")
+        return fields("CleanupResult", repr(self.motion.name), plants=len(self.plants), **{k: d[k] for k in keep})
+
+    def to_markdown(self) -> str:
+        """The result as a two-column Markdown table (plants counted, parameters as ``params.NAME``)."""
+        from .summary import markdown_table
+
+        d = self.to_dict()
+        del d["params"]
+        d["plants"] = len(self.plants)
+        params = {f"params.{k}": v for k, v in vars(self.params).items()}
+        return markdown_table({**d, **params}, header=("cleanup", self.motion.name or "value"))
+
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """``[start, stop)`` runs of True in a 1-D mask."""

@@ -86,7 +86,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         description=(
             "Make new character motion out of motion capture and check it against physics.\n"
             "Clips are BVH files; lengths are metres in MuJoCo's Z-up world unless a verb says otherwise.\n"
-            "Run 'mjmotion VERB --help' for each verb's options and examples."
+            "Run 'mjmotion VERB --help' for each verb's options and examples. The methods, the papers they\n"
+            "come from (Macleod 2006, Sako 2008, Hicks 2010) and where we differ: docs/algorithms.md;\n"
+            "the metrics: docs/METRICS.md."
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -120,6 +122,45 @@ _BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREAD
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``mjmotion`` command on ``argv`` (default ``sys.argv[1:]``); the exit status.
+
+    A reader that closes the pipe early (``mjmotion info X.bvh --json | head -1``) ends the command
+    quietly with status 141 (128 + SIGPIPE, as a tool killed by the signal reports).
+    """
+    try:
+        return _main(argv)
+    except BrokenPipeError:
+        if not _stdout_closed():
+            raise
+        _quiet_stdout()
+        return 141
+
+
+def _stdout_closed() -> bool:
+    """Whether standard output is a pipe whose reader has gone (a broken pipe to a helper
+    process such as ffmpeg is an error, not a reader that has read enough)."""
+    import select
+
+    try:
+        fd = sys.stdout.fileno()
+        poller = select.poll()
+        poller.register(fd, select.POLLOUT)
+        return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in poller.poll(0))
+    except (AttributeError, OSError, ValueError):  # (no poll on this platform, or stdout is not a file)
+        return True
+
+
+def _quiet_stdout() -> None:
+    """Point standard output at the null device, so that the interpreter's flush at exit does not
+    fail again on the closed pipe (Python's documentation, "Note on SIGPIPE")."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (AttributeError, OSError, ValueError):
+        pass
+
+
+def _main(argv: Sequence[str] | None) -> int:
     if not any(v in os.environ for v in _BLAS_THREAD_VARS):
         # One BLAS thread unless the user says otherwise: OpenBLAS starting its pool costs ~60 ms
         # of CPU at NumPy's import, and our products (600 × 210) are too small to gain from two
@@ -144,7 +185,16 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _run(args: argparse.Namespace) -> int:
     verbose = bool(getattr(args, "verbose", False))
     try:
-        return int(args._run(args) or 0)
+        status = int(args._run(args) or 0)
+        sys.stdout.flush()  # a reader gone before the last line is seen here, not at exit
+        return status
+    except BrokenPipeError:
+        if _stdout_closed():
+            raise  # main ends quietly
+        if verbose:
+            traceback.print_exc()
+        sys.stderr.write("error: broken pipe (a helper process ended early)\n")
+        return 2
     except MjmotionError as e:
         if verbose:
             traceback.print_exc()

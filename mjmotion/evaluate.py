@@ -338,6 +338,28 @@ class Report:
         d["sensitivity"] = [dict(r) for r in self.sensitivity]
         return d
 
+    def __repr__(self) -> str:
+        """The clip and its headline metrics (:meth:`to_dict` has every one)."""
+        from .summary import fields
+
+        return fields(
+            "Report",
+            repr(self.name),
+            frames=self.n_frames,
+            fps=self.fps,
+            planted_skate_mm_per_s=self.planted_skate_mm_per_s,
+            penetrate_mm=self.penetrate_mm,
+            float_mm=self.float_mm,
+            physics_violation_ratio=self.physics_violation_ratio,
+            pop_frames=self.pop_frames,
+        )
+
+    def to_markdown(self) -> str:
+        """The report as a two-column Markdown table: :meth:`row`'s values, rounded for reading."""
+        from .summary import markdown_table
+
+        return markdown_table(self.row(), header=("metric", self.name or "value"))
+
     def notes(self) -> list[str]:
         """Lines worth telling the user (a detected floor far from z = 0)."""
         note = floors.Floor(self.floor_m, self.floor_from).note(self.name)

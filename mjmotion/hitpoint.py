@@ -456,6 +456,19 @@ class Adaptation:
     grip_error: np.ndarray
     problem: HitProblem
 
+    def __repr__(self) -> str:
+        """The adapted clip and its headline numbers (:attr:`report` has them all)."""
+        from .summary import fields
+
+        keep = ("solver", "hit_frame", "reachable", "hit_error_m", "grip_error_m", "style_rmse")
+        return fields("Adaptation", repr(self.motion.name), **{k: self.report[k] for k in keep if k in self.report})
+
+    def to_markdown(self) -> str:
+        """The report as a two-column Markdown table, rounded for reading."""
+        from .summary import markdown_table
+
+        return markdown_table(self.report, header=("hit point", self.motion.name or "value"))
+
 
 def source_kept(adaptation: Adaptation) -> tuple[bool, bool]:
     """``(first_last_equal, untouched_equal)``: the first and last frames are the source's; the root

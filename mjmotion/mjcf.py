@@ -294,12 +294,15 @@ def segments(skeleton: Skeleton) -> list[str]:
                 if k <= 0:
                     break
                 label[k] = seg
-    out = []
+    out: list[str] = []
     for j in range(skeleton.n_joints):
-        if label[j] is None:
+        lab = label[j]
+        if lab is None:
             p = int(skeleton.parents[j])
-            label[j] = label[p] if p >= 0 and label[p] in _LIMB else "trunk"
-        out.append(label[j])  # type: ignore[arg-type]
+            above = label[p] if p >= 0 else None
+            lab = above if above is not None and above in _LIMB else "trunk"
+            label[j] = lab
+        out.append(lab)
     return out
 
 
@@ -483,8 +486,8 @@ def compile(
     # is spread over the rest): mass distribution drives the inverse-dynamics residuals.
     present = {c: SEGMENT_MASS[c] * (1 if c in ("head", "trunk") else 2) for c in class_geoms}
     scale = 1.0 / sum(present.values()) if present else 0.0
-    for c, geoms in class_geoms.items():
-        density = mass * present[c] * scale / volumes[c]
+    for cls, geoms in class_geoms.items():
+        density = mass * present[cls] * scale / volumes[cls]
         for g in geoms:
             g.density = density
     model = spec.compile()

@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -22,7 +23,9 @@ PATH_COLOR = "#ffffff"
 CURVE_COLOR = "#ff3030"
 
 
-def _figure(figsize: tuple[float, float], ncols: int = 1, nrows: int = 1, layout: str | None = "constrained", **kw):
+def _figure(
+    figsize: tuple[float, float], ncols: int = 1, nrows: int = 1, layout: Literal["constrained", "compressed", "tight"] | None = "constrained", **kw
+):
     import matplotlib
 
     matplotlib.use("Agg", force=False)

@@ -1,6 +1,6 @@
 """The data model: :class:`Skeleton` and :class:`Motion`.
 
-Conventions (``shared/docs/DESIGN.md``): metres, seconds, MuJoCo's Z-up world, unit
+Conventions (the README's "Conventions"): metres, seconds, MuJoCo's Z-up world, unit
 quaternions ``(w, x, y, z)``. The axis change and unit scale from the file happen once, at
 the BVH boundary, and are remembered here (``Skeleton.scale``, ``Skeleton.up``) so that a
 written BVH is back in the file's own units and axes.
@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import re
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -85,6 +86,10 @@ class Skeleton:
         if len(set(self.names)) != n:
             dup = sorted({x for x in self.names if self.names.count(x) > 1})
             raise MjmotionError(f"duplicate joint names: {', '.join(dup)}")
+
+    def __repr__(self) -> str:
+        """``Skeleton(31 joints, root 'root', 7 End Sites, 0.01 m per file unit, up y)``: no arrays."""
+        return f"Skeleton({self.n_joints} joints, root {self.names[0]!r}, {len(self.end_parents)} End Sites, {self.scale:.6g} m per file unit, up {self.up})"
 
     # --- structure -------------------------------------------------------------------------
     @property
@@ -332,6 +337,12 @@ class Motion:
         if not (np.isfinite(self.fps) and self.fps > 0):
             raise MjmotionError(f"fps must be a positive number, got {self.fps}")
 
+    def __repr__(self) -> str:
+        """``Motion('walk', 22 joints, 241 frames at 60 fps, 4 s)``: what the clip is, not its arrays."""
+        from .summary import clip
+
+        return clip("Motion", self.name, self.skeleton.n_joints, self.n_frames, self.fps)
+
     @property
     def n_frames(self) -> int:
         return int(self.rotations.shape[0])
@@ -355,7 +366,7 @@ class Motion:
         out[:, 0] = self.root_positions
         return out
 
-    def replace(self, **changes: object) -> Motion:
+    def replace(self, **changes: Any) -> Motion:
         """A copy with some fields changed (the input is never mutated)."""
         return dataclasses.replace(self, **changes)
 

@@ -26,14 +26,30 @@ def _module_name(path: Path) -> str:
     return ".".join(parts)
 
 
-def import_graph() -> dict[str, set[str]]:
-    """``{module: the mjmotion modules it imports}`` for every module of the package."""
+def _nodes(tree: ast.AST, runtime_only: bool):
+    """Every node of ``tree``; with ``runtime_only``, not those under ``if TYPE_CHECKING:``."""
+    if not runtime_only:
+        yield from ast.walk(tree)
+        return
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        yield node
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            todo.extend(node.orelse)  # (the ``if`` body runs only under a type checker)
+            continue
+        todo.extend(ast.iter_child_nodes(node))
+
+
+def import_graph(runtime_only: bool = False) -> dict[str, set[str]]:
+    """``{module: the mjmotion modules it imports}`` for every module of the package; with
+    ``runtime_only``, imports only a type checker runs (``if TYPE_CHECKING:``) are left out."""
     modules = {_module_name(p): p for p in PACKAGE.rglob("*.py")}
     graph: dict[str, set[str]] = {}
     for name, path in modules.items():
         package = name if path.name == "__init__.py" else name.rpartition(".")[0]
         deps: set[str] = set()
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in _nodes(ast.parse(path.read_text(encoding="utf-8")), runtime_only):
             if isinstance(node, ast.Import):
                 targets = [a.name for a in node.names]
             elif isinstance(node, ast.ImportFrom):

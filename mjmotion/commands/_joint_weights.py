@@ -1,4 +1,4 @@
-"""``--joint-weights FILE``: per-joint weights of the registration distance (seed 000 §3.1), for
+"""``--joint-weights FILE``: per-joint weights of the registration distance (Macleod 2006, §3.1), for
 register, blend and stream.
 
 Seed 000 reads them from an XML file; ours is JSON or TOML, a table of joint name → non-negative
@@ -9,6 +9,7 @@ eyes and end nubs: :func:`mjmotion.registration.joint_weights`).
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
 import os
@@ -26,7 +27,7 @@ def add_option(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--joint-weights",
         metavar="FILE",
-        help="JSON or TOML table of joint name -> non-negative weight in the frame distance (seed 000 §3.1); "
+        help="JSON or TOML table of joint name -> non-negative weight in the frame distance (Macleod 2006, §3.1); "
         "joints not named keep 1 (fingers, thumbs, eyes 0)",
     )
 
@@ -60,8 +61,8 @@ def parse(text: str, path: str) -> dict[str, float]:
     """Joint name → weight from the text of ``path`` (TOML for a ``.toml`` file, else JSON)."""
     what = "a table of joint name -> non-negative weight"
     if Path(path).suffix.lower() == ".toml":
-        try:
-            import tomllib
+        try:  # (by name: the type checker targets Python 3.10, which has no tomllib)
+            tomllib = importlib.import_module("tomllib")
         except ImportError:  # Python 3.10
             raise MjmotionError(f"{path}: reading TOML needs Python 3.11 or later; write the weights as JSON") from None
         try:

@@ -40,8 +40,8 @@ was made from, relative to FILE's folder: those rows add the source-relative mea
 (vs_source.max_joint_speed_ratio, vs_source.root_jump_m) and a change to a source reruns them.
 
 examples:
-  mjmotion audit ../shared/mocap -o results/audit
-  mjmotion audit ../shared/mocap -o results/audit --resume
+  mjmotion audit "$MJMOTION_DATA" -o results/audit
+  mjmotion audit "$MJMOTION_DATA" -o results/audit --resume
   mjmotion audit grid/ -o results/grid_audit --source-map grid/sources.json --timeout 120
   mjmotion audit /data/cmu -o /data/cmu_audit --scheduler tcp://10.0.0.5:8786
 """

@@ -6,6 +6,7 @@ import argparse
 
 from ._common import add_input_options, output_path, read_motion
 from ._options import UniqueProps
+from ._progress import steps
 
 NAME = "compile"
 HELP = "compile a BVH skeleton to a MuJoCo model (.xml)"
@@ -53,22 +54,29 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import MjmotionError
 
     out = output_path(args, args.file)
-    m = read_motion(args.file, args)
-    props = tuple(mjcf.parse_prop_option(m.skeleton, text) for text in args.prop)
-    compiled = mjcf.compile(m.skeleton, props, mjcf.Ball() if args.ball else None)
-    try:
-        if args.skin or args.actuators:
-            from ..skin import attach, bind, build
+    names = ("read", "compile", *(("bind pose",) if args.skin or args.actuators else ()), *(("skin",) if args.skin else ()), "write")
+    with steps("compile", names) as step:
+        step("read")
+        m = read_motion(args.file, args)
+        step("compile")
+        props = tuple(mjcf.parse_prop_option(m.skeleton, text) for text in args.prop)
+        compiled = mjcf.compile(m.skeleton, props, mjcf.Ball() if args.ball else None)
+        try:
+            if args.skin or args.actuators:
+                from ..skin import attach, bind, build
 
-            neutral = bind.bind_rotations(m.skeleton, m)
-            if args.actuators:
-                compiled = mjcf.add_actuators(compiled, neutral)
-        compiled = mjcf.add_keyframe(compiled, kinematics.qpos(compiled, m[:1])[0], name="first_frame")
-        if args.skin:
-            compiled = attach(compiled, build(compiled, reference=m))
-    except MjmotionError as e:
-        raise MjmotionError(f"{args.file}: {e}") from None
-    compiled.save_xml(out)
+                step("bind pose")
+                neutral = bind.bind_rotations(m.skeleton, m)
+                if args.actuators:
+                    compiled = mjcf.add_actuators(compiled, neutral)
+            compiled = mjcf.add_keyframe(compiled, kinematics.qpos(compiled, m[:1])[0], name="first_frame")
+            if args.skin:
+                step("skin")
+                compiled = attach(compiled, build(compiled, reference=m))
+        except MjmotionError as e:
+            raise MjmotionError(f"{args.file}: {e}") from None
+        step("write")
+        compiled.save_xml(out)
     model = compiled.model
     extra = "".join(
         [

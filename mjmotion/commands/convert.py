@@ -6,6 +6,7 @@ import argparse
 
 from ._common import add_input_options, load, output_path
 from ._options import FPS, number, resample
+from ._progress import steps
 
 NAME = "convert"
 HELP = "write a BVH file again, optionally rescaled, resampled or cut"
@@ -34,11 +35,15 @@ def run(args: argparse.Namespace) -> int:
     from .. import bvh
 
     out = output_path(args, args.input)
-    m = load(args.input, args, args.frames)
-    if args.fps is not None:
-        m = resample(m, args.fps)
-    if args.scale is not None:
-        m = m.replace(skeleton=m.skeleton.replace_scale(m.skeleton.scale / args.scale))
-    bvh.write(m, out)
+    with steps("convert", ("read", *(("resample",) if args.fps is not None else ()), "write")) as step:
+        step("read")
+        m = load(args.input, args, args.frames)
+        if args.fps is not None:
+            step("resample")
+            m = resample(m, args.fps)
+        if args.scale is not None:
+            m = m.replace(skeleton=m.skeleton.replace_scale(m.skeleton.scale / args.scale))
+        step("write")
+        bvh.write(m, out)
     print(f"wrote {out} ({m.n_frames} frames at {m.fps:.4g} fps)")
     return 0

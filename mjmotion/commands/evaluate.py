@@ -45,7 +45,7 @@ examples:
   mjmotion evaluate blend.bvh --source walk.bvh --source run.bvh
   mjmotion evaluate cleaned.bvh --source raw.bvh --floor 0
   mjmotion evaluate swing.bvh --prop club:rwrist --ball 0.6 0.1 0.03 --frame 212
-  mjmotion evaluate ../shared/mocap --json all.json
+  mjmotion evaluate "$MJMOTION_DATA" --json all.json
 """
 
 _COLUMNS = (
@@ -94,7 +94,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--hit-grid",
         type=integer(2, 9, what="a grid size"),
         metavar="N",
-        help="seed 003 Figure 2.6: adapt the shot to an N x N grid of hit points around "
+        help="Hicks 2010, Figure 2.6: adapt the shot to an N x N grid of hit points around "
         "the sweet spot at --frame (arm IK, wrist locked vs club orientation kept), launch a ball from each and print "
         "the rank correlation of launch direction with hit point (needs --prop and --frame; N from 2 to 9)",
     )

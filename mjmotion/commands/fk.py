@@ -8,6 +8,7 @@ import io
 from ..outputs import write_bytes_atomic
 from ._common import add_input_options, load, output_path
 from ._options import UniqueProps
+from ._progress import steps
 
 NAME = "fk"
 HELP = "forward kinematics of a BVH clip to an .npz of world positions (metres, Z-up)"
@@ -35,10 +36,27 @@ def run(args: argparse.Namespace) -> int:
     from .. import kinematics, mjcf
 
     out = output_path(args, args.file)
-    m = load(args.file, args)
-    props = tuple(_prop(m, text) for text in args.prop)
-    compiled = mjcf.compile(m.skeleton, props)
-    pose = kinematics.forward(compiled, m)
+    with steps("fk", ("read", "compile", "forward kinematics", "write")) as step:
+        step("read")
+        m = load(args.file, args)
+        step("compile")
+        props = tuple(_prop(m, text) for text in args.prop)
+        compiled = mjcf.compile(m.skeleton, props)
+        step("forward kinematics")
+        pose = kinematics.forward(compiled, m)
+        step("write")
+        arrays, n_sites = _arrays(m, pose, props)
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        write_bytes_atomic(out, buf.getvalue())
+    print(f"wrote {out}: positions {pose.joint_positions.shape}" + (f", {n_sites} sites" if props else ""))
+    return 0
+
+
+def _arrays(m, pose, props) -> tuple[dict, int]:
+    """The arrays of the .npz and the number of prop sites among them."""
+    import numpy as np
+
     arrays = {
         "joint_names": np.array(m.skeleton.names),
         "positions": pose.joint_positions,
@@ -48,11 +66,7 @@ def run(args: argparse.Namespace) -> int:
         keep = [i for i, n in enumerate(pose.site_names) if any(n.startswith(f"{p.name}/") for p in props)]
         arrays["site_names"] = np.array([pose.site_names[i] for i in keep])
         arrays["site_positions"] = pose.site_positions[:, keep]
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    write_bytes_atomic(out, buf.getvalue())
-    print(f"wrote {out}: positions {pose.joint_positions.shape}" + (f", {len(arrays['site_names'])} sites" if props else ""))
-    return 0
+    return arrays, len(arrays.get("site_names", ()))
 
 
 def _prop(motion, text: str):

@@ -1,4 +1,4 @@
-"""``mjmotion hit``: adapt a swing or kick so it meets a ball somewhere else (seed 003 §2)."""
+"""``mjmotion hit``: adapt a swing or kick so it meets a ball somewhere else (Hicks 2010, §2)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ NAME = "hit"
 HELP = "move a swing's hit point (IK with importance-based blending, keeping the style)"
 DESCRIPTION = """Adapt SHOT.bvh so its effector (a club's sweet spot, a foot, a fist, or a site) meets a new
 ball position at the hit frame, blending IK in and out by the effector's distance to the hit
-point (seed 003 §2.2.5). Coordinates are metres in the model's world frame (Z up).
+point (Hicks 2010, §2.2.5). Coordinates are metres in the model's world frame (Z up).
 An unreachable target is solved best-effort: the clip and report are written (with
 "reachable": false), one error line says so, and the exit status is 2.
 The report's hit_error_m is the effector's distance to the target point at the hit frame

@@ -1,16 +1,18 @@
-"""``mjmotion register``: the registration curve of two clips (seed 000 §3.1, seed 004 §4–5)."""
+"""``mjmotion register``: the registration curve of two clips (Macleod 2006, §3.1; Sako 2008, §4–5)."""
 
 from __future__ import annotations
 
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from . import _joint_weights as joint_weights
 from ._common import add_input_options, load
 from ._options import FPS, integer, number, resample
+from ._progress import steps
 
 NAME = "register"
 HELP = "timewarp and alignment curves between two clips (distance grid + minimal-cost path)"
@@ -24,14 +26,14 @@ in both; alignment [[theta_rad, tx_m, ty_m], ...] one per timewarp sample, the f
 that moves B onto A (rotate by theta about the vertical axis through the origin, then translate);
 timing_s {grid, path, curve, blendability} seconds; blendability {score, threshold, blendable,
 mean_cost, self_similarity [A, B]}: mean_cost over the smaller self-similarity (mean distance
-between two frames of one clip), above threshold (0.9) the pair looks unblendable (seed 004 §7.2).
+between two frames of one clip), above threshold (0.9) the pair looks unblendable (Sako 2008, §7.2).
 
 By default the path starts at the best cell of the first third of the first row or column and
-ends on the last frame of either clip (--free-end): per-end (default; Kovar & Gleicher, seed 004
+ends on the last frame of either clip (--free-end): per-end (default; Kovar & Gleicher, in Sako 2008,
 §4.3) takes the least-total path to each end cell, then the one of least average cost; mean the
 least average cost over every path (Dinkelbach's parametric search over DP passes). --method dp
 solves either exactly, as brute does by enumerating every path (within --time-limit). --loop pins
-the path to both corners (looping clips, seed 000) and minimises its total.
+the path to both corners (looping clips, Macleod 2006) and minimises its total.
 
 examples:
   mjmotion register walk.bvh run.bvh --json reg.json --plot grid.png
@@ -73,7 +75,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("a", metavar="A.bvh", help="the first clip (rows of the grid)")
     p.add_argument("b", metavar="B.bvh", help="the second clip (columns)")
     p.add_argument("--json", required=True, metavar="OUT.json", help="where to write the registration")
-    p.add_argument("--plot", metavar="GRID.png", help="also draw the grid with the path and the curve")
+    p.add_argument("--plot", metavar="GRID.png", help="also draw the grid (A along x, B along y; dark = similar) with the path and the curve, as PNG")
     p.add_argument(
         "--window",
         type=integer(1, 1001, what="an odd number of frames"),
@@ -85,7 +87,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--slope-limit",
         type=integer(0, 100, what="a number of steps"),
         metavar="W",
-        help="most consecutive steps along one clip only, 0 to 100 (default: seed 000 Eq. 6)",
+        help="most consecutive steps along one clip only, 0 to 100 (default: Macleod 2006, Eq. 6)",
     )
     p.add_argument("--loop", action="store_true", help="fixed corners: the path joins (0,0) and (nA-1,nB-1)")
     p.add_argument(
@@ -112,14 +114,38 @@ def run(args: argparse.Namespace) -> int:
 
     out = check_output(args.json, args.force, (args.a, args.b))
     plot = check_output(args.plot, args.force, (args.a, args.b, args.json)) if args.plot else None  # (not the JSON's path either)
+    if plot is not None and plot.suffix.lower() != ".png":
+        raise MjmotionError(f"--plot {args.plot}: plots are written as PNG; expected a .png path")
     if args.window < 1 or args.window % 2 == 0:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
     if not 0 < args.time_limit < float("inf"):
         raise MjmotionError(f"--time-limit {args.time_limit}: expected a positive number of seconds")
-    a, b = load_clips([args.a, args.b], args)
-    if args.window > min(a.n_frames, b.n_frames):
-        raise MjmotionError(f"--window {args.window}: longer than the shorter clip ({min(a.n_frames, b.n_frames)} frames); use a smaller odd window")
-    pr = registration.register(
+    with steps("register", ("read", "register", "write")) as step:
+        step("read")
+        a, b = load_clips([args.a, args.b], args)
+        if args.window > min(a.n_frames, b.n_frames):
+            raise MjmotionError(
+                f"--window {args.window}: longer than the shorter clip ({min(a.n_frames, b.n_frames)} frames); use a smaller odd window"
+            )
+        step("grid, path and curve" + (f" (brute force, at most {args.time_limit:g} s)" if args.method == "brute" else ""))
+        pr = _register(registration, a, b, args)
+        step("write")
+        written = _write(pr, out, plot, a.name, b.name)
+    t = pr.timing_s
+    assert pr.blendability is not None  # register() always scores it
+    print(
+        f"wrote {written}: {len(pr.path.cells)}-cell path, mean cost {pr.path.mean_cost:.4g} m², "
+        f"{len(pr.curve.samples)} timewarp samples; grid {t['grid'] * 1e3:.1f} ms, path {t['path'] * 1e3:.1f} ms, "
+        f"curve {t['curve'] * 1e3:.1f} ms; blendability {pr.blendability.score:.2f}"
+    )
+    warning = pr.blendability.warning(a.name or args.a, b.name or args.b)
+    if warning:
+        sys.stderr.write(f"warning: {warning}\n")
+    return 0
+
+
+def _register(registration, a, b, args: argparse.Namespace):
+    return registration.register(
         a,
         b,
         window=args.window // 2,
@@ -131,36 +157,15 @@ def run(args: argparse.Namespace) -> int:
         rule=args.free_end,
         path_options={"time_limit_s": args.time_limit} if args.method == "brute" else None,
     )
+
+
+def _write(pr, out: Path, plot: Path | None, name_a: str, name_b: str) -> str:
+    """Write the registration's JSON (and the grid's plot); the files written, for the summary line."""
     write_text_atomic(out, json.dumps(pr.to_json()))
-    if plot:
-        _plot(pr, plot, a.name, b.name)
-    t = pr.timing_s
-    assert pr.blendability is not None  # register() always scores it
-    print(
-        f"wrote {out}: {len(pr.path.cells)}-cell path, mean cost {pr.path.mean_cost:.4g} m², "
-        f"{len(pr.curve.samples)} timewarp samples; grid {t['grid'] * 1e3:.1f} ms, path {t['path'] * 1e3:.1f} ms, "
-        f"curve {t['curve'] * 1e3:.1f} ms; blendability {pr.blendability.score:.2f}"
-    )
-    warning = pr.blendability.warning(a.name or args.a, b.name or args.b)
-    if warning:
-        sys.stderr.write(f"warning: {warning}\n")
-    return 0
+    if plot is None:
+        return str(out)
+    from .. import plots
 
-
-def _plot(pr, path, name_a: str, name_b: str) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..outputs import write_with
-
-    fig, ax = plt.subplots(figsize=(6, 6 * pr.grid.cost.shape[0] / max(pr.grid.cost.shape[1], 1) + 0.5))
-    ax.imshow(pr.grid.cost, origin="lower", cmap="gray", aspect="auto")
-    ax.plot(pr.path.cells[:, 1], pr.path.cells[:, 0], "r-", lw=1, label="path")
-    ax.plot(pr.curve.samples[:, 1], pr.curve.samples[:, 0], "c-", lw=1, label="timewarp")
-    ax.set_xlabel(f"frame of {name_b or 'B'}")
-    ax.set_ylabel(f"frame of {name_a or 'A'}")
-    ax.legend(loc="upper left")
-    write_with(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
-    plt.close(fig)
+    a, b = name_a or "A", name_b or "B"
+    plots.distance_grid(pr.grid.cost, pr.path.cells, pr.curve.samples, plot, labels=(f"frame of {a}", f"frame of {b}"), title=f"{a} / {b}")
+    return f"{out} and {plot}"

@@ -10,10 +10,11 @@ from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from . import _joint_weights as joint_weights
 from ._common import add_input_options, load, output_path
+from ._progress import steps
 
 NAME = "stream"
 HELP = "play a script of timed commands (blend weights, transitions to clips and back) into a BVH"
-DESCRIPTION = """Run a motion-stream script (seed 000 §3.3): a registered locomotion set blended with weights
+DESCRIPTION = """Run a motion-stream script (Macleod 2006, §3.3): a registered locomotion set blended with weights
 that ramp on command, looped as long as needed, with transitions into other clips (a kick, a
 punch) and back. The script is JSON; clip paths are relative to it:
 
@@ -30,7 +31,7 @@ Optional: "fps" (default the first locomotion clip's), "loop_blend" seconds (0.4
 {"time": t, "return": true, "blend": b} ends a played clip early.
 
 A blend is seconds of the first locomotion clip (the reference): fading from or back to a faster
-mix takes longer, by the mix's pace relative to the reference (seed 000 §3.3), and the played
+mix takes longer, by the mix's pace relative to the reference (Macleod 2006, §3.3), and the played
 clip's clock runs between the mix's pace and its own over the fade. --json writes, per played
 clip, its start, fade-in, fade-out start, fade-out and end (frames and seconds), the nominal fades
 (blend x fps) and the paces (rate_in, rate_out); and the locomotion's blendability.
@@ -61,16 +62,21 @@ def run(args: argparse.Namespace) -> int:
     report = check_output(args.json, args.force, (args.script,)) if args.json else None
     if report is not None and report == out:
         raise MjmotionError("--json and -o name the same file")
-    script = stream.load_script(args.script, load_clip)
-    controller = stream.MotionStream(script, joint_weights.load(args, script.clips[script.locomotion[0]].skeleton))
+    with steps("stream", ("read", "register", "stream", "write")) as step:
+        step("read")
+        script = stream.load_script(args.script, load_clip)
+        step("register")
+        controller = stream.MotionStream(script, joint_weights.load(args, script.clips[script.locomotion[0]].skeleton))
+        step("stream")
+        result = controller.run(name=out.stem)
+        step("write")
+        bvh.write(result, out)
     registration = controller.registration
     blends = {script.locomotion[k]: b for k, b in enumerate(registration.blendability) if b is not None}
     for name, b in blends.items():
         warning = b.warning(script.locomotion[registration.reference], name)
         if warning:
             sys.stderr.write(f"warning: {warning}\n")
-    result = controller.run(name=out.stem)
-    bvh.write(result, out)
     print(f"wrote {out}: {result.n_frames} frames at {result.fps:g} fps from {len(script.commands)} commands")
     if report is not None:
         data = {

@@ -13,11 +13,11 @@ HELP = "serve the interactive Studio (blend, stream, hit, vary, evaluate) to a b
 DESCRIPTION = """Serve the Studio, a local web app (viser), and print its URL. Tabs:
   Blend     pick clips, method (linear, discrete or B-spline timewarp), path search (DP, greedy,
             threshold), constant or curved weights; the distance grid with path and timewarp
-            curve; the blend played beside its inputs (seed 004 §6.3-6.4)
-  Stream    a live motion stream: weight sliders, Kick and Punch (keys K, P, R, 1-3) (seed 000 §2.1, §3.3)
+            curve; the blend played beside its inputs (Sako 2008, §6.3-6.4)
+  Stream    a live motion stream: weight sliders, Kick and Punch (keys K, P, R, 1-3) (Macleod 2006, §2.1, §3.3)
   Hit       drag the ball; the shot is adapted (DLS while dragging, NLP on demand), the launch
-            simulated and drawn, the report shown (seed 003 §2)
-  Vary      exaggerate, mute or abort a shot; the PCA score paths (seed 003 §3)
+            simulated and drawn, the report shown (Hicks 2010, §2)
+  Vary      exaggerate, mute or abort a shot; the PCA score paths (Hicks 2010, §3)
   Evaluate  the metrics of the clip on screen; contacts on the feet, penetration and skate on the timeline
 Clips: the files given, the .bvh files under --data, else the bundled procedural library; a page
 may upload more (validated, at most 32 MiB). Saving writes only inside --out and never over a
@@ -26,7 +26,7 @@ file. Runs until Ctrl-C.
 examples:
   mjmotion studio
   mjmotion studio walk.bvh run.bvh kick.bvh --port 8090
-  mjmotion studio --data ../shared/mocap/cmu_asfamc_converted
+  mjmotion studio --data "$MJMOTION_DATA/cmu_asfamc_converted"
   mjmotion studio walk.bvh run.bvh --check
 """
 

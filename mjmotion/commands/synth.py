@@ -9,6 +9,7 @@ from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from ._common import output_path
 from ._options import integer, number
+from ._progress import steps
 
 NAME = "synth"
 HELP = "generate a bundled clip (walk, run, sneak, limp, drive, pull, kick, punch) or the whole library"
@@ -71,8 +72,12 @@ def run(args: argparse.Namespace) -> int:
             raise MjmotionError("synth library: give the folder to write, e.g. `mjmotion synth library clips/`")
         if args.output or args.truth or args.speed is not None or args.seconds is not None or args.turn or args.step_length is not None:
             raise MjmotionError("synth library: takes only DIR (and --force); the set is fixed")
-        clips = synth.write_library(args.directory, force=args.force)
-        print(f"wrote {len(clips)} clips and manifest.json to {args.directory}")
+        with steps("synth library", ("make clips", "write")) as step:
+            step("make clips")
+            made = synth.library()
+            step("write")
+            clips = synth.write_library(args.directory, force=args.force, clips=made)
+        print(f"wrote {len(clips)} clips ({', '.join(f'{n}.bvh' for n in clips)}) and manifest.json to {args.directory}")
         return 0
     if args.directory:
         raise MjmotionError(f"synth {args.kind}: unexpected argument {args.directory!r}; write with -o OUT.bvh")
@@ -98,5 +103,6 @@ def run(args: argparse.Namespace) -> int:
     if truth is not None:
         write_text_atomic(truth, json.dumps(clip.to_manifest(out.name), indent=1) + "\n")
     extra = f", hit frame {clip.hit_frame}" if clip.hit_frame is not None else ""
-    print(f"wrote {out}: {args.kind}, {clip.motion.n_frames} frames at {clip.motion.fps:g} fps{extra}")
+    written = f"{out} and {truth}" if truth is not None else str(out)
+    print(f"wrote {written}: {args.kind}, {clip.motion.n_frames} frames at {clip.motion.fps:g} fps{extra}")
     return 0

@@ -1,4 +1,4 @@
-"""``mjmotion vary``: a new version of a shot along a new path through its PCA space (seed 003 §3)."""
+"""``mjmotion vary``: a new version of a shot along a new path through its PCA space (Hicks 2010, §3)."""
 
 from __future__ import annotations
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -94,12 +94,14 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
 
     pairs = [("bundled walk+run", *_bundled_linear_blend())]
     for a, b in BLEND_PAIRS if data_dir is not None else ():
+        assert data_dir is not None  # (the loop runs only then)
         if (data_dir / a).is_file() and (data_dir / b).is_file():
             clips = (_read(data_dir / a), _read(data_dir / b))
             lin = blend.blend(list(clips), [0.5, 0.5], method="linear")
             pairs.append((f"{a.split('/')[0]} {Path(a).stem}+{Path(b).stem}", clips, lin, cleanup.cleanup(lin, sources=clips)))
     lines = []
     for rel in CLEAN_WALKS if data_dir is not None else ():
+        assert data_dir is not None
         if (data_dir / rel).is_file():
             m = _read(data_dir / rel)
             done = cleanup.cleanup(m, sources=[m.replace()])
@@ -173,7 +175,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
         files = sorted(str(p) for p in Path(data_dir).rglob("*.bvh"))
         if quick:
             files = files[:: max(1, len(files) // 6)]
-        opts = {
+        opts: dict[str, Any] = {
             "units": "auto", "up": "y", "frames": None, "keep_start": False, "prop": [], "ball": None, "frame": None,
             "ball_radius": 0.036, "ball_velocity": (0.0, 0.0, 0.0), "h_c": params.h_c, "v_c": params.v_c, "floor": None, "source": [],
         }  # fmt: skip

@@ -49,6 +49,24 @@ class Registration:
     def n_clips(self) -> int:
         return self.times.shape[1]
 
+    def __repr__(self) -> str:
+        """``Registration(2 clips, reference 0, 240 instants, mean_costs=(0, 0.01737))``: no arrays."""
+        from ..summary import fields
+
+        size = (f"{self.n_clips} clips", f"reference {self.reference}", f"{len(self.times)} instants")
+        return fields("Registration", *size, mean_costs=tuple(float(c) for c in self.mean_costs))
+
+    def to_markdown(self) -> str:
+        """Per clip: its mean path cost against the reference and its blendability, as a Markdown table."""
+        from ..summary import number
+
+        lines = ["| clip | mean cost (m²) | blendability |", "|---|---|---|"]
+        for k in range(self.n_clips):
+            b = self.blendability[k] if k < len(self.blendability) else None
+            shown = "reference" if k == self.reference else number(b.score if b is not None else None)
+            lines.append(f"| {k} | {number(float(self.mean_costs[k]))} | {shown} |")
+        return "\n".join(lines) + "\n"
+
     def at(self, tau: np.ndarray) -> np.ndarray:
         """Clip times ``(len(tau), n)`` at reference times ``tau`` (frames of the reference)."""
         ref = self.times[:, self.reference]

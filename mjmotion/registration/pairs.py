@@ -36,11 +36,38 @@ class PairRegistration:
             "path_cost": self.path.cost,
             "mean_cost": self.path.mean_cost,
             "method": self.path.method,
-            "timewarp": np.round(self.curve.samples, 4).tolist(),
-            "alignment": np.round(self.alignment, 6).tolist(),
+            "timewarp": self.curve.samples.tolist(),
+            "alignment": self.alignment.tolist(),
             "timing_s": self.timing_s,
             **({"blendability": self.blendability.to_json()} if self.blendability is not None else {}),
         }
+
+    def __repr__(self) -> str:
+        """``PairRegistration(240 × 180 grid, 231-cell path, mean_cost=0.01737, ...)``: no arrays."""
+        from ..summary import fields
+
+        na, nb = self.grid.cost.shape
+        score = self.blendability.score if self.blendability is not None else None
+        cells = f"{len(self.path.cells)}-cell path"
+        return fields("PairRegistration", f"{na} × {nb} grid", cells, method=self.path.method, mean_cost=self.path.mean_cost, blendability=score)
+
+    def to_markdown(self) -> str:
+        """The registration's numbers as a two-column Markdown table (the arrays are in :meth:`to_json`)."""
+        from ..summary import markdown_table
+
+        rows: dict[str, object] = {
+            "frames (A, B)": tuple(int(n) for n in self.grid.cost.shape),
+            "method": self.path.method,
+            "path cells": len(self.path.cells),
+            "path cost (m²)": self.path.cost,
+            "mean cost (m²)": self.path.mean_cost,
+            "timewarp samples": len(self.curve.samples),
+        }
+        if self.blendability is not None:
+            rows["blendability"] = self.blendability.score
+            rows["blendable"] = self.blendability.blendable
+        rows.update({f"{k} (ms)": 1e3 * v for k, v in self.timing_s.items()})
+        return markdown_table(rows, header=("registration", "value"))
 
 
 def positions_of(motion: Motion) -> np.ndarray:

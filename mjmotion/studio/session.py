@@ -79,7 +79,7 @@ class Session:
         self.worker = Worker(self._on_progress, self._on_error)
         self._build_gui()
         self.scene_floor = client.scene.add_grid("/floor", width=40.0, height=40.0, cell_size=0.5, section_size=2.0, position=(0.0, 0.0, 0.0))
-        from .tabs import build_tabs
+        from .tabs.build import build_tabs
 
         self.tabs = build_tabs(self, self._tab_group)
         self._ticker = threading.Thread(target=self._tick_loop, name="studio-ticker", daemon=True)

@@ -1,4 +1,6 @@
-"""The Studio's tabs, one module each; :func:`build_tabs` adds them to a page in the issue's order."""
+"""The Studio's tabs, one module each, and the widgets they share; :func:`mjmotion.studio.tabs.build.build_tabs`
+adds them to a page in the issue's order (in a module of its own, so that this package, which every tab
+imports, imports no tab)."""
 
 from __future__ import annotations
 
@@ -6,22 +8,6 @@ import re
 from typing import Any
 
 NONE = "—"
-
-
-def build_tabs(session: Any, group: Any) -> dict[str, Any]:
-    from . import blend, evaluate, hit, stream, vary
-
-    out: dict[str, Any] = {}
-    for name, cls in (
-        ("Blend", blend.BlendTab),
-        ("Stream", stream.StreamTab),
-        ("Hit", hit.HitTab),
-        ("Vary", vary.VaryTab),
-        ("Evaluate", evaluate.EvaluateTab),
-    ):
-        with group.add_tab(name):
-            out[name] = cls(session)
-    return out
 
 
 def pick(names: list[str], pattern: str, exclude: str = r"$^", default: str | None = None) -> str:
