@@ -183,11 +183,18 @@ def _studio(*args: str) -> subprocess.Popen:
     )
 
 
+def _free_port(host: str) -> int:
+    with socket.socket() as s:
+        s.bind((host, 0))
+        return s.getsockname()[1]
+
+
 def test_studio_verb_serves_its_url_and_stops_cleanly_on_ctrl_c(tmp_path):
-    p = _studio("--port", "0", "--host", "127.0.0.2", "--out", str(tmp_path))
+    port = _free_port("127.0.0.2")  # the verb takes ports 1-65535 (0 is refused)
+    p = _studio("--port", str(port), "--host", "127.0.0.2", "--out", str(tmp_path))
     try:
         line = p.stdout.readline()
-        assert line.startswith("mjmotion studio: http://127.0.0.2:")
+        assert line.startswith(f"mjmotion studio: http://127.0.0.2:{port}")
         url = line.split()[2]
         html = urllib.request.urlopen(url, timeout=10).read()
         assert b"<html" in html.lower()
