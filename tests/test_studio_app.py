@@ -56,10 +56,12 @@ def browser():
 class Page:
     """A browser page on the studio and the server's session behind it."""
 
-    def __init__(self, browser, studio, size: tuple[int, int] = (1100, 720)):
+    def __init__(self, browser, studio, size: tuple[int, int] = (1100, 720), context=None):
         before = set(studio.sessions)
-        self.context = browser.new_context(viewport={"width": size[0], "height": size[1]})
+        self.own_context = context is None
+        self.context = context or browser.new_context(viewport={"width": size[0], "height": size[1]})
         self.page = self.context.new_page()
+        self.page.set_viewport_size({"width": size[0], "height": size[1]})
         self.page.goto(studio.url)
         self.page.get_by_role("tab", name="Stream").wait_for(timeout=30_000)
         self.wait_for(lambda: set(studio.sessions) - before, timeout=20)
@@ -128,7 +130,9 @@ class Page:
             self.session.play_button.label = "Play"
 
     def close(self) -> None:
-        self.context.close()
+        self.page.close()
+        if self.own_context:
+            self.context.close()
 
 
 @pytest.fixture(scope="module")
@@ -259,7 +263,7 @@ def test_bad_upload_shows_an_error_and_the_app_keeps_serving(page, tmp_path):
 def test_two_pages_at_once_keep_separate_state(browser, studio, page, tmp_path):
     a = page
     a.stream(playing=False)  # while b loads (software WebGL: one page drawing at a time loads faster)
-    b = Page(browser, studio, size=(800, 450))  # nobody looks at b's pixels
+    b = Page(browser, studio, size=(800, 450), context=a.context)  # a second tab of the same browser; nobody looks at its pixels
     try:
         assert a.session is not b.session and a.session.live is not b.session.live
         b.page.keyboard.press("k")  # Kick's key: no need to open b's Stream tab
