@@ -1,7 +1,9 @@
 """Take the README's Studio screenshots: ``python docs/studio_screenshots.py [--out docs/images]``.
 
 Starts a Studio on the bundled clips, opens it in headless Chromium (Debian's package, driven by
-Playwright), runs each tab's main action and saves ``studio_<tab>.png``.
+Playwright), runs each tab's main action and saves ``studio_<tab>.png``; ``studio_skin.png`` is
+the Blend tab's result with the Character menu on ``skin (LBS)``. ``--only NAME …`` takes just
+those (the others are still made, as the later ones follow from them, but not written).
 """
 
 from __future__ import annotations
@@ -24,7 +26,9 @@ def main() -> int:
 
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", default=str(REPO / "docs" / "images"))
-    out = Path(p.parse_args().out)
+    p.add_argument("--only", nargs="*", default=None, metavar="NAME", help="write only these (stream, blend, skin, hit, vary, evaluate)")
+    args = p.parse_args()
+    out = Path(args.out)
     studio = Studio(ClipLibrary.bundled(), port=0, out_dir="/tmp/mjmotion_studio_shots")
     try:
         with sync_playwright() as pw:
@@ -40,6 +44,8 @@ def main() -> int:
                 time.sleep(extra)
 
             def shot(name: str) -> None:
+                if args.only is not None and name not in args.only:
+                    return
                 for close in page.locator("button.mantine-Notification-closeButton").all():
                     close.click()
                 time.sleep(0.5)
@@ -58,6 +64,17 @@ def main() -> int:
             button("Blend")
             idle()
             shot("blend")
+            with session.lock:
+                session.player.playing = False
+                session.player.seek(70)  # mid-stride, the knees and elbows bent
+                session._draw(70)
+            session.set_draw_mode("skin (LBS)")
+            idle()
+            shot("skin")
+            session.set_draw_mode("capsules")
+            idle(0.5)
+            with session.lock:
+                session.player.playing = True
             page.get_by_role("tab", name="Hit").click()
             button("Load shot")
             idle()

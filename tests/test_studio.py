@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjmotion import bvh, kinematics, mjcf, synth
+from mjmotion import bvh, hitpoint, kinematics, mjcf, synth
 from mjmotion import rotations as rot
 from mjmotion.errors import MjmotionError
 from mjmotion.studio import engine
@@ -90,6 +90,15 @@ def test_worker_latest_request_wins_cancel_and_errors_keep_it_running():
     assert errors[0] == "bad input" and "ZeroDivisionError" in errors[1]
     w.submit("z", lambda p: "still serving", done.append)
     assert w.wait_idle(10) and done[-1] == "still serving"
+    # keep_running: the running job (a solve that cannot stop part-way) is delivered, the waiting one replaced
+    gate.clear()
+    started.clear()
+    w.submit("drag", slow, done.append)
+    started.wait(5)
+    w.submit("drag", lambda p: "dropped", done.append, keep_running=True)
+    w.submit("drag", lambda p: "latest", done.append, keep_running=True)
+    gate.set()
+    assert w.wait_idle(10) and done[-2:] == ["slow", "latest"]
     w.stop()
 
 
@@ -167,6 +176,12 @@ def test_hit_adapter_reaches_the_ball_and_simulates_its_flight():
     a = engine.adapt(s, target, "dls")
     spot = kinematics.forward(mjcf.compile(a.motion.skeleton, (clip.prop,)), a.motion).site("bat/sweet_spot")[s.hit_frame]
     assert np.linalg.norm(spot - target) < 1e-3
+    # the release at the spot the drag solved reuses that solve and adds the style error as hitpoint.adapt does
+    released = engine.adapt(s, target, "dls", style=True)
+    full = hitpoint.adapt(clip.motion, target=target, frame=s.hit_frame, effector=s.effector, solver="dls", prop=s.prop, style=True)
+    assert released.motion is a.motion and a.report["style_rmse"] is None
+    assert released.report["style_rmse"] == pytest.approx(full.report["style_rmse"], rel=1e-9) and released.report["k"] == full.report["k"]
+    np.testing.assert_allclose(released.motion.rotations, full.motion.rotations, atol=1e-12)
     f = engine.launch(s, a.motion, target)
     assert f.metrics["contact"] and f.metrics["launch_speed"] > 1.0
     assert f.path[-1, 2] == pytest.approx(0.036, abs=0.01)  # it comes to rest on the floor
@@ -183,11 +198,18 @@ def _studio(*args: str) -> subprocess.Popen:
     )
 
 
+def _free_port(host: str) -> int:
+    with socket.socket() as s:
+        s.bind((host, 0))
+        return s.getsockname()[1]
+
+
 def test_studio_verb_serves_its_url_and_stops_cleanly_on_ctrl_c(tmp_path):
-    p = _studio("--port", "0", "--host", "127.0.0.2", "--out", str(tmp_path))
+    port = _free_port("127.0.0.2")  # the verb takes ports 1-65535 (0 is refused)
+    p = _studio("--port", str(port), "--host", "127.0.0.2", "--out", str(tmp_path))
     try:
         line = p.stdout.readline()
-        assert line.startswith("mjmotion studio: http://127.0.0.2:")
+        assert line.startswith(f"mjmotion studio: http://127.0.0.2:{port}")
         url = line.split()[2]
         html = urllib.request.urlopen(url, timeout=10).read()
         assert b"<html" in html.lower()

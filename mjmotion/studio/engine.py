@@ -8,8 +8,9 @@ and return frozen results with everything the tab draws.
 from __future__ import annotations
 
 import tempfile
+from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -136,15 +137,24 @@ def grid_image(result: BlendResult, labels: tuple[str, str]) -> np.ndarray | Non
 # --------------------------------------------------------------------------------------------
 # Hit (seed 003 §2)
 # --------------------------------------------------------------------------------------------
+#: Adaptations a shot remembers (the latest few ball positions).
+MEMO_SIZE = 8
+
+
 @dataclass(frozen=True, eq=False)
 class Shot:
-    """A clip set up for adaptation: the effector, its prop and hit frame, the source hit point ``(3,)``."""
+    """A clip set up for adaptation: the effector, its prop and hit frame, the source hit point ``(3,)``.
+
+    ``memo`` keeps the latest adaptations by (solver, ball position), so a release at the spot the
+    last drag solved reuses that solve (:func:`adapt`).
+    """
 
     motion: Motion
     effector: str
     prop: mjcf.Prop | None
     hit_frame: int
     source_point: np.ndarray
+    memo: OrderedDict[tuple[str, tuple[float, ...]], Any] = field(default_factory=OrderedDict, repr=False)
 
 
 def shot(motion: Motion, prop: mjcf.Prop | None = None, hit_frame: int | None = None) -> Shot:
@@ -168,10 +178,30 @@ def shot(motion: Motion, prop: mjcf.Prop | None = None, hit_frame: int | None = 
 
 
 def adapt(s: Shot, target: np.ndarray, solver: str = "dls", style: bool = False) -> Any:
-    """:func:`mjmotion.hitpoint.adapt` of the shot to ``target`` (an ``Adaptation``)."""
-    from .. import hitpoint
+    """:func:`mjmotion.hitpoint.adapt` of the shot to ``target`` (an ``Adaptation``).
 
-    return hitpoint.adapt(s.motion, target=np.asarray(target, float), frame=s.hit_frame, effector=s.effector, solver=solver, prop=s.prop, style=style)
+    The same ball position and solver again (a release where the last drag was solved) reuses the
+    remembered solve; ``style`` then only adds the style error (:func:`mjmotion.style.style_rmse`
+    with the PCA the solve fitted, as ``hitpoint.adapt`` computes it).
+    """
+    from dataclasses import replace
+
+    from .. import hitpoint
+    from ..style import style_rmse
+
+    target = np.asarray(target, float)
+    key = (solver, tuple(np.round(target, 6).tolist()))
+    a = s.memo.get(key)
+    if a is None:
+        a = hitpoint.adapt(s.motion, target=target, frame=s.hit_frame, effector=s.effector, solver=solver, prop=s.prop, style=style)
+    elif style and a.report["style_rmse"] is None:
+        rmse, k = style_rmse(a.problem.source, a.motion, space=a.problem.space)
+        a = replace(a, report={**a.report, "style_rmse": float(rmse), "k": int(k)})
+    s.memo[key] = a
+    s.memo.move_to_end(key)
+    while len(s.memo) > MEMO_SIZE:
+        s.memo.popitem(last=False)
+    return a
 
 
 @dataclass(frozen=True, eq=False)

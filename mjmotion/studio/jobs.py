@@ -1,7 +1,8 @@
 """Work off the GUI thread: one worker thread per page, one slot per kind of job.
 
 A new request of a kind replaces the one still waiting and cancels the one running (a drag sends
-many; only the latest matters). Jobs report progress through :class:`Progress`, which also raises
+many; only the latest matters) — unless it is submitted with ``keep_running``: then the running
+one finishes and is delivered (a solve that cannot stop part-way is not thrown away). Jobs report progress through :class:`Progress`, which also raises
 :class:`Cancelled` at the job's next checkpoint once it is cancelled; a cancelled job's result is
 never delivered. Errors a user can act on (:class:`~mjmotion.errors.MjmotionError`) and bugs are
 both reported to the page; the worker keeps running.
@@ -65,14 +66,17 @@ class Worker:
         self._thread = threading.Thread(target=self._loop, name="studio-worker", daemon=True)
         self._thread.start()
 
-    def submit(self, kind: str, run: Callable[[Progress], Any], done: Callable[[Any], None], label: str = "") -> Job:
-        """Queue ``run(progress)``; ``done(result)`` is called on the worker thread when it succeeds."""
+    def submit(self, kind: str, run: Callable[[Progress], Any], done: Callable[[Any], None], label: str = "", keep_running: bool = False) -> Job:
+        """Queue ``run(progress)``; ``done(result)`` is called on the worker thread when it succeeds.
+
+        A waiting job of ``kind`` is dropped; a running one is cancelled unless ``keep_running``.
+        """
         job = Job(kind, run, done, label or kind)
         with self._cv:
             old = self._pending.pop(kind, None)
             if old is not None:
                 old.cancelled.set()
-            if self._running is not None and self._running.kind == kind:
+            if self._running is not None and self._running.kind == kind and not keep_running:
                 self._running.cancelled.set()
             self._pending[kind] = job
             self._cv.notify()

@@ -4,9 +4,10 @@ The geoms are the renderer's: bone capsules, foot and toe boxes, props, the ball
 the scene's grid). A capsule is drawn exactly as a cylinder and two spheres; each kind of
 primitive is one batched mesh per character, so a frame is three messages whatever the
 skeleton. How a character is drawn is a *draw mode* (:data:`DRAW_MODES`): a factory
-``(scene, name, compiled, color) -> Drawing``. The skinned character (another module) plugs in
-as one more mode with :func:`register_draw_mode`; it receives the same :class:`Pose`, which
-carries the bodies' world frames as well as the geoms'.
+``(scene, name, compiled, color, reference=None) -> Drawing`` (``reference``: a clip of the
+character, for modes that need one). The skinned character (:mod:`.skinned`) plugs in as more
+modes with :func:`register_draw_mode`; it receives the same :class:`Pose`, which carries the
+bodies' world frames as well as the geoms'.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 
 from .. import rotations as rot
 from ..mjcf import CompiledModel
+from ..skeleton import Motion
 
 #: Body colours of characters shown side by side (the plots' palette).
 PALETTE = ((77, 140, 217), (242, 153, 51), (89, 191, 89), (179, 128, 217), (217, 64, 64), (102, 204, 204))
@@ -66,7 +68,7 @@ class Drawing(Protocol):
     def remove(self) -> None: ...
 
 
-DrawFactory = Callable[[Any, str, CompiledModel, tuple[int, int, int]], Drawing]
+DrawFactory = Callable[..., Drawing]  # (scene, name, compiled, color, reference=None)
 
 
 def _unit_cylinder(n: int = 16) -> tuple[np.ndarray, np.ndarray]:
@@ -125,23 +127,25 @@ class GeomLayout:
     rgb: np.ndarray
 
     @classmethod
-    def of(cls, compiled: CompiledModel, body_color: tuple[int, int, int]) -> GeomLayout:
+    def of(cls, compiled: CompiledModel, body_color: tuple[int, int, int], geoms: np.ndarray | None = None) -> GeomLayout:
+        """The layout of every geom but the floor, or of ``geoms`` (ids) only."""
         m = compiled.model
         body_geoms = set(int(g) for g in compiled.body_geom_ids)
         foot = {int(g) for ids in compiled.foot_geoms.values() for g in ids}
         t = m.geom_type
+        keep = np.ones(m.ngeom, dtype=bool) if geoms is None else np.isin(np.arange(m.ngeom), geoms)
         capsule, cyl = mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER
-        cylinders = np.flatnonzero((t == capsule) | (t == cyl))
-        caps = np.flatnonzero(t == capsule)
+        cylinders = np.flatnonzero(((t == capsule) | (t == cyl)) & keep)
+        caps = np.flatnonzero((t == capsule) & keep)
         rgb = np.clip(m.geom_rgba[:, :3] * 255, 0, 255).astype(np.uint8)
         for g in body_geoms - foot:
             rgb[g] = body_color
         return cls(
             cylinders=cylinders,
-            boxes=np.flatnonzero(t == mujoco.mjtGeom.mjGEOM_BOX),
+            boxes=np.flatnonzero((t == mujoco.mjtGeom.mjGEOM_BOX) & keep),
             caps=np.r_[caps, caps],
             cap_sign=np.r_[np.ones(len(caps)), -np.ones(len(caps))],
-            balls=np.flatnonzero(t == mujoco.mjtGeom.mjGEOM_SPHERE),
+            balls=np.flatnonzero((t == mujoco.mjtGeom.mjGEOM_SPHERE) & keep),
             size=m.geom_size.copy(),
             rgb=rgb,
         )
@@ -172,10 +176,18 @@ class GeomLayout:
 
 
 class PrimitiveDrawing:
-    """The default draw mode: the model's geoms as batched cylinders, spheres and boxes."""
+    """The default draw mode: the model's geoms (or only ``geoms``) as batched cylinders, spheres and boxes."""
 
-    def __init__(self, scene: Any, name: str, compiled: CompiledModel, color: tuple[int, int, int]):
-        self._layout = GeomLayout.of(compiled, color)
+    def __init__(
+        self,
+        scene: Any,
+        name: str,
+        compiled: CompiledModel,
+        color: tuple[int, int, int],
+        reference: Motion | None = None,
+        geoms: np.ndarray | None = None,
+    ):
+        self._layout = GeomLayout.of(compiled, color, geoms)
         self._geoms = self._layout.geoms()
         scales = self._layout.scales()
         self._handles: dict[str, Any] = {}
@@ -227,5 +239,5 @@ DRAW_MODES: dict[str, DrawFactory] = {"capsules": PrimitiveDrawing}
 
 
 def register_draw_mode(name: str, factory: DrawFactory) -> None:
-    """Add a way to draw characters (e.g. the skinned mesh); it appears in the Studio's Draw menu."""
+    """Add a way to draw characters (e.g. the skinned mesh); it appears in the Studio's Character menu."""
     DRAW_MODES[name] = factory

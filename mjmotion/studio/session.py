@@ -12,7 +12,7 @@ import re
 import threading
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -25,7 +25,10 @@ from ..skeleton import Motion
 from .clips import MAX_CLIP_BYTES, ClipLibrary
 from .jobs import Job, Worker
 from .player import SPEEDS, Player
-from .scene import DRAW_MODES, PALETTE, Kinematics, Pose
+from .scene import DRAW_MODES, PALETTE, Kinematics, Pose, PrimitiveDrawing
+from .skinned import register_skin_modes
+
+register_skin_modes()  # the Character menu: capsules, skin (LBS), skin (DQS), both
 
 if TYPE_CHECKING:
     from .app import Studio
@@ -42,7 +45,7 @@ warnings.filterwarnings("ignore", message="Queued a .* on a closed connection")
 RECORD_S = 60.0
 
 
-@dataclass
+@dataclass(eq=False)
 class Actor:
     """A character on stage: its drawing and either precomputed poses (a clip) or live poses (the stream)."""
 
@@ -53,6 +56,7 @@ class Actor:
     kin: Kinematics
     drawing: Any
     poses: list[Pose] | None
+    reference: Motion | None = None  # a clip of the character (the skin's bind pose needs one for some rigs)
 
 
 class Session:
@@ -92,6 +96,12 @@ class Session:
         self.progress = gui.add_progress_bar(0.0, visible=False, animated=True)
         self.cancel_button = gui.add_button("Cancel", visible=False, color="red")
         self.cancel_button.on_click(lambda e: self.worker.cancel())
+        self.character = gui.add_dropdown(
+            "Character",
+            tuple(DRAW_MODES),
+            initial_value=self.draw_mode,
+            hint="how every tab draws its characters: capsules, skin (LBS or DQS), or both",
+        )
         self._tab_group = gui.add_tab_group()
         with gui.add_folder("Playback"):
             self.play_button = gui.add_button("Pause")
@@ -104,7 +114,6 @@ class Session:
             self.upload = gui.add_upload_button("Load BVH", mime_type="*/*", hint=f"a .bvh file (validated; at most {MAX_CLIP_BYTES // 2**20} MiB)")
             self.save_name = gui.add_text("Save as", "result.bvh")
             self.save_button = gui.add_button("Save shown clip")
-            self.draw_menu = gui.add_dropdown("Draw", tuple(DRAW_MODES), initial_value=self.draw_mode)
         self.play_button.on_click(lambda e: self.toggle_play())
         self.step_buttons.on_click(lambda e: self._step(self.step_buttons.value))
         self.timeline.on_update(self._on_timeline)
@@ -112,7 +121,7 @@ class Session:
         self.loop.on_update(lambda e: self._set_player(loop=bool(self.loop.value)))
         self.upload.on_upload(self._on_upload)
         self.save_button.on_click(lambda e: self.save(self.save_name.value))
-        self.draw_menu.on_update(lambda e: self.set_draw_mode(self.draw_menu.value))
+        self.character.on_update(lambda e: self.set_draw_mode(self.character.value) if self.character.value != self.draw_mode else None)
 
     def set_status(self, text: str, error: bool = False) -> None:
         self.status.content = f"**error:** {text}" if error else text
@@ -130,9 +139,9 @@ class Session:
     def _on_error(self, job: Job, message: str) -> None:
         self.set_status(f"{job.label}: {message}", error=True)
 
-    def submit(self, kind: str, run: Any, done: Any, label: str = "") -> Job:
-        """Run ``run(progress)`` on the page's worker and ``done(result)`` after it."""
-        return self.worker.submit(kind, run, done, label)
+    def submit(self, kind: str, run: Any, done: Any, label: str = "", keep_running: bool = False) -> Job:
+        """Run ``run(progress)`` on the page's worker and ``done(result)`` after it (:meth:`.jobs.Worker.submit`)."""
+        return self.worker.submit(kind, run, done, label, keep_running)
 
     def on_library(self, callback: Any) -> None:
         """Call ``callback(names)`` whenever the page's clip list changes (tabs refresh their menus)."""
@@ -166,8 +175,8 @@ class Session:
             compiled = mjcf.compile(skeleton_motion.skeleton, props)
             kin = Kinematics(compiled)
             poses = kin.poses(kinematics.qpos(compiled, skeleton_motion)) if precompute else None
-            drawing = DRAW_MODES[self.draw_mode](self.client.scene, f"/cast/{k}", compiled, PALETTE[k % len(PALETTE)])
-            actor = Actor(label, skeleton_motion if precompute else None, props, compiled, kin, drawing, poses)
+            drawing = self._drawing(k, compiled, skeleton_motion)
+            actor = Actor(label, skeleton_motion if precompute else None, props, compiled, kin, drawing, poses, skeleton_motion)
             self.cast.append(actor)
             return actor
 
@@ -177,11 +186,20 @@ class Session:
         with self.lock:
             if not keep_marks and "Hit" in getattr(self, "tabs", {}):
                 self.tabs["Hit"].clear_marks()
-            self.clear_cast()
-            for k, (label, m, props) in enumerate(motions):
-                if k:
-                    m = m.replace(root_positions=m.root_positions + np.array([0.0, SPACING * k, 0.0]))
-                self.add_actor(label, m, props)
+            placed = [
+                (label, m if not k else m.replace(root_positions=m.root_positions + np.array([0.0, SPACING * k, 0.0])), props)
+                for k, (label, m, props) in enumerate(motions)
+            ]
+            if self._same_cast(placed):
+                # the same characters in new poses (a Hit tab drag): new actors on the same models and drawings
+                self.cast = [
+                    replace(a, label=label, motion=m, reference=m, poses=a.kin.poses(kinematics.qpos(a.compiled, m)))
+                    for a, (label, m, _) in zip(self.cast, placed)
+                ]
+            else:
+                self.clear_cast()
+                for label, m, props in placed:
+                    self.add_actor(label, m, props)
             n = max(m.n_frames for _, m, _ in motions)
             self.player = Player(n, motions[main][1].fps, speed=float(self.speed.value), loop=bool(self.loop.value))
             self.timeline.max = max(n - 1, 1)
@@ -190,19 +208,62 @@ class Session:
             self._draw(0)
             self._dirty = True
 
+    def _same_cast(self, placed: list[tuple[str, Motion, tuple[mjcf.Prop, ...]]]) -> bool:
+        """Whether the clips on stage are the same characters (skeleton objects and props) as ``placed``."""
+        return (
+            self.live is None
+            and len(self.cast) == len(placed)
+            and all(a.motion is not None and a.motion.skeleton is m.skeleton and a.props == props for a, (_, m, props) in zip(self.cast, placed))
+        )
+
     @property
     def shown(self) -> Actor | None:
         """The main character on screen (what Evaluate measures and Save writes)."""
         with self.lock:
             return self.cast[0] if self.cast else None
 
+    def _drawing(self, k: int, compiled: mjcf.CompiledModel, reference: Motion | None) -> Any:
+        """Character ``k`` drawn in the current mode; capsules (and a note) if its skeleton cannot carry a skin."""
+        try:
+            return DRAW_MODES[self.draw_mode](self.client.scene, f"/cast/{k}", compiled, PALETTE[k % len(PALETTE)], reference)
+        except MjmotionError as e:
+            self.set_status(f"{self.draw_mode}: {e}; drawn as capsules", error=True)
+            return PrimitiveDrawing(self.client.scene, f"/cast/{k}", compiled, PALETTE[k % len(PALETTE)])
+
     def set_draw_mode(self, mode: str) -> None:
+        """Draw every character (now and from now on) in ``mode`` (:data:`~.scene.DRAW_MODES`); the skins are made on the worker."""
+        if mode not in DRAW_MODES:
+            raise MjmotionError(f"unknown character mode {mode!r}; expected one of {', '.join(DRAW_MODES)}")
         with self.lock:
             self.draw_mode = mode
+            cast = [(a.compiled, a.reference) for a in self.cast]
+        if self.character.value != mode:
+            self.character.value = mode  # chosen in code (tests, screenshots): the menu shows it
+
+        def job(progress: Any) -> str:
+            if mode != "capsules":
+                from ..skin import build
+
+                for i, (compiled, reference) in enumerate(cast):
+                    progress(i / max(len(cast), 1), "making the skin")
+                    try:
+                        build(compiled, reference=reference)  # cached: the swap below reuses it
+                    except MjmotionError:
+                        pass  # the swap draws this one as capsules and says why
+            return mode
+
+        self.submit("draw", job, self._redraw, label="Character")
+
+    def _redraw(self, mode: str) -> None:
+        with self.lock:
+            if mode != self.draw_mode:
+                return  # a newer choice is on its way
             for k, a in enumerate(self.cast):
                 a.drawing.remove()
-                a.drawing = DRAW_MODES[mode](self.client.scene, f"/cast/{k}", a.compiled, PALETTE[k % len(PALETTE)])
+                a.drawing = self._drawing(k, a.compiled, a.reference)
+            self._dirty = True
             self._draw(self.player.index)
+            self.set_status(f"characters drawn as {mode}")
 
     def start_live(self, live: Any, props: tuple[mjcf.Prop, ...] = ()) -> None:
         """Play a :class:`~mjmotion.studio.live.LiveStream` (the Stream tab)."""

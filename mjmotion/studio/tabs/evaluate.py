@@ -55,9 +55,10 @@ class EvaluateTab:
             return
         f = min(frame, len(e.contacts) - 1)
         colors = {int(g): CONTACT_RGB for i, side in enumerate(e.sides) if e.contacts[f, i] for g in e.foot_geoms.get(side, ())}
-        if colors != getattr(self, "_last_colors", None):
+        last = getattr(self, "_last_colors", None)
+        if last is None or last[0] is not a.drawing or last[1] != colors:  # a new drawing (Character menu) starts untinted
             a.drawing.set_geom_colors(colors)
-            self._last_colors = colors
+            self._last_colors = (a.drawing, colors)
 
 
 def _run_starts(mask: np.ndarray) -> np.ndarray:

@@ -126,7 +126,9 @@ class HitTab:
                 flight = engine.launch(shot, a.motion, target)
             return a, flight, latency
 
-        self.s.submit("hit", job, lambda out: self._solved(out, target, solver), label="Hit")
+        # a DLS solve cannot stop part-way: one still running for an earlier ball position is
+        # shown when it ends rather than thrown away (the worker then runs only the latest)
+        self.s.submit("hit", job, lambda out: self._solved(out, target, solver), label="Hit", keep_running=solver == "dls")
 
     def _solved(self, out: Any, target: np.ndarray, solver: str) -> None:
         a, flight, latency = out
