@@ -103,6 +103,8 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
 
 
 def run(args: argparse.Namespace) -> int:
+    import atexit
+    import gc
     from concurrent.futures import ThreadPoolExecutor
 
     from .. import audit
@@ -139,4 +141,8 @@ def run(args: argparse.Namespace) -> int:
     rate = f" ({res.computed / res.seconds:.2f} clips/s)" if res.computed and res.seconds > 0 else ""
     print(f"{len(res.rows)} clips: {len(res.rows) - n_err} ok, {n_err} error; {res.computed} evaluated in {res.seconds:.1f} s{rate}")
     print("wrote " + ", ".join(res.files))
+    # At exit the interpreter's last garbage collection walks every object Dask, Matplotlib, Arrow and the
+    # judge left (a second or more on the shared clips, longer than the evaluation of many of them);
+    # everything is written and closed by now, so that walk is skipped (in-process callers exit later).
+    atexit.register(gc.freeze)
     return 0
