@@ -107,9 +107,15 @@ def test_audit_on_a_local_cluster_matches_evaluate(corpus, tmp_path, capsys):
     """The CLI with --workers 2: one row per file, hostile files as error rows, evaluate's numbers, DIR untouched."""
     before = _snapshot(corpus)
     out = tmp_path / "audit"
-    assert cli.main(["audit", str(corpus), "-o", str(out), "--workers", "2"]) == 0
+    assert cli.main(["audit", str(corpus), "-o", str(out), "--workers", "2", "--dashboard"]) == 0
     text = capsys.readouterr().out
     assert "LocalCluster, 2 worker" in text and f"{len(_listed(corpus))} clips: {len(CUTS) + 1} ok, {len(HOSTILE)} error" in text
+    try:
+        import bokeh  # noqa: F401
+
+        assert "; dashboard http://127.0.0.1:" in text
+    except ImportError:  # Dask runs no dashboard without Bokeh: said once, not a link to nothing
+        assert "dashboard http" not in text and "Dask started no dashboard (it needs bokeh" in text
     assert _snapshot(corpus) == before
     rows = _rows(out)
     assert sorted(rows) == _listed(corpus)
