@@ -11,13 +11,15 @@ strikes at two seeds). Then, in interleaved rounds:
 - the per-task overhead: 400 trivial tasks through each backend (wall time per task), and each
   backend's start and shut-down time;
 - the acceptance check on the 42 shared clips: ``mjmotion audit DIR -o OUT --workers 2`` against
-  ``mjmotion evaluate DIR --jobs 2``, each as a fresh process (wall time, median of 3, interleaved);
+  ``mjmotion evaluate DIR --jobs 2``, each as a fresh process, in interleaved rounds (wall and CPU
+  seconds of the command and every process it waited for: median and p90, and audit/evaluate ratios);
 - a projection for the full CMU database (about 2,500 clips the size of the shared ones) on this
   machine's 2 cores and on a 64-core Dask cluster, from the measured per-clip cost (a + b·frames,
   least squares over the serial run) and the measured overheads.
 
-Usage: ``python benchmarks/bench_audit.py [--rounds N] [--quick]`` (``--quick``: a 120-file
-corpus, one round, for checking the script). Timings on a shared 2-core machine are noisy.
+Usage: ``python benchmarks/bench_audit.py [--rounds N] [--accept-rounds N] [--only scale|accept] [--quick]``
+(``--quick``: a 120-file corpus, one round of each, for checking the script; ``--only accept``: just the
+acceptance check). Timings on a shared 2-core machine are noisy.
 """
 
 from __future__ import annotations
@@ -111,6 +113,37 @@ def timed_start(kw: dict) -> tuple[executor.Executor, float]:
     return ex, time.perf_counter() - t
 
 
+def percentile(values: list[float], q: float) -> float:
+    return float(np.percentile(values, q))
+
+
+def acceptance(tmp: str, rounds: int) -> None:
+    """``audit --workers 2`` against ``evaluate --jobs 2`` on the shared clips: fresh processes, interleaved."""
+    cli = [sys.executable, "-m", "mjmotion.cli"]
+    runs: dict[str, list[tuple[float, float]]] = {"evaluate": [], "audit": []}
+    for i in range(rounds):
+        # Alternate which goes first, so neither always runs right after the other's page-cache and CPU state.
+        order = ("evaluate", "audit") if i % 2 == 0 else ("audit", "evaluate")
+        for name in order:
+            args = (
+                ["evaluate", str(data_dir()), "--jobs", "2"]
+                if name == "evaluate"
+                else ["audit", str(data_dir()), "-o", f"{tmp}/accept_{i}", "--workers", "2"]
+            )
+            runs[name].append(wall_and_cpu([*cli, *args]))
+    print(f"\n## The 42 shared clips, whole commands (fresh processes, {rounds} interleaved rounds)\n")
+    print(f"{'command':52s} {'wall median':>11s} {'wall p90':>9s} {'CPU median':>10s} {'CPU p90':>8s}")
+    stats = {}
+    for name, label in (("evaluate", f"mjmotion evaluate {data_dir()} --jobs 2"), ("audit", f"mjmotion audit {data_dir()} -o OUT --workers 2")):
+        walls, cpus = [w for w, _ in runs[name]], [c for _, c in runs[name]]
+        stats[name] = (statistics.median(walls), percentile(walls, 90), statistics.median(cpus), percentile(cpus, 90))
+        print(f"{label:52s} {stats[name][0]:10.2f}s {stats[name][1]:8.2f}s {stats[name][2]:9.2f}s {stats[name][3]:7.2f}s")
+    ratios = [a / e for a, e in zip(stats["audit"], stats["evaluate"])]
+    print(f"{'audit / evaluate':52s} {ratios[0]:10.2f}x {ratios[1]:8.2f}x {ratios[2]:9.2f}x {ratios[3]:7.2f}x")
+    per_round = [a[0] / e[0] for a, e in zip(runs["audit"], runs["evaluate"])]
+    print(f"audit/evaluate wall per round: {', '.join(f'{r:.2f}' for r in per_round)} (median {statistics.median(per_round):.2f})")
+
+
 def wall_and_cpu(cmd: list[str]) -> tuple[float, float]:
     """Wall seconds of a command and CPU seconds of it and every process it waited for (its workers)."""
     import resource
@@ -126,8 +159,15 @@ def wall_and_cpu(cmd: list[str]) -> tuple[float, float]:
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--rounds", type=int, default=1, help="interleaved rounds over the backends (default 1)")
+    p.add_argument("--accept-rounds", type=int, default=7, help="interleaved rounds of the acceptance check (default 7)")
+    p.add_argument("--only", choices=("scale", "accept"), help="run only the corpus measurements or only the acceptance check")
     p.add_argument("--quick", action="store_true", help="a small corpus and one round, to check the script runs")
     args = p.parse_args()
+    if args.only == "accept":
+        with tempfile.TemporaryDirectory(prefix="bench_audit_") as tmp:
+            print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the start")
+            acceptance(tmp, 1 if args.quick else args.accept_rounds)
+        return 0
     opts = audit.judge_options()
     with tempfile.TemporaryDirectory(prefix="bench_audit_") as tmp:
         corpus = Path(tmp) / "corpus"
@@ -190,19 +230,8 @@ def main() -> int:
             f"{statistics.median(runs[two]):.0f} s of wall time"
         )
 
-        # The acceptance check: audit vs evaluate on the 42 shared clips, fresh processes, interleaved.
-        cli = [sys.executable, "-m", "mjmotion.cli"]
-        walls: dict[str, list[tuple[float, float]]] = {"evaluate": [], "audit": []}
-        for i in range(1 if args.quick else 5):
-            walls["evaluate"].append(wall_and_cpu([*cli, "evaluate", str(data_dir()), "--jobs", "2"]))
-            walls["audit"].append(wall_and_cpu([*cli, "audit", str(data_dir()), "-o", f"{tmp}/accept_{i}", "--workers", "2"]))
-        (ev_w, ev_c), (au_w, au_c) = ((statistics.median(w for w, _ in walls[k]), statistics.median(c for _, c in walls[k])) for k in walls)
-        print(f"\n## The 42 shared clips, whole commands (fresh processes, median of {len(walls['evaluate'])}, interleaved)\n")
-        print(f"mjmotion evaluate {data_dir()} --jobs 2          wall {ev_w:6.2f} s, CPU {ev_c:6.2f} s")
-        print(
-            f"mjmotion audit {data_dir()} -o OUT --workers 2   wall {au_w:6.2f} s, CPU {au_c:6.2f} s  "
-            f"(audit/evaluate: wall {au_w / ev_w:.2f}, CPU {au_c / ev_c:.2f})"
-        )
+        if args.only != "scale":
+            acceptance(tmp, 1 if args.quick else args.accept_rounds)
 
         # Projection for the whole CMU database from the measured cost and overheads.
         o = statistics.median(per_task[two])

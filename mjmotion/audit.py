@@ -21,6 +21,7 @@ import hashlib
 import json
 import math
 import os
+import socket
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -40,14 +41,15 @@ META = (
 _TYPES = {"size": int, "frames": int, "joints": int, "skipped_frames": int, "fps": float, "seconds": float}
 #: Seconds between rewrites of ``audit.parquet`` while an audit runs.
 PARQUET_EVERY = 10.0
+#: A file changed less than this many seconds before it was hashed is hashed again by its worker: Linux
+#: stamps files from a clock of a few milliseconds' resolution (some file systems keep whole seconds).
+RACY = 3.0
 #: Evaluate options that only shape the verb's own output (not the numbers).
 _OUTPUT_OPTIONS = ("path", "json", "csv", "force", "jobs")
 #: Error kinds whose rows a resume keeps (the same input gives the same error); others are retried.
 _FINAL_ERRORS = ("input",)
 #: The files an audit writes in its output folder.
 OUTPUTS = ("audit.csv", "audit.parquet", "summary.md", "histograms.png")
-#: Modules :func:`audit_clip` needs (imported once before local workers are forked).
-PRELOAD = ("mjmotion.commands.evaluate", "mjmotion.evaluate", "mjmotion.physics")
 #: Clips listed per metric among the worst in the summary.
 WORST = 5
 #: Naming conventions by joints that must all be present (lower case); the first match names the flavour.
@@ -89,11 +91,51 @@ def find_clips(root: str | os.PathLike[str]) -> list[Path]:
 
 
 def sha256_file(path: str | os.PathLike[str]) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+    return fingerprint(path)[0]
+
+
+@dataclass(frozen=True)
+class Listed:
+    """How a file looked while it was hashed: ``stat`` (device, inode, size, modification and change
+    times in ns), the ``host`` and when hashing began (``hashed_at``, seconds since the epoch)."""
+
+    stat: tuple[int, int, int, int, int]
+    host: str
+    hashed_at: float
+
+
+def _signature(st: os.stat_result) -> tuple[int, int, int, int, int]:
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+
+
+def fingerprint(path: str | os.PathLike[str]) -> tuple[str, Listed]:
+    """The SHA-256 of a file and how it looked while read (the same before and after; a file written to
+    meanwhile is read again, up to three times)."""
+    for _ in range(3):
+        began = time.time()
+        h = hashlib.sha256()
+        with open(path, "rb") as f:
+            before = _signature(os.fstat(f.fileno()))
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+            after = _signature(os.fstat(f.fileno()))
+        if before == after:
+            break
+    return h.hexdigest(), Listed(after, socket.gethostname(), began)
+
+
+def unchanged(path: str | os.PathLike[str], listed: Listed) -> bool:
+    """Whether ``path`` is beyond doubt still the file hashed as ``listed``: on the same host, with the same
+    device, inode, size and modification and change times (no write or rename leaves those as they were:
+    writing sets both times, and the change time cannot be set back), last changed more than
+    :data:`RACY` seconds before it was hashed (a write within the same clock tick would keep the times)."""
+    if listed.host != socket.gethostname():
+        return False
+    try:
+        st = os.stat(path)
+    except OSError:
+        return False
+    return _signature(st) == listed.stat and max(st.st_mtime_ns, st.st_ctime_ns) < (listed.hashed_at - RACY) * 1e9
 
 
 def judge_options(**overrides: Any) -> dict[str, Any]:
@@ -146,20 +188,36 @@ def metric_columns(report: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str, ...] = ()) -> dict[str, Any]:
-    """One clip, on a worker: its row's frames, fps, flavour, metrics (or ``error``). The file is hashed
-    again here, so the row is of exactly the bytes listed (a worker elsewhere must see the same file)."""
+def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str, ...] = (), listed: Listed | None = None) -> dict[str, Any]:
+    """One clip, on a worker: its row's frames, fps, flavour, metrics (or ``error``), of exactly the bytes
+    listed. The worker hashes the file again unless it is :func:`unchanged` since it was ``listed`` (the
+    same file on the same host, so hashing it again would read the same bytes); after the evaluation the
+    file must still look as it did before (a file written to meanwhile is an error row)."""
     from . import bvh
     from . import evaluate as ev
     from .commands._common import load
     from .commands.evaluate import evaluate_one
 
-    try:
-        seen = sha256_file(path)
-    except OSError as e:  # a worker on another machine without the file at this path
-        raise MjmotionError(f"{path}: cannot be read on this worker ({e.strerror or e})") from None
-    if seen != sha256:
-        raise MjmotionError(f"{path}: not the file that was listed (changed since, or this worker sees another file at the path)")
+    if listed is not None and unchanged(path, listed):
+        looked = listed.stat
+    else:
+        try:
+            seen, here = fingerprint(path)
+        except OSError as e:  # a worker on another machine without the file at this path
+            raise MjmotionError(f"{path}: cannot be read on this worker ({e.strerror or e})") from None
+        if seen != sha256:
+            raise MjmotionError(f"{path}: not the file that was listed (changed since, or this worker sees another file at the path)")
+        looked = here.stat
+
+    def same_file(row: dict[str, Any]) -> dict[str, Any]:
+        try:
+            still = _signature(os.stat(path)) == looked
+        except OSError:
+            still = False
+        if not still:
+            raise MjmotionError(f"{path}: changed while it was evaluated (the row would not be of the bytes listed)")
+        return row
+
     import argparse
 
     if sources and "source" in opts:  # a judge that takes --source SRC.bvh judges the clip against them too
@@ -173,7 +231,7 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
             row.update(frames=m.n_frames, fps=float(m.fps), flavour=flavour(m.skeleton.names), joints=m.skeleton.n_joints)
         except MjmotionError:
             pass
-        return row
+        return same_file(row)
     d = report.to_dict()
     row = {
         "frames": motion.n_frames,
@@ -189,7 +247,27 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
         src = [load(s, argparse.Namespace(**opts)) for s in sources]
         row["vs_source.max_joint_speed_ratio"] = ev.max_joint_speed_ratio(motion, src)
         row["vs_source.root_jump_m"] = ev.root_jump_m(motion, src)
-    return row
+    return same_file(row)
+
+
+def warm_up() -> None:
+    """Evaluate a short synthetic walk in this process through the tasks' own one-file evaluation, so
+    that whatever the judge loads on first use (SciPy's signal package alone takes about a second to
+    import) is loaded once here, before local workers are forked, instead of once in every worker."""
+    import tempfile
+
+    from . import bvh
+    from .commands.evaluate import evaluate_one
+    from .synth import walk
+
+    with tempfile.TemporaryDirectory(prefix="mjmotion-warm-up-") as tmp:
+        path = Path(tmp) / "walk.bvh"
+        bvh.write(walk(seconds=0.5).motion, path)
+        evaluate_one(str(path), judge_options())
+
+
+#: What local workers share from the moment they are forked (:func:`mjmotion.executor.load`).
+PRELOAD = (warm_up,)
 
 
 # --------------------------------------------------------------------------- the table on disk
@@ -219,23 +297,50 @@ def _parse(column: str, text: str) -> Any:
         return text
 
 
+def _kind(value: Any) -> str:
+    """A cell's Parquet kind: ``bool``, ``int``, ``float`` or ``str``."""
+    if isinstance(value, bool):
+        return "bool"
+    if isinstance(value, int):
+        return "int"
+    if isinstance(value, float):
+        return "float"
+    return "str"
+
+
+def _join(kind: str | None, value: Any) -> str | None:
+    """The kind of a column of ``kind`` after one more cell: ints and floats make floats; any other mix is text."""
+    if value is None:
+        return kind
+    k = _kind(value)
+    if kind is None or kind == k:
+        return k
+    return "float" if {kind, k} == {"int", "float"} else "str"
+
+
 class Table:
-    """``audit.csv`` (appended and flushed per row) and ``audit.parquet`` (rewritten atomically)."""
+    """``audit.csv`` (appended and flushed per row) and ``audit.parquet`` (rewritten atomically from it).
+
+    Each column's Parquet type follows its values (``META`` columns have fixed types): all booleans →
+    bool, all integers → int64, numbers → float64, anything else (or nothing yet) → string.
+    """
 
     def __init__(self, out_dir: Path, rows: Iterable[dict[str, Any]] = ()):
         self.csv = out_dir / "audit.csv"
         self.parquet = out_dir / "audit.parquet"
         self.rows: list[dict[str, Any]] = []
         self.columns: list[str] = list(META)
+        self.kinds: dict[str, str | None] = {c: None for c in META}
         for r in rows:
             self._take(r)
         self._rewrite_csv()
         self.written = time.monotonic()
-        self.write_parquet()
 
     def _take(self, row: dict[str, Any]) -> bool:
-        new = [k for k in row if k not in self.columns]
+        new = [k for k in row if k not in self.kinds]
         self.columns += new
+        for k, v in row.items():
+            self.kinds[k] = _join(self.kinds.get(k), v)
         self.rows.append(row)
         return bool(new)
 
@@ -262,17 +367,29 @@ class Table:
             self.write_parquet()
 
     def write_parquet(self) -> None:
+        """``audit.parquet`` from ``audit.csv`` (flushed up to its last row), read by Arrow's CSV reader with
+        every column's type given (building Arrow arrays from Python lists would import pandas: a third of a second)."""
         import pyarrow as pa
+        import pyarrow.csv as pc
         import pyarrow.parquet as pq
 
-        arrays = {c: _arrow_column([r.get(c) for r in self.rows], c) for c in self.columns}
-        table = pa.table(arrays)
+        self._file.flush()
+        arrow = {"bool": pa.bool_(), "int": pa.int64(), "float": pa.float64(), "str": pa.string()}
+        types = {c: arrow[("int" if _TYPES[c] is int else "float") if c in _TYPES else (self.kinds[c] or "str")] for c in self.columns}
+        table = pc.read_csv(
+            self.csv,
+            read_options=pc.ReadOptions(block_size=max(1 << 20, self.csv.stat().st_size + 1)),  # one block: no type guessed per block
+            parse_options=pc.ParseOptions(newlines_in_values=True),  # a path may hold a line break (quoted by the csv module)
+            convert_options=pc.ConvertOptions(
+                column_types=types, null_values=[""], strings_can_be_null=True, true_values=["True"], false_values=["False"]
+            ),
+        )
         write_with(self.parquet, lambda tmp: pq.write_table(table, tmp))
         self.written = time.monotonic()
 
     def close(self) -> None:
-        self._file.close()
         self.write_parquet()
+        self._file.close()
 
     @staticmethod
     def read(path: Path) -> list[dict[str, Any]]:
@@ -289,25 +406,6 @@ class Table:
         return [{c: _parse(c, v) for c, v in zip(header, rec)} for rec in body if len(rec) == len(header)]
 
 
-def _arrow_column(values: list[Any], name: str) -> Any:
-    import pyarrow as pa
-
-    present = [v for v in values if v is not None]
-    if name in _TYPES:
-        kind = pa.int64() if _TYPES[name] is int else pa.float64()
-    elif present and all(isinstance(v, bool) for v in present):
-        kind = pa.bool_()
-    elif present and all(isinstance(v, int) and not isinstance(v, bool) for v in present):
-        kind = pa.int64()
-    elif present and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in present):
-        kind = pa.float64()
-        values = [None if v is None else float(v) for v in values]
-    else:
-        kind = pa.string()
-        values = [None if v is None else str(v) for v in values]
-    return pa.array(values, type=kind)
-
-
 # --------------------------------------------------------------------------- the audit
 
 
@@ -322,6 +420,7 @@ class Clip:
     sha256: str
     sources: tuple[str, ...] = ()
     source_sha256: tuple[str, ...] = ()
+    listed: Listed | None = None
 
 
 def read_source_map(path: str | os.PathLike[str], clips: Iterable[str]) -> dict[str, tuple[str, ...]]:
@@ -360,7 +459,8 @@ def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = No
     for p in find_clips(root):
         rel = p.relative_to(root.resolve()).as_posix()
         src = tuple(source_map.get(rel, ())) if source_map else ()
-        out.append(Clip(rel, str(p), p.stat().st_size, sha256_file(p), src, tuple(sha256_file(s) for s in src)))
+        sha, listed = fingerprint(p)
+        out.append(Clip(rel, str(p), listed.stat[2], sha, src, tuple(sha256_file(s) for s in src), listed))
     return out
 
 
@@ -384,6 +484,35 @@ def reusable(row: Mapping[str, Any], clip: Clip, options: str) -> bool:
 
 
 @dataclass(frozen=True)
+class Plan:
+    """What an audit of a folder will do, decided before any work: every clip (path order), each one's
+    options text, the rows of a previous table that are kept, and the clips to evaluate (largest first:
+    the long clips do not all end up at the tail of the run). ``started`` is when planning began."""
+
+    clips: list[Clip]
+    options: dict[str, str]
+    kept: list[dict[str, Any]]
+    todo: list[Clip]
+    started: float
+
+
+def plan(
+    root: Path, out_dir: Path, *, resume: bool = False, source_map: Mapping[str, tuple[str, ...]] | None = None, opts: dict[str, Any] | None = None
+) -> Plan:
+    """List and hash the clips under ``root`` and, with ``resume``, read ``out_dir/audit.csv`` to keep the
+    rows that still answer. Reads only (so it can run while the workers start)."""
+    started = time.perf_counter()
+    opts = opts if opts is not None else judge_options()
+    clips = list_clips(root, source_map)
+    previous = {r["path"]: r for r in Table.read(out_dir / "audit.csv")} if resume and (out_dir / "audit.csv").is_file() else {}
+    options = {c.rel: options_text(opts, c) for c in clips}
+    kept = [previous[c.rel] for c in clips if c.rel in previous and reusable(previous[c.rel], c, options[c.rel])]
+    done = {r["path"] for r in kept}
+    todo = sorted((c for c in clips if c.rel not in done), key=lambda c: -c.size)
+    return Plan(clips, options, kept, todo, started)
+
+
+@dataclass(frozen=True)
 class Result:
     """What :func:`run` did: every row (one per clip, in path order), how many were computed now, the
     wall time, the executor's description and the files written."""
@@ -393,6 +522,15 @@ class Result:
     seconds: float
     executor: str
     files: list[str]
+
+
+def _load_drawing() -> None:
+    """Import what the summary's histograms need (Matplotlib's figure and its Agg canvas: half a second)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.backends.backend_agg
+    import matplotlib.figure
 
 
 def run(
@@ -405,24 +543,26 @@ def run(
     source_map: Mapping[str, tuple[str, ...]] | None = None,
     opts: dict[str, Any] | None = None,
     progress: bool = True,
+    planned: Plan | None = None,
 ) -> Result:
-    """Audit every clip under ``root`` into ``out_dir`` on the executor ``ex`` (see the module doc)."""
-    start = time.perf_counter()
+    """Audit every clip under ``root`` into ``out_dir`` on the executor ``ex`` (see the module doc);
+    ``planned``: the :func:`plan` of the same arguments, made already (e.g. while the workers started)."""
     opts = opts if opts is not None else judge_options()
-    clips = list_clips(root, source_map)
+    work = planned if planned is not None else plan(root, out_dir, resume=resume, source_map=source_map, opts=opts)
     out_dir.mkdir(exist_ok=True)
-    previous = {r["path"]: r for r in Table.read(out_dir / "audit.csv")} if resume and (out_dir / "audit.csv").is_file() else {}
-    options = {c.rel: options_text(opts, c) for c in clips}
-    kept = [previous[c.rel] for c in clips if c.rel in previous and reusable(previous[c.rel], c, options[c.rel])]
-    done = {r["path"] for r in kept}
-    todo = [c for c in clips if c.rel not in done]
-    table = Table(out_dir, kept)
-    # The largest files first: the long clips do not all end up at the tail of the run.
-    todo.sort(key=lambda c: -c.size)
+    table = Table(out_dir, work.kept)
+    todo, options = work.todo, work.options
     by_rel = {c.rel: c for c in todo}
-    tasks = [(c.rel, (c.path, c.sha256, opts, c.sources)) for c in todo]
+    tasks = [(c.rel, (c.path, c.sha256, opts, c.sources, c.listed)) for c in todo]
+
+    def meanwhile() -> None:
+        # While the first clips run, this process is idle: the Parquet writer and the summary's
+        # Matplotlib are loaded now rather than after the last row (where nothing runs beside them).
+        table.write_parquet()
+        _load_drawing()
+
     try:
-        for out in ex.run(audit_clip, tasks, timeout=timeout, desc="audit", unit="clip", progress=progress):
+        for out in ex.run(audit_clip, tasks, timeout=timeout, desc="audit", unit="clip", progress=progress, meanwhile=meanwhile):
             c = by_rel[out.key]
             value = out.value if out.ok else {"error": out.error}
             err = value.get("error")
@@ -438,7 +578,7 @@ def run(
     finally:
         table.close()
     rows = sorted(table.rows, key=lambda r: r["path"])
-    seconds = time.perf_counter() - start
+    seconds = time.perf_counter() - work.started
     files = [str(table.csv), str(table.parquet)]
     files += write_summary(out_dir, rows, root=root, executor=ex.describe(), computed=len(todo), seconds=seconds, timeout=timeout)
     return Result(rows, len(todo), seconds, ex.describe(), files)

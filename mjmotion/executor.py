@@ -42,6 +42,18 @@ RETRIES = 1
 PLAIN_EVERY = 5.0
 #: Seconds between checks of running tasks against the time limit.
 POLL = 0.5
+#: Dask settings of a LocalCluster. The workers' statistical profiler (a stack sample every 10 ms, for the
+#: dashboard) cost a quarter of the CPU time of evaluating the shared clips. The event-loop ticks (every
+#: 20 ms in the scheduler, each nanny and each worker, only to notice a blocked loop), the nannies' memory
+#: checks (every 100 ms) and the system monitors (every 500 ms) kept an idle two-worker cluster at 0.07 CPU
+#: seconds per second, 0.015 with these intervals: about the cost of scheduling the 42 shared clips over
+#: their few seconds. Our tasks are whole clips; the nanny still restarts a worker that outgrows its memory.
+LOCAL_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.worker.memory.monitor-interval": "500ms",
+    "distributed.admin.system-monitor.interval": "2s",
+}
 
 
 @dataclass(frozen=True)
@@ -88,6 +100,10 @@ def _call(fn: Callable[..., Any], args: tuple) -> tuple[Any, str | None, float]:
         return fn(*args), None, time.perf_counter() - start
     except MjmotionError as e:
         return None, one_line(str(e)), time.perf_counter() - start
+
+
+def _nothing() -> None:
+    pass
 
 
 def _internal(key: Any, e: BaseException) -> Outcome:
@@ -157,10 +173,14 @@ class Executor:
         desc: str = "tasks",
         unit: str = "task",
         progress: bool = True,
+        meanwhile: Callable[[], object] | None = None,
     ) -> Iterator[Outcome]:
         """Run ``fn(*args)`` for every ``(key, args)``; yield one :class:`Outcome` per key as each finishes.
 
-        Stopping early (``break``, an exception, Ctrl-C) cancels what has not finished.
+        ``meanwhile()`` is called once, in this thread, as soon as every task is sent out: the caller's
+        chance to prepare what it needs after the last outcome while the first tasks run (outcomes that
+        finish meanwhile wait for it). Stopping early (``break``, an exception, Ctrl-C) cancels what has
+        not finished.
         """
         tasks = list(tasks)
         keys = [k for k, _ in tasks]
@@ -170,7 +190,7 @@ class Executor:
             raise MjmotionError(f"--timeout {timeout:g}: expected a time limit in seconds > 0")
         bar = _Progress(len(tasks), desc, unit, progress)
         try:
-            for out in self._run(fn, tasks, timeout, retries):
+            for out in self._run(fn, tasks, timeout, retries, meanwhile or _nothing):
                 bar.update()
                 yield out
         finally:
@@ -179,9 +199,12 @@ class Executor:
     def describe(self) -> str:
         return f"{self.kind}, {self.workers} worker(s)"
 
-    def _run(self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int) -> Iterator[Outcome]:
+    def _run(
+        self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int, meanwhile: Callable[[], object]
+    ) -> Iterator[Outcome]:
         if timeout is not None:
             raise MjmotionError("a time limit needs Dask workers (--workers N or --scheduler ADDRESS)")
+        meanwhile()
         for key, args in tasks:
             try:
                 yield _finished(key, _call(fn, args))
@@ -209,13 +232,16 @@ class ProcessPool(Executor):
         self.workers = jobs
         self.pool = ProcessPoolExecutor(max_workers=jobs)
 
-    def _run(self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int) -> Iterator[Outcome]:
+    def _run(
+        self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int, meanwhile: Callable[[], object]
+    ) -> Iterator[Outcome]:
         from concurrent.futures import as_completed
 
         if timeout is not None:
             raise MjmotionError("a time limit needs Dask workers (--workers N or --scheduler ADDRESS)")
         futures = {self.pool.submit(_call, fn, args): key for key, args in tasks}
         try:
+            meanwhile()
             for f in as_completed(futures):
                 try:
                     yield _finished(futures[f], f.result())
@@ -237,14 +263,18 @@ def _executing(dask_worker: Any) -> dict[str, float]:
 
 class Dask(Executor):
     """A Dask ``Client``: on a new ``LocalCluster`` of ``workers`` one-thread worker processes (bound to
-    127.0.0.1, dashboard on a free port), or on the scheduler at ``scheduler``."""
+    127.0.0.1; its dashboard on a free port if ``dashboard``), or on the scheduler at ``scheduler``."""
 
     kind = "dask"
 
     def __init__(
-        self, workers: int | None = None, scheduler: str | None = None, connect_timeout: float = CONNECT_TIMEOUT, preload: Sequence[str] = ()
+        self,
+        workers: int | None = None,
+        scheduler: str | None = None,
+        connect_timeout: float = CONNECT_TIMEOUT,
+        preload: Sequence[str | Callable[[], object]] = (),
+        dashboard: bool = False,
     ):
-        import importlib
         import logging
 
         import dask
@@ -263,30 +293,38 @@ class Dask(Executor):
                 ) from None
         else:
             # Workers forked from this process start in a quarter of a second with ``preload`` already
-            # imported (spawned ones take a second or more each to import Dask, NumPy and MuJoCo again).
+            # loaded (spawned ones take a second or more each to import Dask, NumPy and MuJoCo again).
             method = "fork" if sys.platform.startswith("linux") else "spawn"
             if method == "fork":
-                for name in preload:
-                    importlib.import_module(name)
-            # The workers' statistical profiler (a stack sample every 10 ms, for the dashboard) cost a quarter
-            # of the CPU time of evaluating the shared clips; our tasks are whole clips, profiled elsewhere.
-            config = {"distributed.worker.multiprocessing-method": method, "distributed.worker.profile.enabled": False}
-            with dask.config.set(config):
+                load(preload)
+            # Held until close: a nanny reads the start method each time it (re)starts its worker, and a
+            # worker restarted after a death or a time limit should be forked, warm, like the first.
+            self._settings = dask.config.set({**LOCAL_CONFIG, "distributed.worker.multiprocessing-method": method})
+            try:
+                # The scheduler's web server (health and metrics routes) always runs, on a free port of
+                # 127.0.0.1; the dashboard on it only when asked (Bokeh's import and its plots cost time).
                 self.cluster = LocalCluster(
-                    n_workers=workers or 1, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0",
-                    silence_logs=logging.CRITICAL,
+                    n_workers=workers or 1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                    dashboard_address="127.0.0.1:0", scheduler_kwargs={"dashboard": dashboard}, silence_logs=logging.CRITICAL,
                 )  # fmt: skip
+            except BaseException:
+                self._settings.__exit__(None, None, None)
+                raise
             self.client = Client(self.cluster, set_as_default=False)
             self.address = self.cluster.scheduler_address
         info = self.client.scheduler_info()
         self.workers = sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values()) or (workers or 0)
-        self.dashboard = self.client.dashboard_link if "dashboard" in info.get("services", {}) else None
+        # A local scheduler runs in this process: its dashboard is up if Dask could load it (it needs Bokeh).
+        running = "dashboard" in info.get("services", {}) and (self.cluster is None or "distributed.dashboard.scheduler" in sys.modules)
+        self.dashboard = self.client.dashboard_link if running else None
 
     def describe(self) -> str:
         where = "a LocalCluster" if self.cluster is not None else f"the scheduler at {self.address}"
         return f"dask on {where}, {self.workers} worker thread(s)"
 
-    def _run(self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int) -> Iterator[Outcome]:
+    def _run(
+        self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int, meanwhile: Callable[[], object]
+    ) -> Iterator[Outcome]:
         from distributed import KilledWorker, as_completed
 
         batch = uuid.uuid4().hex[:8]
@@ -299,6 +337,7 @@ class Dask(Executor):
         polled = time.perf_counter()
         lost: list[Any] = []
         try:
+            meanwhile()
             while not stream.is_empty() or lost:
                 for f in [f for f in lost if f.status != "lost"]:
                     lost.remove(f)
@@ -355,6 +394,18 @@ class Dask(Executor):
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+            self._settings.__exit__(None, None, None)
+
+
+def load(preload: Iterable[str | Callable[[], object]]) -> None:
+    """Import each module named in ``preload`` and call each callable (what forked workers then share)."""
+    import importlib
+
+    for item in preload:
+        if callable(item):
+            item()
+        else:
+            importlib.import_module(item)
 
 
 def check_options(workers: int | None = None, scheduler: str | None = None, jobs: int | None = None) -> None:
@@ -371,16 +422,18 @@ def start(
     scheduler: str | None = None,
     jobs: int | None = None,
     connect_timeout: float = CONNECT_TIMEOUT,
-    preload: Sequence[str] = (),
+    preload: Sequence[str | Callable[[], object]] = (),
+    dashboard: bool = False,
 ) -> Executor:
     """The executor the options ask for: ``scheduler`` (an existing Dask cluster), else ``workers``
-    (a Dask LocalCluster of that many processes), else ``jobs`` > 1 (a process pool), else serial.
-    ``preload``: modules the tasks need, imported before local workers are forked (so they share them)."""
+    (a Dask LocalCluster of that many processes, with its dashboard if ``dashboard``), else ``jobs`` > 1
+    (a process pool), else serial. ``preload``: modules the tasks need and warm-up functions, imported
+    and called before local workers are forked (so they share them; a remote cluster's workers load their own)."""
     check_options(workers, scheduler, jobs)
     if scheduler is not None:
         return Dask(scheduler=scheduler, connect_timeout=connect_timeout)
     if workers is not None:
-        return Dask(workers=workers, preload=preload)
+        return Dask(workers=workers, preload=preload, dashboard=dashboard)
     if jobs is not None and jobs > 1:
         return ProcessPool(jobs)
     return Executor()

@@ -8,6 +8,7 @@ with two ``dask worker`` processes.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -28,6 +29,7 @@ from conftest import require_data
 from mjmotion import audit, bvh, cli, executor
 from mjmotion import evaluate as ev
 from mjmotion.commands.evaluate import evaluate_file
+from mjmotion.errors import MjmotionError
 from mjmotion.trim import leading_transient
 
 BAD = Path(__file__).resolve().parent / "data" / "bad"
@@ -105,9 +107,15 @@ def test_audit_on_a_local_cluster_matches_evaluate(corpus, tmp_path, capsys):
     """The CLI with --workers 2: one row per file, hostile files as error rows, evaluate's numbers, DIR untouched."""
     before = _snapshot(corpus)
     out = tmp_path / "audit"
-    assert cli.main(["audit", str(corpus), "-o", str(out), "--workers", "2"]) == 0
+    assert cli.main(["audit", str(corpus), "-o", str(out), "--workers", "2", "--dashboard"]) == 0
     text = capsys.readouterr().out
     assert "LocalCluster, 2 worker" in text and f"{len(_listed(corpus))} clips: {len(CUTS) + 1} ok, {len(HOSTILE)} error" in text
+    try:
+        import bokeh  # noqa: F401
+
+        assert "; dashboard http://127.0.0.1:" in text
+    except ImportError:  # Dask runs no dashboard without Bokeh: said once, not a link to nothing
+        assert "dashboard http" not in text and "Dask started no dashboard (it needs bokeh" in text
     assert _snapshot(corpus) == before
     rows = _rows(out)
     assert sorted(rows) == _listed(corpus)
@@ -139,6 +147,95 @@ def test_audit_on_a_local_cluster_matches_evaluate(corpus, tmp_path, capsys):
     summary = (out / "summary.md").read_text()
     assert "| cmu-asf | 1 | 1 | 0 |" in summary and f"| unreadable | {len(HOSTILE) - 2} | 0 | {len(HOSTILE) - 2} |" in summary
     assert "`hostile/empty.bvh`" in summary and "planted_skate_mm_per_s" in summary and (out / "histograms.png").stat().st_size > 0
+
+
+def test_a_worker_trusts_a_file_only_while_it_is_unchanged(tmp_path):
+    """Same host, device, inode, size and times, last changed well before it was hashed: no second hash."""
+    clip = tmp_path / "a.bvh"
+    shutil.copy(BAD / "base.bvh", clip)
+    sha, listed = audit.fingerprint(clip)
+    assert sha == hashlib.sha256(clip.read_bytes()).hexdigest() and listed.stat[2] == clip.stat().st_size
+    assert not audit.unchanged(clip, listed)  # just written: a write in the same clock tick would keep its times
+    later = dataclasses.replace(listed, hashed_at=time.time() + 2 * audit.RACY)  # as if hashed long after it was written
+    assert audit.unchanged(clip, later)
+    assert not audit.unchanged(clip, dataclasses.replace(later, host="another-host"))
+    time.sleep(0.05)
+    text = clip.read_bytes()
+    clip.write_bytes(text.replace(b"Hips", b"Hipz"))  # same size, other bytes
+    assert not audit.unchanged(clip, later)
+    os.replace(tmp_path / "a.bvh", tmp_path / "b.bvh")
+    assert not audit.unchanged(clip, later)  # gone (another file at the path would have another inode)
+
+
+def test_rows_are_of_the_bytes_listed(tmp_path, dask2, monkeypatch):
+    root = tmp_path / "clips"
+    root.mkdir()
+    for name in ("one.bvh", "two.bvh"):
+        assert cli.main(["synth", "walk", "--seconds", "0.5", "--seed", str(len(name)), "-o", str(root / name)]) == 0
+    planned = audit.plan(root, tmp_path / "audit")
+    # Listed long after they were written (so a worker would trust them), then one is rewritten: the worker sees it.
+    planned = dataclasses.replace(
+        planned, todo=[dataclasses.replace(c, listed=dataclasses.replace(c.listed, hashed_at=time.time() + 2 * audit.RACY)) for c in planned.todo]
+    )
+    m = bvh.read(root / "two.bvh")
+    bvh.write(m.replace(root_positions=m.root_positions + [0.0, 0.0, 0.01]), root / "two.bvh")
+    res = audit.run(root, tmp_path / "audit", dask2, planned=planned, progress=False)
+    by = {r["path"]: r for r in res.rows}
+    assert by["one.bvh"]["status"] == "ok"
+    assert by["two.bvh"]["status"] == "error" and "not the file that was listed" in by["two.bvh"]["error"]
+    # A file written to while it is evaluated: an error row, not numbers of bytes nobody listed.
+    from mjmotion.commands import evaluate as cmd
+
+    real = cmd.evaluate_one
+
+    def writes_meanwhile(path, opts):
+        out = real(path, opts)
+        with open(path, "a") as f:
+            f.write("\n")
+        return out
+
+    monkeypatch.setattr(cmd, "evaluate_one", writes_meanwhile)
+    clip = next(c for c in audit.plan(root, tmp_path / "audit").clips if c.rel == "one.bvh")
+    with pytest.raises(MjmotionError, match="changed while it was evaluated"):
+        audit.audit_clip(clip.path, clip.sha256, audit.judge_options(), (), clip.listed)
+
+
+def test_table_types_follow_the_values_and_parquet_needs_no_pandas(tmp_path):
+    """Run in a fresh interpreter: writing the Parquet file must not import pandas (a third of a second)."""
+    code = f"""
+import math, sys
+from pathlib import Path
+import pyarrow.parquet as pq
+from mjmotion import audit
+rows = [
+    {{"path": "odd\\npath, \\"quoted\\".bvh", "status": "error", "error": "bad, \\"quoted\\"", "size": 3, "m_num": 1, "m_bool": True, "m_mix": "True", "m_nan": float("nan")}},
+    {{"path": "b.bvh", "status": "ok", "size": 4, "frames": 10, "m_num": 2.5, "m_bool": False, "m_mix": 3, "m_nan": float("-inf")}},
+]
+out = Path({str(tmp_path)!r})
+t = audit.Table(out, rows[:1])
+t.add(rows[1])
+t.close()
+assert "pandas" not in sys.modules
+table = pq.read_table(out / "audit.parquet")
+types = {{f.name: str(f.type) for f in table.schema}}
+assert types["m_num"] == "double" and types["m_bool"] == "bool" and types["m_mix"] == "string" and types["size"] == "int64", types
+assert types["error_kind"] == "string" and types["frames"] == "int64", types  # no value yet: the column's fixed type
+got = table.to_pylist()
+assert got[0]["path"] == rows[0]["path"] and got[0]["error"] == rows[0]["error"] and got[0]["frames"] is None
+assert got[0]["m_num"] == 1.0 and got[1]["m_mix"] == "3" and math.isnan(got[0]["m_nan"]) and got[1]["m_nan"] == -math.inf
+assert [r["path"] for r in audit.Table.read(out / "audit.csv")] == [r["path"] for r in rows]
+"""
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_plan_only_reads(corpus, tmp_path, dask2):
+    out = tmp_path / "audit"
+    audit.run(corpus, out, dask2, progress=False)
+    before, outputs = _snapshot(corpus), _snapshot(out)
+    planned = audit.plan(corpus, out, resume=True)
+    assert not planned.todo and len(planned.kept) == len(planned.clips) == len(_listed(corpus))
+    assert _snapshot(corpus) == before and _snapshot(out) == outputs
 
 
 def test_resume_recomputes_only_what_changed(corpus, tmp_path, dask2):
@@ -209,7 +306,7 @@ def test_time_limit_turns_a_pathological_clip_into_an_error_row(tmp_path, dask2)
     by = {r["path"]: r for r in res.rows}
     assert by["long.bvh"]["status"] == "error" and by["long.bvh"]["error_kind"] == "timeout"
     assert "time limit of 1 s" in by["long.bvh"]["error"]
-    assert by["short.bvh"]["status"] == "ok" and by["short.bvh"]["frames"] == m.n_frames
+    assert by["short.bvh"]["status"] == "ok" and by["short.bvh"]["frames"] == m.n_frames, by["short.bvh"]
     # A timed-out row is not final: a resume without the limit tries it again.
     assert not audit.reusable(by["long.bvh"], audit.list_clips(root)[0], by["long.bvh"]["options"])
     dask2.client.wait_for_workers(2, timeout=60)

@@ -3,6 +3,7 @@ and enforces the time limit (tasks are module functions: forked workers import t
 
 from __future__ import annotations
 
+import contextlib
 import io
 import os
 import signal
@@ -46,9 +47,23 @@ def slow(i: int, seconds: float = 120.0) -> int:
     return i * i
 
 
+#: Set by :func:`warm` in the process that starts the cluster; forked workers inherit it.
+WARMED: int | None = None
+
+
+def warm() -> None:
+    global WARMED
+    WARMED = os.getpid()
+
+
+def warmed() -> tuple[int | None, int]:
+    """On a worker: the pid that ran :func:`warm` before forking it, and the worker's parent."""
+    return WARMED, os.getppid()
+
+
 @pytest.fixture(scope="module")
 def dask2():
-    ex = executor.start(workers=2)
+    ex = executor.start(workers=2, preload=("json", warm))
     yield ex
     ex.close()
 
@@ -93,6 +108,47 @@ def test_dask_worker_killed_mid_task_is_retried(dask2, tmp_path):
     assert marker.exists()  # a worker really died in task 2
     assert sorted(o.key for o in outs) == list(range(8))
     assert all(o.ok and o.value == o.key**2 for o in outs), [o for o in outs if not o.ok]
+    # Its replacement was forked from this process like the first ones, the preload already run.
+    dask2.client.wait_for_workers(2, timeout=60)
+    seen = dask2.client.run(warmed)
+    assert int(marker.read_text()) not in dask2.client.run(os.getpid).values()
+    assert len(seen) == 2 and set(seen.values()) == {(os.getpid(), os.getpid())}, seen
+
+
+def _with_meanwhile(ex: executor.Executor, n: int = 5) -> tuple[list, list]:
+    """Outcomes of ``n`` squares and, for each call of ``meanwhile``, how many outcomes had been yielded
+    and (on Dask) how many of the client's futures existed."""
+    got: list = []
+    calls: list = []
+
+    def meanwhile() -> None:
+        calls.append((len(got), len(ex.client.futures) if isinstance(ex, executor.Dask) else None))
+
+    for o in ex.run(square, [(i, (i,)) for i in range(n)], progress=False, meanwhile=meanwhile):
+        got.append(o)
+    return got, calls
+
+
+def test_meanwhile_runs_once_after_every_task_is_sent(dask2):
+    for ex in (executor.Executor(), executor.start(jobs=2), dask2):
+        with contextlib.ExitStack() as stack:
+            if ex is not dask2:
+                stack.enter_context(ex)
+            got, calls = _with_meanwhile(ex)
+        assert sorted(o.value for o in got) == [0, 1, 4, 9, 16]
+        assert len(calls) == 1 and calls[0][0] == 0, (ex.kind, calls)  # once, before any outcome
+        assert calls[0][1] is None if ex is not dask2 else calls[0][1] >= 5  # with every task submitted
+
+
+def test_local_settings_last_as_long_as_the_cluster():
+    import dask
+
+    default = dask.config.get("distributed.admin.tick.interval")
+    with executor.start(workers=1) as ex:
+        on_worker = ex.client.run(lambda: __import__("dask").config.get("distributed.admin.tick.interval"))
+        assert list(on_worker.values()) == [executor.LOCAL_CONFIG["distributed.admin.tick.interval"]]
+        assert ex.dashboard is None  # not asked for
+    assert dask.config.get("distributed.admin.tick.interval") == default
 
 
 def test_dask_time_limit(dask2):
@@ -199,5 +255,7 @@ def test_experiment_scripts_take_workers_and_scheduler(tmp_path, monkeypatch, ca
     assert experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--jobs", "3"]) == 0
     assert seen == {"jobs": 3, "executor": None, "workers": None}
     capsys.readouterr()
-    assert experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--workers", "0"]) == 2
-    assert capsys.readouterr().err.startswith("error: --workers 0")
+    with pytest.raises(SystemExit) as refused:  # the option's own domain: argparse's one error line, exit 2
+        experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--workers", "0"])
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and "error: argument --workers: 0: expected a number of worker processes" in err and "Traceback" not in err

@@ -60,6 +60,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     again.add_argument("--force", action="store_true", help="start over in an existing OUT_DIR (its audit files are replaced)")
     p.add_argument("--source-map", metavar="FILE", help="JSON: clip path under DIR -> the source clip(s) it was made from")
     p.add_argument(
+        "--dashboard",
+        action="store_true",
+        help="with --workers: run the LocalCluster's Dask dashboard on a free port of 127.0.0.1 and print its address (needs bokeh)",
+    )
+    p.add_argument(
         "--timeout",
         type=number(0, 1e6, lo_open=True, what="a number of seconds"),
         metavar="S",
@@ -98,6 +103,10 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
 
 
 def run(args: argparse.Namespace) -> int:
+    import atexit
+    import gc
+    from concurrent.futures import ThreadPoolExecutor
+
     from .. import audit
     from ..errors import require_number
     from ..executor import check_options, start
@@ -115,14 +124,25 @@ def run(args: argparse.Namespace) -> int:
         rels = [p.relative_to(root.resolve()).as_posix() for p in audit.find_clips(root)]
         source_map = audit.read_source_map(args.source_map, rels)
     workers = args.workers if args.workers is not None or args.scheduler else _default_workers()
-    with start(workers=workers, scheduler=args.scheduler, connect_timeout=args.connect_timeout, preload=audit.PRELOAD) as ex:
-        if args.force:  # only once the workers answer: a refused start leaves the old audit as it was
-            for name in audit.OUTPUTS:
-                (out / name).unlink(missing_ok=True)
-        print(f"auditing {root} on {ex.describe()}" + (f"; dashboard {ex.dashboard}" if ex.dashboard else ""), flush=True)
-        res = audit.run(root, out, ex, resume=args.resume, timeout=args.timeout, source_map=source_map, opts=opts)
+    # The files are listed and hashed (and a resumed table read) in a thread while the workers start:
+    # hashing and reading release the interpreter's lock, the start-up is mostly imports and forks.
+    with ThreadPoolExecutor(1, thread_name_prefix="audit-plan") as pool:
+        planned = pool.submit(audit.plan, root, out, resume=args.resume, source_map=source_map, opts=opts)
+        ex = start(workers=workers, scheduler=args.scheduler, connect_timeout=args.connect_timeout, preload=audit.PRELOAD, dashboard=args.dashboard)
+        with ex:
+            if args.force:  # only once the workers answer: a refused start leaves the old audit as it was
+                for name in audit.OUTPUTS:
+                    (out / name).unlink(missing_ok=True)
+            print(f"auditing {root} on {ex.describe()}" + (f"; dashboard {ex.dashboard}" if ex.dashboard else ""), flush=True)
+            if args.dashboard and ex.dashboard is None and args.scheduler is None:
+                print("note: --dashboard: Dask started no dashboard (it needs bokeh: pip install bokeh)", flush=True)
+            res = audit.run(root, out, ex, timeout=args.timeout, opts=opts, planned=planned.result())
     n_err = sum(r["status"] != "ok" for r in res.rows)
     rate = f" ({res.computed / res.seconds:.2f} clips/s)" if res.computed and res.seconds > 0 else ""
     print(f"{len(res.rows)} clips: {len(res.rows) - n_err} ok, {n_err} error; {res.computed} evaluated in {res.seconds:.1f} s{rate}")
     print("wrote " + ", ".join(res.files))
+    # At exit the interpreter's last garbage collection walks every object Dask, Matplotlib, Arrow and the
+    # judge left (a second or more on the shared clips, longer than the evaluation of many of them);
+    # everything is written and closed by now, so that walk is skipped (in-process callers exit later).
+    atexit.register(gc.freeze)
     return 0
