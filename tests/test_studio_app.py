@@ -273,6 +273,7 @@ def test_two_pages_at_once_keep_separate_state(browser, studio, page, tmp_path):
         a.set_number("Weight 2", 1.0)
         a.wait_for(lambda: a.session.live.target_weights[1] > 0.4)
         b.wait_for(lambda: any(f.action == "kick" for f in list(b.session.live_record)), timeout=20)
+        a.wait_for(lambda: sum(f.index > start for f in list(a.session.live_record)) > 30, timeout=20)  # a streamed on meanwhile
         a_frames = [f for f in list(a.session.live_record) if f.index > start]
         assert len(a_frames) > 30 and not any(f.action for f in a_frames) and a.session.live.target_weights[1] == pytest.approx(0.5)
         assert b.session.live.target_weights[0] == pytest.approx(1.0)
