@@ -47,6 +47,7 @@ from .feet import (
     low_both,
     lowest_body_point,
     lowest_points,
+    planted_speeds,
 )
 from .mjcf import CompiledModel
 from .skeleton import Motion
@@ -70,10 +71,11 @@ def _track(x: Motion | FootTrack) -> FootTrack:
 
 def planted_skate_mm_per_s(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C, hysteresis: float = HYSTERESIS) -> float:
     """The headline footskate: mean horizontal speed (mm/s) of each foot's lowest sole point over
-    its contact frames (:func:`contacts`), pooled over feet; NaN with no contact frame."""
+    its contact frames (:func:`contacts`), pooled over feet; NaN with no contact frame. The speed
+    is measured from the plant's own frames (:func:`mjmotion.feet.planted_speeds`)."""
     tr = _track(track)
     con = contacts(tr, h_c, v_c, hysteresis)
-    return float(1000.0 * tr.speeds[con].mean()) if con.any() else float("nan")
+    return float(1000.0 * planted_speeds(tr, con)[con].mean()) if con.any() else float("nan")
 
 
 def skate_weights(heights: np.ndarray, h_c: float = H_C) -> np.ndarray:
@@ -155,13 +157,13 @@ def ground_metrics(
     (:func:`lowest_body_point`), and the feet (their floor is the floor used).
 
     Skate displacement per frame: horizontal displacement (mm) of the feet in contact between
-    frames (speed / fps), averaged over the feet in contact, 0 when none; then over all frames.
+    frames (their planted speed / fps, :func:`mjmotion.feet.planted_speeds`), averaged over the feet in contact, 0 when none; then over all frames.
     """
     z = np.asarray(lowest_z, dtype=float) - track.floor
     pen = np.maximum(0.0, -z)
     flo = np.maximum(0.0, z - float_tol)
     con = contacts(track, h_c, v_c, hysteresis)
-    disp = track.speeds / track.fps * 1000.0
+    disp = np.nan_to_num(planted_speeds(track, con)) / track.fps * 1000.0
     n = con.sum(axis=1)
     per_frame = np.where(n > 0, (disp * con).sum(axis=1) / np.maximum(n, 1), 0.0)
     p, f, s = float(pen.mean() * 1000), float(flo.mean() * 1000), float(per_frame.mean())

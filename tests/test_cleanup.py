@@ -69,12 +69,12 @@ def blends():
 
 
 def test_cleanup_removes_planted_skate_from_walk_run_blends(blends):
-    """Judged against the blend's inputs (their floor and soles): planted skate falls by 75 % on
-    daz 07_01+09_01 and 70 % on 08_01+09_11 (measured 76 % and 76 %: the short run plants' eased
-    edges stay in the count), nothing stays in the floor, no joint runs faster than in the inputs."""
-    for (w, r, b, res), cut in zip(blends, (0.75, 0.7)):
+    """Judged against the blend's inputs (their floor and soles): planted skate falls by 80 % on
+    both daz pairs (measured 94 % and 90 %), nothing stays in the floor, no joint runs faster
+    than in the inputs."""
+    for (w, r, b, res), cut in zip(blends, (0.8, 0.8)):
         before, after = ev.evaluate(b, sources=[w, r]), ev.evaluate(res.motion, sources=[w, r])
-        assert before.planted_skate_mm_per_s > 150
+        assert before.planted_skate_mm_per_s > 120
         assert after.planted_skate_mm_per_s <= (1 - cut) * before.planted_skate_mm_per_s, (
             before.planted_skate_mm_per_s,
             after.planted_skate_mm_per_s,

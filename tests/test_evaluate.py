@@ -146,6 +146,15 @@ def test_foot_dragged_at_0_3_m_s_gives_300_mm_s():
     assert ev.skating_ratio(fast) > 0.9
 
 
+def test_the_bundled_walk_whose_toes_stand_still_reads_no_planted_skate():
+    """The procedural walk holds each toe joint exactly on its footprint through stance: measured
+    from the plant's own frames it reads ~0 (the swing's speed once leaked into each plant's edges: 16 mm/s)."""
+    from mjmotion import synth
+
+    walk = synth.walk(seconds=2.0).motion
+    assert ev.planted_skate_mm_per_s(walk) < 1.0
+
+
 def test_clean_walk_skates_far_less_than_walk_run_blend():
     walk = shared_clip("cmu_iclone_ccrig/002_01.bvh")
     run = shared_clip("cmu_iclone_ccrig/002_03.bvh")
