@@ -413,8 +413,9 @@ def contact_paths(plants: list[Plant], ankles_xy: np.ndarray, reach: np.ndarray)
     return out
 
 
-#: Pinned paths: steps of the touching point slower than this (m/s) are held in least squares,
-#: faster ones (a glitch in the captured foot's rotation) linearly (Huber, a few reweighted passes).
+#: Pinned paths: a held step counts in least squares while its speed (m/s) over the square root of
+#: its window's step count (its share of the window's mean) is below this, linearly above (Huber,
+#: a few reweighted passes): a glitch in the captured foot's rotation is not chased by the leg.
 HUBER_SPEED = 0.2
 HUBER_PASSES = 3
 
@@ -434,7 +435,7 @@ def pinned_paths(
 
     ``W_t`` the judge's speed window around t (``window`` seconds within the plant,
     :func:`mjmotion.feet.planted_speeds`), ``Δp_s`` the velocity (m/s) between frames s and s+1
-    of the point lowest at t (Huber above :data:`HUBER_SPEED`); ``X''`` the ankle's acceleration
+    of the point lowest at t (Huber, :data:`HUBER_SPEED`); ``X''`` the ankle's acceleration
     (m/s², ``stiffness`` in seconds) and ``X'' − A''`` that of what the cleanup adds to the leg,
     which must also vanish where the stretch meets the capture: the foot leaves a plant and
     catches the captured swing up along the smoothest path, its velocity continuous.
@@ -442,11 +443,11 @@ def pinned_paths(
     Held exactly frame by frame, the touching point moves the ankle by every jitter of the
     capture (the pelvis's, the foot's, the toe's rotation: the knee pops cancelling marker noise),
     and two level points taking turns being lowest each slide while the other is held; held over
-    the judge's window, neither happens. One sparse linear least-squares problem per stretch
-    (exact elsewhere: ``ankles_xy``). Returns ``(T, 2)``.
+    the judge's window, neither happens. The normal equations of each stretch are banded (steps
+    couple neighbouring frames, accelerations three): one banded Cholesky solve per Huber pass.
+    Elsewhere ``ankles_xy``. Returns ``(T, 2)``.
     """
-    import scipy.sparse as sp
-    from scipy.sparse.linalg import spsolve
+    from scipy.linalg import solveh_banded
 
     t_count = len(ankles_xy)
     out = ankles_xy.copy()
@@ -461,43 +462,63 @@ def pinned_paths(
     run_lo, run_hi = np.zeros(t_count, dtype=int), np.zeros(t_count, dtype=int)
     for a, b in _runs(planted):
         run_lo[a:b], run_hi[a:b] = a, b
+    scale = (stiffness * fps * fps) ** 2
     for lo_s, hi_s in _runs(near):
         m = hi_s - lo_s
-        # Held points: per plant frame, its window's steps (a window counts as one mean).
-        rows, cols, vals, rhs = [], [], [], []
-        for t in np.flatnonzero(planted[lo_s:hi_s]) + lo_s:
-            lo, hi = max(run_lo[t], t - half), min(run_hi[t], t + half + 1)
-            if hi - lo < 2:
-                continue
-            steps = np.arange(lo, hi - 1) - lo_s
-            wgt = fps / np.sqrt(len(steps))
-            r = reach[lo:hi, k[t], :2]
-            rows += list(len(rhs) + np.arange(len(steps))) * 2
-            cols += list(steps + 1) + list(steps)
-            vals += [wgt] * len(steps) + [-wgt] * len(steps)
-            rhs += list(-(r[1:] - r[:-1]) * wgt)
-        still = sp.csr_matrix((vals, (rows, cols)), shape=(len(rhs), m))
-        target = np.asarray(rhs, dtype=float).reshape(-1, 2)
-        # Accelerations over the stretch and two frames of capture either side (there X = A).
+        # Held points: every step s -> s+1 of the point lowest at each plant frame t, within t's
+        # window (a window counts as one mean: its steps weigh fps² / their number).
+        frames = np.flatnonzero(planted[lo_s:hi_s]) + lo_s
+        lo, hi = np.maximum(run_lo[frames], frames - half), np.minimum(run_hi[frames], frames + half + 1)
+        offsets = [lo + d < hi - 1 for d in range(2 * half)]  # half >= 2: never empty
+        t_row = np.concatenate([frames[ok] for ok in offsets])
+        s_row = np.concatenate([(lo + d)[ok] for d, ok in enumerate(offsets)])
+        w2 = (fps * fps / np.maximum(hi - lo - 1, 1))[np.searchsorted(frames, t_row)]  # (R,)
+        step = reach[s_row + 1, k[t_row], :2] - reach[s_row, k[t_row], :2]  # the point's own motion
+        s_loc = s_row - lo_s
+        # Accelerations over the stretch and two frames of capture either side (there X = A): each
+        # second difference centred inside the stretch counts once, twice inside a plant.
         ext = np.arange(max(0, lo_s - 2), min(t_count, hi_s + 2))
-        d2 = sp.diags([1.0, -2.0, 1.0], [0, 1, 2], shape=(len(ext) - 2, len(ext))).tocsc() * (stiffness * fps * fps)
-        unknown = (ext >= lo_s) & (ext < hi_s)
-        d2u, d2k = d2[:, np.flatnonzero(unknown)], d2[:, np.flatnonzero(~unknown)]
-        held = sp.diags(planted[ext[1:-1]].astype(float))  # the absolute term: inside plants only
-        a_u, a_k = ankles_xy[lo_s:hi_s], ankles_xy[ext[~unknown]]
-        anchor = np.where(planted[lo_s:hi_s, None], exact[lo_s:hi_s], a_u)
-        base = d2u.T @ d2u + d2u.T @ held @ d2u + sp.identity(m)
-        base_rhs = d2u.T @ (d2u @ a_u) - d2u.T @ (held @ (d2k @ a_k)) + anchor
-        weight = np.ones(len(target))
+        centre = ext[1:-1]
+        count = 1.0 + planted[centre]
+        band = np.zeros((3, m))  # upper banded normal matrix: band[2 - j, i + j] = N[i, i + j]
+        rhs = np.zeros((m, 2))
+        cols = np.stack([ext[:-2], centre, ext[2:]], axis=1)  # (C, 3) frames of each difference
+        coef = np.array([1.0, -2.0, 1.0])
+        known = (cols < lo_s) | (cols >= hi_s)
+        # Relative term: the unknowns' share of a difference follows the capture's (D2u x = D2u a);
+        # absolute term (plants): the whole difference vanishes (D2u x = −D2k a, the known frames').
+        target = np.einsum("cj,cjd->cd", ~known * coef, ankles_xy[cols]) - planted[centre, None] * np.einsum(
+            "cj,cjd->cd", known * coef, ankles_xy[cols]
+        )
+        for i in range(3):
+            ui = cols[:, i] - lo_s
+            okay_i = ~known[:, i]
+            rhs_add = scale * coef[i] * target
+            np.add.at(rhs, ui[okay_i], rhs_add[okay_i])
+            for j in range(i, 3):
+                uj = cols[:, j] - lo_s
+                both = okay_i & ~known[:, j]
+                np.add.at(band[2 - (j - i)], uj[both], scale * count[both] * coef[i] * coef[j])
+        band[2] += 1.0  # the anchor
+        anchor = np.where(planted[lo_s:hi_s, None], exact[lo_s:hi_s], ankles_xy[lo_s:hi_s])
+        rhs += anchor
+        weight = np.ones(len(t_row))
         x = anchor
         for _ in range(HUBER_PASSES):
-            lhs = (still.T @ sp.diags(weight) @ still + base).tocsc()
-            x = np.asarray(spsolve(lhs, still.T @ (weight[:, None] * target) + base_rhs)).reshape(m, 2)
-            if not len(target):
+            ab = band.copy()
+            b_vec = rhs.copy()
+            c = w2 * weight
+            np.add.at(ab[2], s_loc, c)
+            np.add.at(ab[2], s_loc + 1, c)
+            np.add.at(ab[1], s_loc + 1, -c)
+            np.add.at(b_vec, s_loc, c[:, None] * step)
+            np.add.at(b_vec, s_loc + 1, -c[:, None] * step)
+            x = solveh_banded(ab, b_vec)
+            if not len(t_row):
                 break
             # Huber: a step that would need more than HUBER_SPEED to hold counts linearly, so one
             # glitching frame of the captured foot's rotation is not chased by the whole leg.
-            need = np.linalg.norm(still @ x - target, axis=1)
+            need = np.linalg.norm(x[s_loc + 1] - x[s_loc] + step, axis=1) * np.sqrt(w2)
             weight = np.minimum(1.0, HUBER_SPEED / np.maximum(need, 1e-12))
         out[lo_s:hi_s] = x
     return out

@@ -100,6 +100,53 @@ def test_pinned_paths_hold_the_judged_point_smoothly_and_rejoin_the_capture():
     assert step[fades].max() < 0.15, step[fades].max()
 
 
+def test_pinned_paths_solve_their_least_squares_problem(monkeypatch):
+    """Without the Huber reweighting the banded solve is the minimiser of the stated objective,
+    built here densely term by term and solved by NumPy."""
+    monkeypatch.setattr(cl, "HUBER_SPEED", 1e9)
+    rng = np.random.default_rng(4)
+    fps, t_count, half, n, stiff = 100.0, 70, 3, 8, 0.01  # window 0.07 s: 7 frames; blend 0.08 s
+    ankle = np.cumsum(rng.normal(scale=0.01, size=(t_count, 2)) + 0.004, axis=0)
+    reach = rng.normal(scale=0.01, size=(t_count, 2, 3))
+    plants = [cl.Plant("left", 15, 35, (0.0, 0.0)), cl.Plant("left", 40, 52, (0.0, 0.0))]
+    exact = cl.contact_paths(plants, ankle, reach)
+    got = cl.pinned_paths(plants, exact, ankle, reach, fps, 0.07, stiff, n / fps)
+    lo_s, hi_s = 15 - n, 52 + n
+    k = np.argmin(reach[..., 2], axis=1)
+    planted = np.zeros(t_count, dtype=bool)
+    for p in plants:
+        planted[p.start : p.stop] = True
+    rows, rhs = [], []
+    unknown = np.arange(lo_s, hi_s)
+    for p in plants:  # held steps, a window's mean each
+        for t in range(p.start, p.stop):
+            lo, hi = max(p.start, t - half), min(p.stop, t + half + 1)
+            for s in range(lo, hi - 1):
+                w = fps / np.sqrt(hi - lo - 1)
+                row = np.zeros(t_count)
+                row[s + 1], row[s] = w, -w
+                rows.append(row)
+                rhs.append(-w * (reach[s + 1, k[t], :2] - reach[s, k[t], :2]))
+    for c in range(lo_s - 1, hi_s + 1):  # accelerations: relative everywhere, absolute in plants
+        row = np.zeros(t_count)
+        row[c - 1 : c + 2] = np.array([1.0, -2.0, 1.0]) * stiff * fps**2
+        rows.append(row)
+        rhs.append(row @ ankle)
+        if planted[c]:
+            rows.append(row)
+            rhs.append(np.zeros(2))
+    for t in unknown:  # the anchor
+        row = np.zeros(t_count)
+        row[t] = 1.0
+        rows.append(row)
+        rhs.append(exact[t] if planted[t] else ankle[t])
+    a, b = np.array(rows), np.array(rhs)
+    fixed = np.setdiff1d(np.arange(t_count), unknown)
+    b = b - a[:, fixed] @ ankle[fixed]  # outside the stretch the path is the capture
+    x = np.linalg.lstsq(a[:, unknown], b, rcond=None)[0]
+    assert np.allclose(got[unknown], x, atol=1e-9) and np.array_equal(got[fixed], ankle[fixed])
+
+
 @pytest.fixture(scope="module")
 def blends():
     out = []
