@@ -253,7 +253,7 @@ def _params_line(report: dict[str, Any]) -> str:
     return (
         f"parameters: h_c={p['h_c']} m, v_c={p['v_c']} m/s, hysteresis={p['hysteresis']}, skating window={p['skate_window']} frames, "
         f"float tolerance={p['float_tol']} m, low-pass {p['cutoff_hz']} Hz before differentiating, mu={p['mu']}, "
-        f"ground-reaction residual>{p['residual_tol']} m·g or deeper than {p['penetration_tol']} m fails, "
+        f"ground-reaction residual>{p['residual_tol']} m·g, a flight>{p['flight_tol']} g from free fall or deeper than {p['penetration_tol']} m fails, "
         f"pops: angular acceleration>{p['pop_factor']}x the reference's p{p['peak_percentile']:g} (docs/METRICS.md)"
     )
 

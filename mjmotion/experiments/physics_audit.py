@@ -156,7 +156,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
             (
                 f"thresholds (docs/METRICS.md): h_c = {params.h_c} m, v_c = {params.v_c} m/s, hysteresis {params.hysteresis}, "
                 f"float tolerance {params.float_tol * 1000:.0f} mm, foot speeds over {params.speed_window} s, low-pass {params.cutoff_hz} Hz "
-                f"before inverse dynamics, friction μ = {params.mu}, residual tolerance {params.residual_tol} m·g, "
+                f"before inverse dynamics, friction μ = {params.mu}, residual tolerance {params.residual_tol} m·g (a flight's: {params.flight_tol} g), "
                 f"penetration tolerance {params.penetration_tol} m, pops at {params.pop_factor}x the reference's p{params.peak_percentile:g}"
             ),
             (
