@@ -564,12 +564,7 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
         skel.require_same_topology(s.skeleton, "the clip and its source")
     compiled = mjcf.compile(skel)
     pose = kinematics.forward(compiled, motion)
-    src_poses = [(kinematics.forward(compiled, s), s.fps) for s in sources]
-    soles = ft.calibrate_soles(skel, src_poses or [(pose, motion.fps)])
-    own = ft.foot_heights_speeds(compiled, motion, pose, floor=0.0, soles=soles)
-    src_floors = [ft.foot_heights_speeds(compiled, s, p, floor=0.0, soles=soles).detected_floor() for s, (p, _) in zip(sources, src_poses)]
-    fl = floors.resolve(params.floor, src_floors, own.detected_floor())
-    track = own.at_floor(fl.height)
+    track, soles, fl = ft.judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], params.floor)
     legs = []
     for side in track.sides:
         ankle = feet[side][0]

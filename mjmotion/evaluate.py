@@ -38,12 +38,12 @@ from .errors import MjmotionError
 from .feet import (
     FootTrack,
     box_corners,
-    calibrate_soles,
     contacts,
     flight_frames,
     foot_heights_speeds,
     foot_track,
     geom_frames,
+    judged_feet,
     low_both,
     lowest_body_point,
     lowest_points,
@@ -411,15 +411,7 @@ def evaluate(
     _check_sources(motion, sources)
     compiled = mjcf.compile(motion.skeleton, tuple(props))
     pose = kinematics.forward(compiled, motion)
-    src_poses = [(kinematics.forward(compiled, s), s.fps) for s in sources]
-    soles = calibrate_soles(motion.skeleton, src_poses if sources else [(pose, motion.fps)])
-    own = foot_heights_speeds(compiled, motion, pose, floor=0.0, soles=soles, speed_window=params.speed_window)
-    src_floors = [
-        foot_heights_speeds(compiled, s, p, floor=0.0, soles=soles, speed_window=params.speed_window).detected_floor()
-        for s, (p, _) in zip(sources, src_poses)
-    ]
-    fl = floors.resolve(floor, src_floors, own.detected_floor())
-    track = own.at_floor(fl.height)
+    track, soles, fl = judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], floor, params.speed_window)
     lz = lowest_body_point(compiled, pose, track.heights.min(axis=1) + fl.height)
     g = ground_metrics(lz, track, params.h_c, params.v_c, params.float_tol, params.hysteresis)
     res = physics.residuals(compiled, motion, track, params, ground=lz - fl.height, pose=pose)

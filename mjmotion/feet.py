@@ -20,6 +20,7 @@ Reusable pieces:
 - :func:`geom_frames`, :func:`box_corners`, :func:`lowest_points`, :func:`lowest_heights`, :func:`lowest_body_point`
 - :func:`calibrate_soles` ``(skeleton, poses) -> Soles``, :func:`sole_points` ``(soles, pose)``
 - :class:`FootTrack`, :func:`foot_track`, :func:`foot_heights_speeds`
+- :func:`judged_feet` ``(compiled, motion, pose, sources, floor) -> (FootTrack, Soles, Floor)``, :func:`judged_floor`: the judge's feet and floor
 - :func:`low_both`, :func:`contacts`, :func:`flight_frames`
 """
 
@@ -378,6 +379,33 @@ def foot_heights_speeds(
     tr = foot_track(soles.sides, sole_points(soles, pose), motion.fps, 0.0, speed_window)
     tr = replace(tr, soles=soles)
     return tr.at_floor(tr.detected_floor() if floor is None else floor)
+
+
+def judged_feet(
+    compiled: CompiledModel,
+    motion: Motion,
+    pose: Pose,
+    sources: Sequence[tuple[Motion, Pose]] = (),
+    floor: float | None = None,
+    speed_window: float | None = SPEED_WINDOW,
+) -> tuple[FootTrack, Soles, floors.Floor]:
+    """The feet, their soles and the floor the judge measures ``motion`` (its ``pose``) with, as ``evaluate``,
+    ``cleanup`` and ``render`` share them: soles calibrated on the ``sources`` (``(motion, pose)``
+    of the clips it was made from; none: on the clip itself), and the floor of
+    :func:`mjmotion.floor.resolve` — ``floor`` if given, else the sources' mean stance floor, else
+    the clip's own. Returns the track measured from that floor, the soles, and the floor."""
+    soles = calibrate_soles(motion.skeleton, [(p, s.fps) for s, p in sources] or [(pose, motion.fps)])
+    own = foot_heights_speeds(compiled, motion, pose, floor=0.0, soles=soles, speed_window=speed_window)
+    src_floors = [foot_heights_speeds(compiled, s, p, floor=0.0, soles=soles, speed_window=speed_window).detected_floor() for s, p in sources]
+    fl = floors.resolve(floor, src_floors, own.detected_floor())
+    return own.at_floor(fl.height), soles, fl
+
+
+def judged_floor(motion: Motion, sources: Sequence[Motion] = (), floor: float | None = None) -> floors.Floor:
+    """The floor :func:`judged_feet` gives ``motion`` judged against ``sources`` (same skeleton)."""
+    compiled = mjcf.compile(motion.skeleton)
+    src = [(s, kinematics.forward(compiled, s)) for s in sources]
+    return judged_feet(compiled, motion, kinematics.forward(compiled, motion), src, floor)[2]
 
 
 def _track(x: Motion | FootTrack) -> FootTrack:
