@@ -122,22 +122,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_input_options(p)
 
 
-def add_judge_options(p: argparse.ArgumentParser) -> None:
-    """``--floor`` and ``--source``: where the judge's floor and references come from (evaluate, cleanup)."""
-    p.add_argument(
-        "--floor",
-        type=number(-100, 100, what="a floor height in metres"),
-        metavar="METRES",
-        help="the floor height (world z, m, within ±100) every ground metric measures from (default: from --source, else detected)",
-    )
-    p.add_argument(
-        "--source",
-        action="append",
-        default=[],
-        metavar="SRC.bvh",
-        help="a clip the input was made from (repeatable; same skeleton and frame rate): gives the floor, "
-        "calibrates the feet, and is the reference of the per-joint speed ratio and pops",
-    )
+FLOOR_HELP = "the floor height (world z, m, within ±100) every ground metric measures from (default: from --source, else detected)"
+SOURCE_HELP = (
+    "a clip the input was made from (repeatable; same skeleton and frame rate): gives the floor, "
+    "calibrates the feet, and is the reference of the per-joint speed ratio and pops"
+)
+
+
+def add_judge_options(p: argparse.ArgumentParser, floor_help: str = FLOOR_HELP, source_help: str = SOURCE_HELP) -> None:
+    """``--floor`` and ``--source``: where the judge's floor and references come from (evaluate,
+    cleanup, render: each says in its help what it uses them for)."""
+    p.add_argument("--floor", type=number(-100, 100, what="a floor height in metres"), metavar="METRES", help=floor_help)
+    p.add_argument("--source", action="append", default=[], metavar="SRC.bvh", help=source_help)
 
 
 def check_floor(args: argparse.Namespace) -> None:

@@ -15,6 +15,7 @@ from ..floor import Floor
 from ._common import add_input_options, load, output_path, parse_frames
 from ._options import COORD, VIDEO_FPS, UniqueProps, check_actors, integer, number
 from ._options import label as label_text
+from .evaluate import add_judge_options, check_floor, load_sources
 
 PIXELS = integer(16, 4096, what="pixels")
 
@@ -106,18 +107,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         choices=("only", "both"),
         help="draw the skinned character instead of capsules; 'both': each clip skinned and as capsules, side by side",
     )
-    p.add_argument(
-        "--floor",
-        type=number(-100, 100, what="a floor height in metres"),
-        metavar="METRES",
-        help="the floor height (world z, m, within ±100) drawn at the checker floor (default: from --source, else detected on the first clip)",
-    )
-    p.add_argument(
-        "--source",
-        action="append",
-        default=[],
-        metavar="SRC.bvh",
-        help="a clip the first one was made from (repeatable; same skeleton and frame rate): its stance floor is the one drawn",
+    add_judge_options(
+        p,
+        floor_help="the floor height (world z, m, within ±100) drawn at the checker floor (default: from --source, else detected on the first clip)",
+        source_help="a clip the first one was made from (repeatable; same skeleton and frame rate): its stance floor is the one drawn",
     )
     add_input_options(p)
 
@@ -127,7 +120,6 @@ def scene_floor(args: argparse.Namespace, first) -> Floor | None:
     (as rendered), from ``--floor``, its ``--source`` clips, or its own stance; None (z = 0)
     for a skeleton without feet and no ``--floor``."""
     from ..feet import judged_floor
-    from .evaluate import check_floor, load_sources
 
     check_floor(args)
     sources = load_sources(args, args.files[0], first) if args.source else []
