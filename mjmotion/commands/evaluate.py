@@ -27,7 +27,8 @@ DESCRIPTION = """Evaluate clips with the definitions of docs/METRICS.md (thresho
 report states them): foot contacts (with hysteresis) and planted footskate, the height-weighted
 footskate and the h_c sensitivity table, ground penetration, float and PhysDiff error, MuJoCo
 inverse-dynamics residuals (ground-reaction feasibility: can contact forces inside friction cones
-at the feet supply the wrench the motion needs?), joint-range violations, per-joint pops and, with a
+at the feet supply the wrench the motion needs? in a flight, does the centre of mass fall as a
+thrown body does?), joint-range violations, per-joint pops and, with a
 ball, the hitting metrics and a simulated ball launch.
 
 The floor every ground metric measures from is, in order: --floor METRES; the source clip(s) of a
