@@ -38,15 +38,16 @@ from .errors import MjmotionError
 from .feet import (
     FootTrack,
     box_corners,
-    calibrate_soles,
     contacts,
     flight_frames,
     foot_heights_speeds,
     foot_track,
     geom_frames,
+    judged_feet,
     low_both,
     lowest_body_point,
     lowest_points,
+    planted_speeds,
 )
 from .mjcf import CompiledModel
 from .skeleton import Motion
@@ -70,10 +71,11 @@ def _track(x: Motion | FootTrack) -> FootTrack:
 
 def planted_skate_mm_per_s(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C, hysteresis: float = HYSTERESIS) -> float:
     """The headline footskate: mean horizontal speed (mm/s) of each foot's lowest sole point over
-    its contact frames (:func:`contacts`), pooled over feet; NaN with no contact frame."""
+    its contact frames (:func:`contacts`), pooled over feet; NaN with no contact frame. The speed
+    is measured from the plant's own frames (:func:`mjmotion.feet.planted_speeds`)."""
     tr = _track(track)
     con = contacts(tr, h_c, v_c, hysteresis)
-    return float(1000.0 * tr.speeds[con].mean()) if con.any() else float("nan")
+    return float(1000.0 * planted_speeds(tr, con)[con].mean()) if con.any() else float("nan")
 
 
 def skate_weights(heights: np.ndarray, h_c: float = H_C) -> np.ndarray:
@@ -155,13 +157,13 @@ def ground_metrics(
     (:func:`lowest_body_point`), and the feet (their floor is the floor used).
 
     Skate displacement per frame: horizontal displacement (mm) of the feet in contact between
-    frames (speed / fps), averaged over the feet in contact, 0 when none; then over all frames.
+    frames (their planted speed / fps, :func:`mjmotion.feet.planted_speeds`), averaged over the feet in contact, 0 when none; then over all frames.
     """
     z = np.asarray(lowest_z, dtype=float) - track.floor
     pen = np.maximum(0.0, -z)
     flo = np.maximum(0.0, z - float_tol)
     con = contacts(track, h_c, v_c, hysteresis)
-    disp = track.speeds / track.fps * 1000.0
+    disp = np.nan_to_num(planted_speeds(track, con)) / track.fps * 1000.0
     n = con.sum(axis=1)
     per_frame = np.where(n > 0, (disp * con).sum(axis=1) / np.maximum(n, 1), 0.0)
     p, f, s = float(pen.mean() * 1000), float(flo.mean() * 1000), float(per_frame.mean())
@@ -431,15 +433,7 @@ def evaluate(
     _check_sources(motion, sources)
     compiled = mjcf.compile(motion.skeleton, tuple(props))
     pose = kinematics.forward(compiled, motion)
-    src_poses = [(kinematics.forward(compiled, s), s.fps) for s in sources]
-    soles = calibrate_soles(motion.skeleton, src_poses if sources else [(pose, motion.fps)])
-    own = foot_heights_speeds(compiled, motion, pose, floor=0.0, soles=soles, speed_window=params.speed_window)
-    src_floors = [
-        foot_heights_speeds(compiled, s, p, floor=0.0, soles=soles, speed_window=params.speed_window).detected_floor()
-        for s, (p, _) in zip(sources, src_poses)
-    ]
-    fl = floors.resolve(floor, src_floors, own.detected_floor())
-    track = own.at_floor(fl.height)
+    track, soles, fl = judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], floor, params.speed_window)
     lz = lowest_body_point(compiled, pose, track.heights.min(axis=1) + fl.height)
     g = ground_metrics(lz, track, params.h_c, params.v_c, params.float_tol, params.hysteresis)
     res = physics.residuals(compiled, motion, track, params, ground=lz - fl.height, pose=pose)

@@ -20,6 +20,7 @@ Reusable pieces:
 - :func:`geom_frames`, :func:`box_corners`, :func:`lowest_points`, :func:`lowest_heights`, :func:`lowest_body_point`
 - :func:`calibrate_soles` ``(skeleton, poses) -> Soles``, :func:`sole_points` ``(soles, pose)``
 - :class:`FootTrack`, :func:`foot_track`, :func:`foot_heights_speeds`
+- :func:`judged_feet` ``(compiled, motion, pose, sources, floor) -> (FootTrack, Soles, Floor)``, :func:`judged_floor`: the judge's feet and floor
 - :func:`low_both`, :func:`contacts`, :func:`flight_frames`
 """
 
@@ -315,6 +316,7 @@ class FootTrack:
         floor: the floor height the heights are measured from (m, world z).
         soles: the sole points' placement, when the track came from a skeleton.
         climb: ``(T, F)`` vertical speed of the lowest point (m/s, signed), or None.
+        speed_window: the window (s) the speeds were smoothed over (None: central differences).
     """
 
     sides: tuple[str, ...]
@@ -326,6 +328,7 @@ class FootTrack:
     floor: float = 0.0
     soles: Soles | None = None
     climb: np.ndarray | None = None
+    speed_window: float | None = SPEED_WINDOW
 
     @property
     def n_frames(self) -> int:
@@ -352,7 +355,8 @@ def foot_track(sides: tuple[str, ...], points: np.ndarray, fps: float, floor: fl
     lowest = np.take_along_axis(points, k[..., None, None], axis=2)[:, :, 0]
     vel = velocity(points, fps, speed_window)  # (T, F, P, 3), per second
     v_low = np.take_along_axis(vel, k[..., None, None], axis=2)[:, :, 0]
-    return FootTrack(sides, float(fps), points, heights, lowest, np.linalg.norm(v_low[..., :2], axis=-1), float(floor), climb=v_low[..., 2])
+    speeds = np.linalg.norm(v_low[..., :2], axis=-1)
+    return FootTrack(sides, float(fps), points, heights, lowest, speeds, float(floor), climb=v_low[..., 2], speed_window=speed_window)
 
 
 def foot_heights_speeds(
@@ -375,6 +379,33 @@ def foot_heights_speeds(
     tr = foot_track(soles.sides, sole_points(soles, pose), motion.fps, 0.0, speed_window)
     tr = replace(tr, soles=soles)
     return tr.at_floor(tr.detected_floor() if floor is None else floor)
+
+
+def judged_feet(
+    compiled: CompiledModel,
+    motion: Motion,
+    pose: Pose,
+    sources: Sequence[tuple[Motion, Pose]] = (),
+    floor: float | None = None,
+    speed_window: float | None = SPEED_WINDOW,
+) -> tuple[FootTrack, Soles, floors.Floor]:
+    """The feet, their soles and the floor the judge measures ``motion`` (its ``pose``) with, as ``evaluate``,
+    ``cleanup`` and ``render`` share them: soles calibrated on the ``sources`` (``(motion, pose)``
+    of the clips it was made from; none: on the clip itself), and the floor of
+    :func:`mjmotion.floor.resolve` — ``floor`` if given, else the sources' mean stance floor, else
+    the clip's own. Returns the track measured from that floor, the soles, and the floor."""
+    soles = calibrate_soles(motion.skeleton, [(p, s.fps) for s, p in sources] or [(pose, motion.fps)])
+    own = foot_heights_speeds(compiled, motion, pose, floor=0.0, soles=soles, speed_window=speed_window)
+    src_floors = [foot_heights_speeds(compiled, s, p, floor=0.0, soles=soles, speed_window=speed_window).detected_floor() for s, p in sources]
+    fl = floors.resolve(floor, src_floors, own.detected_floor())
+    return own.at_floor(fl.height), soles, fl
+
+
+def judged_floor(motion: Motion, sources: Sequence[Motion] = (), floor: float | None = None) -> floors.Floor:
+    """The floor :func:`judged_feet` gives ``motion`` judged against ``sources`` (same skeleton)."""
+    compiled = mjcf.compile(motion.skeleton)
+    src = [(s, kinematics.forward(compiled, s)) for s in sources]
+    return judged_feet(compiled, motion, kinematics.forward(compiled, motion), src, floor)[2]
 
 
 def _track(x: Motion | FootTrack) -> FootTrack:
@@ -408,6 +439,55 @@ def contacts(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C, hyst
     last = np.maximum.accumulate(np.where(event != 0, t, -1), axis=0)  # last frame with an event
     state = np.take_along_axis(event, np.maximum(last, 0), axis=0)
     return np.asarray((last >= 0) & (state == 1))
+
+
+def planted_speeds(track: FootTrack, contact: np.ndarray) -> np.ndarray:
+    """``(T, F)`` horizontal speed (m/s) of each foot's lowest sole point over its contact frames,
+    measured from the plant's own frames (NaN where ``contact: (T, F)`` is False).
+
+    The velocity of that material point is the slope of the least-squares line through its
+    positions over the ``track.speed_window`` seconds around the frame (:func:`mjmotion.filters.velocity`'s
+    window) *clipped to the contact run the frame belongs to*, so a swing's speed never leaks
+    into the plant beside it: a foot that lands and stands still reads 0 from its first contact
+    frame (a window reaching into the swing reads a landing at 1 m/s as ~200 mm/s). Inside a
+    run, away from its ends, this is :attr:`FootTrack.speeds` (a centred quadratic's slope is the
+    line's). A run of one frame keeps :attr:`FootTrack.speeds`.
+    """
+    con = np.asarray(contact, dtype=bool)
+    t_count, n_feet = con.shape
+    if con.shape != track.heights.shape:
+        raise MjmotionError(f"planted_speeds: contact labels {con.shape} and the track's {track.heights.shape} must match")
+    frames = max(5, int(round(track.speed_window * track.fps)) | 1) if track.speed_window is not None else 3
+    half = frames // 2
+    # Run ids: frames of one contact run share an id, every other frame gets -1.
+    starts = con & ~np.concatenate([np.zeros((1, n_feet), dtype=bool), con[:-1]], axis=0)
+    run = np.where(con, np.cumsum(starts, axis=0), -1)  # (T, F)
+    xy = track.points[..., :2]  # (T, F, P, 2)
+    sums = np.zeros((5, t_count, n_feet) + xy.shape[2:])  # n, Σd, Σd², Σy, Σd·y (relative to frame t)
+    for d in range(-half, half + 1):
+        lo, hi = max(0, -d), min(t_count, t_count - d)
+        if lo >= hi:
+            continue
+        same = np.zeros((t_count, n_feet), dtype=bool)
+        same[lo:hi] = con[lo:hi] & (run[lo + d : hi + d] == run[lo:hi])
+        w = same[..., None, None].astype(float)
+        dy = np.zeros_like(xy)
+        dy[lo:hi] = xy[lo + d : hi + d] - xy[lo:hi]
+        sums[0] += w
+        sums[1] += w * d
+        sums[2] += w * d * d
+        sums[3] += w * dy
+        sums[4] += w * d * dy
+    n, s1, s2, sy, sdy = sums
+    den = n * s2 - s1 * s1
+    with np.errstate(invalid="ignore", divide="ignore"):
+        vel = (n * sdy - s1 * sy) / den * track.fps  # (T, F, P, 2)
+    k = np.argmin(track.points[..., 2], axis=2)  # (T, F) the lowest point
+    v_low = np.take_along_axis(vel, k[..., None, None], axis=2)[:, :, 0]
+    speed = np.linalg.norm(v_low, axis=-1)
+    short = con & (np.take_along_axis(den, k[..., None, None], axis=2)[:, :, 0, 0] <= 0)
+    speed[short] = track.speeds[short]
+    return np.where(con, speed, np.nan)
 
 
 def flight_frames(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C, hysteresis: float = HYSTERESIS) -> np.ndarray:

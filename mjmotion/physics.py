@@ -38,7 +38,7 @@ from .errors import MjmotionError
 from .feet import FootTrack
 from .filters import lowpass, lowpass_quaternions
 from .mjcf import Ball, CompiledModel, Prop
-from .skeleton import Motion
+from .skeleton import Motion, Skeleton
 from .thresholds import Params
 
 GRAVITY = 9.81
@@ -244,6 +244,44 @@ def whole_body_wrench(compiled: CompiledModel, pose: kinematics.Pose, fps: float
     return force, torque
 
 
+def centre_of_mass(compiled: CompiledModel, pose: kinematics.Pose) -> np.ndarray:
+    """``(T, 3)`` the character's centre of mass (world, m), as captured (not filtered)."""
+    m = compiled.model
+    ids, pos, quat = body_frames(compiled, pose)
+    mass = m.body_mass[ids]
+    com = pos + rot.rotate(quat, np.broadcast_to(m.body_ipos[ids], pos.shape))
+    return np.einsum("b,tbi->ti", mass, com) / mass.sum()
+
+
+#: Flights at least this long (s) are judged by their centre of mass's ballistic fit.
+MIN_FLIGHT = 0.05
+
+
+def ballistic_residual(com: np.ndarray, airborne: np.ndarray, fps: float, min_flight: float = MIN_FLIGHT) -> np.ndarray:
+    """``(T,)`` per frame of each airborne stretch (``airborne: (T,)``, no supporting point) at
+    least ``min_flight`` seconds long: how far the stretch's mean acceleration is from free fall,
+    as a fraction of g — the least-squares quadratic through the centre of mass ``com: (T, 3)``
+    over the stretch, its acceleration ``a``, and ``|a − g|/g``. NaN elsewhere.
+
+    In flight only gravity acts, so the centre of mass follows a parabola. Fitted to positions
+    over the whole stretch, the test needs no differentiation and no low-pass filter: a 6 Hz
+    filter spreads the 2–3 g of a running stance over the 0.1–0.2 s flight beside it (0.3–1.5 g
+    read there as missing force), and a higher cutoff amplifies marker noise instead.
+    """
+    out = np.full(len(com), np.nan)
+    shortest = max(5, round(min_flight * fps))
+    air = np.concatenate([[False], np.asarray(airborne, dtype=bool), [False]]).astype(np.int8)
+    edges = np.diff(air)
+    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        if b - a < shortest:
+            continue
+        t = (np.arange(a, b) - 0.5 * (a + b - 1)) / fps
+        basis = np.stack([np.ones_like(t), t, 0.5 * t * t], axis=1)
+        coef = np.linalg.lstsq(basis, com[a:b], rcond=None)[0]  # (3, 3): position, velocity, acceleration
+        out[a:b] = np.linalg.norm(coef[2] - [0.0, 0.0, -GRAVITY]) / GRAVITY
+    return out
+
+
 def total_mass(compiled: CompiledModel) -> float:
     """Mass (kg) of the character's bodies (props included, ball excluded)."""
     m = compiled.model
@@ -381,6 +419,8 @@ class Residuals:
         residual: ``(T,)`` ground-reaction residual (:func:`ground_reaction_residual`), fraction of m g.
         penetrating: ``(T,)`` bool, the body deeper below the floor than ``Params.penetration_tol``.
         support: ``(T,)`` bool, some sole point can push on the floor (else the residual is the whole wrench).
+        ballistic: ``(T,)`` bool, frames of an airborne stretch judged by its ballistic fit
+            (:func:`ballistic_residual`; their residual is the fit's, their tolerance ``Params.flight_tol``).
         violation: ``(T,)`` bool frames failing: ``residual > Params.residual_tol`` or penetrating.
         flight_residual: mean ``root_force_ratio`` over flight frames whose finite-difference
             neighbourhood is all in flight (NaN without such frames).
@@ -397,6 +437,35 @@ class Residuals:
     flight_residual: float
     physics_violation_ratio: float
     mass: float
+    ballistic: np.ndarray | None = None
+
+
+#: Heel to toe tip of a foot, × stature: 0.124-0.136 on the shared rigs with toe joints (the
+#: median over their stance frames of the horizontal distance from the heel to the toe-tip sole points).
+TOE_REACH = 0.13
+
+
+def _with_toes(skeleton: Skeleton, track: FootTrack, support: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The supporting points of the ground-reaction test, ``(T, N, 3)`` and ``(T, N)``: every sole
+    point, and for a foot without a toe joint (cgspeed daz's end at the ball) two more on the floor
+    plane ahead of its ball points, reaching :data:`TOE_REACH` × stature from the heel and pushing
+    whenever the ball does: the toes the skeleton does not model, which carry a push-off's centre
+    of pressure beyond the ball. They support only: no height or footskate is measured on them."""
+    t_count = track.points.shape[0]
+    points, active = [track.points.reshape(t_count, -1, 3)], [support.reshape(t_count, -1)]
+    feet_ = skeleton.feet()
+    reach = TOE_REACH * max(float(skeleton.stature()), 0.3)
+    for f, side in enumerate(track.sides):
+        if feet_.get(side, (None, 0))[1] is not None or track.points.shape[2] < 4:
+            continue
+        heel, ball = track.points[:, f, 0:2], track.points[:, f, 2:4]  # (T, 2, 3): the sole's corners
+        along = ball[..., :2] - heel[..., :2]
+        length = np.linalg.norm(along, axis=-1, keepdims=True)
+        toes = ball.copy()
+        toes[..., :2] += along / np.maximum(length, 1e-9) * np.maximum(reach - length, 0.0)
+        points.append(toes)
+        active.append(support[:, f, 2:4])
+    return np.concatenate(points, axis=1), np.concatenate(active, axis=1)
 
 
 def residuals(
@@ -431,21 +500,35 @@ def residuals(
     # foot often slides faster than v_c).
     h = track.points[..., 2] - track.floor  # (T, F, P)
     support = (h < params.support_height) | ((h < params.h_c) & con[:, :, None])
-    t_count = motion.n_frames
+    airborne = ~support.any(axis=(1, 2))
+    if params.cutoff_hz:
+        # The filtered wrench at t averages the wrenches of the frames within half a cutoff period
+        # (83 ms at 6 Hz): what supported any of them may supply it (a stance's push spreads into
+        # the take-off and landing frames beside it).
+        from scipy.ndimage import maximum_filter1d
+
+        k = round(0.5 / params.cutoff_hz * motion.fps)
+        if k:
+            support = maximum_filter1d(support.astype(np.uint8), size=2 * k + 1, axis=0, mode="nearest").astype(bool)
     lever = 0.5 * max(float(motion.skeleton.stature()), 0.3)
+    points, active = _with_toes(motion.skeleton, track, support)
     residual = ground_reaction_residual(
         force,
         torque,
         pose.joint_positions[:, 0],
-        track.points.reshape(t_count, -1, 3),
-        support.reshape(t_count, -1),
+        points,
+        active,
         weight,
         params.mu,
         lever,
         params.residual_tol,
     )
+    # Flights long enough to fit are judged by their ballistic fit, not the filtered wrench.
+    ballistic = ballistic_residual(centre_of_mass(compiled, pose), airborne, motion.fps)
+    fitted = ~np.isnan(ballistic)
+    residual = np.where(fitted, ballistic, residual)
     penetrating = ground < -params.penetration_tol
-    violation = (residual > params.residual_tol) | penetrating
+    violation = (residual > np.where(fitted, params.flight_tol, params.residual_tol)) | penetrating
     # flight_residual uses flight frames away from take-off and landing (there the filter and the
     # difference stencil still see the ground's push) and from the clip's ends: 2 frames and 50 ms.
     from scipy.ndimage import minimum_filter1d
@@ -462,6 +545,7 @@ def residuals(
         flight_residual=float(ratio[clean].mean()) if clean.any() else float("nan"),
         physics_violation_ratio=float(violation.mean()),
         mass=mass,
+        ballistic=fitted,
     )
 
 
@@ -502,7 +586,7 @@ def simulate_launch(
     poses_quat: np.ndarray,
     fps: float,
     hit_index: int,
-    ball_position: Sequence[float],
+    ball_position: Sequence[float] | np.ndarray,
     ball_radius: float = 0.036,
     ball_mass: float = 0.16,
     ball_velocity: Sequence[float] = (0.0, 0.0, 0.0),

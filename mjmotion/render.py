@@ -25,6 +25,7 @@ import sys
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -226,7 +227,7 @@ def build_scene(
         view: camera settings.
         floor: the floor height (m, world z) of the clips, drawn at the checker floor (default
             z = 0, as captured); None: the first clip's stance floor, as ``mjmotion evaluate``
-            detects it (docs/METRICS.md). Every character moves by the same amount, so one
+            detects it (:func:`mjmotion.feet.judged_floor`, docs/METRICS.md). Every character moves by the same amount, so one
             floating over another's floor still shows.
     """
     if not actors:
@@ -236,10 +237,10 @@ def build_scene(
     if not (np.isfinite(spacing) and spacing >= 0):
         raise MjmotionError(f"render: spacing must be a non-negative number of metres, got {spacing}")
     if floor is None:
-        from .feet import foot_heights_speeds
+        from .feet import judged_floor
 
         first = actors[0].motion
-        floor = foot_heights_speeds(None, first).floor if first.skeleton.feet() and first.n_frames > 1 else 0.0
+        floor = judged_floor(first).height if first.skeleton.feet() and first.n_frames > 1 else 0.0
     if not np.isfinite(floor):
         raise MjmotionError(f"render: floor must be a finite height in metres, got {floor}")
     motions = [a.motion.resample(fps) for a in actors]
@@ -518,7 +519,7 @@ class Renderer:
         self._data = mujoco.MjData(model)
         self._rect = mujoco.MjrRect(0, 0, self.width, self.height)
         self._rgb = np.empty((self.height, self.width, 3), dtype=np.uint8)
-        self._font = None
+        self._font: Any = None  # a PIL font, loaded with the first label
         #: the camera of the last rendered frame (for projecting world points to pixels).
         self.camera: CameraPose | None = None
 

@@ -30,6 +30,10 @@ MU = 1.0  #: friction coefficient of the ground-reaction feasibility test
 #: A frame fails the physics check when the ground cannot supply the wrench the motion needs to
 #: within this fraction of body weight (see :func:`mjmotion.physics.residuals`).
 RESIDUAL_TOL = 0.12
+#: An airborne stretch fails when its centre of mass's fitted acceleration is further than this
+#: from free fall (fraction of g; :func:`mjmotion.physics.ballistic_residual`): the centre of mass
+#: comes from segment-mass fractions, which in a running flight's limb swing err by 0.1-0.5 g.
+FLIGHT_TOL = 0.35
 #: Sole points this close to the floor (m) can push on it, whatever the contact label says.
 SUPPORT_HEIGHT = 0.025
 #: A frame also fails when the body is deeper than this below the floor (m): no ground reaction
@@ -59,6 +63,7 @@ class Params:
         cutoff_hz: low-pass cutoff before differentiating positions for inverse dynamics (Hz).
         speed_window: window of the local quadratic foot speeds are the slope of (s).
         residual_tol: ground-reaction residual (fraction of m·g) above which a frame fails.
+        flight_tol: an airborne stretch's distance from free fall (fraction of g) above which it fails.
         support_height: sole points below this height (m) can push on the floor.
         penetration_tol: depth below the floor (m) beyond which a frame fails.
         pop_factor, peak_percentile: pops (see module constants).
@@ -75,6 +80,7 @@ class Params:
     cutoff_hz: float = CUTOFF_HZ
     speed_window: float = SPEED_WINDOW
     residual_tol: float = RESIDUAL_TOL
+    flight_tol: float = FLIGHT_TOL
     support_height: float = SUPPORT_HEIGHT
     penetration_tol: float = PENETRATION_TOL
     pop_factor: float = POP_FACTOR
@@ -84,7 +90,7 @@ class Params:
     h_c_sensitivity: tuple[float, ...] = H_C_SENSITIVITY
 
     def __post_init__(self) -> None:
-        positive = ("h_c", "v_c", "float_tol", "mu", "cutoff_hz", "speed_window", "residual_tol", "pop_factor", "peak_percentile")
+        positive = ("h_c", "v_c", "float_tol", "mu", "cutoff_hz", "speed_window", "residual_tol", "flight_tol", "pop_factor", "peak_percentile")
         for name in (*positive, "support_height", "penetration_tol", "speed_floor", "accel_floor"):
             require_number(f"Params.{name} =", getattr(self, name), strict=name in positive)
         require_number("Params.hysteresis =", self.hysteresis, 0.0, False, 1.0)

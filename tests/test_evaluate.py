@@ -146,6 +146,15 @@ def test_foot_dragged_at_0_3_m_s_gives_300_mm_s():
     assert ev.skating_ratio(fast) > 0.9
 
 
+def test_the_bundled_walk_whose_toes_stand_still_reads_no_planted_skate():
+    """The procedural walk holds each toe joint exactly on its footprint through stance: measured
+    from the plant's own frames it reads ~0 (the swing's speed once leaked into each plant's edges: 16 mm/s)."""
+    from mjmotion import synth
+
+    walk = synth.walk(seconds=2.0).motion
+    assert ev.planted_skate_mm_per_s(walk) < 1.0
+
+
 def test_clean_walk_skates_far_less_than_walk_run_blend():
     walk = shared_clip("cmu_iclone_ccrig/002_01.bvh")
     run = shared_clip("cmu_iclone_ccrig/002_03.bvh")
@@ -313,6 +322,22 @@ def test_clean_walks_read_clean(rel, skate_ok):
 def test_runs_still_show_their_flight(rel):
     m = shared_clip(rel)
     assert ev.evaluate(m[leading_transient(m) :]).flight_fraction > 0.2
+
+
+@pytest.mark.parametrize("rel", ["cmu_cgspeed_daz/09_11.bvh", "cmu_cgspeed_max/102_01.bvh"])
+def test_clean_runs_pass_the_physics_and_fail_it_played_twice_as_fast(rel):
+    """Flights judged by their ballistic fit, the support of the filtered wrench taken over its
+    filter window, toe-less feet pushing on their toes: a daz run and the 3dsMax jog pass (they
+    read 0.46 and 0.14 when every flight frame carried the 6 Hz filter's spread of the stance push);
+    twice as fast they fail clearly."""
+    from mjmotion.experiments import corruption
+
+    m = shared_clip(rel)
+    m = m[leading_transient(m) :]
+    clean = ev.evaluate(m, sources=[m.replace()])
+    fast = ev.evaluate(corruption.sped_up(m), sources=[m])
+    assert clean.physics_violation_ratio <= 0.2 and clean.flight_fraction > 0.2, clean.physics_violation_ratio
+    assert fast.physics_violation_ratio >= clean.physics_violation_ratio + 0.25
 
 
 @pytest.mark.parametrize("path", clip_params())

@@ -54,3 +54,61 @@ def test_a_track_moved_to_another_floor_shifts_heights_only():
     assert np.allclose(up.heights, tr.heights - 0.02) and np.array_equal(up.speeds, tr.speeds)
     q = rot.exp(np.array([0.0, 0.0, 0.3]))
     assert q.shape == (4,)
+
+
+def _rolling_foot(fps: float = 120.0) -> np.ndarray:
+    """``(T, 1, 4, 3)`` sole points of a rigid foot that swings in at 1 m/s, lands on its heel
+    (toe 20° up) and stops dead, rolls onto the flat sole about the heel edge, stands, rolls up
+    40° about the ball edge and leaves at 1 m/s — never slipping while on the floor."""
+    local = np.array([[-0.05, 0.04, 0.0], [-0.05, -0.04, 0.0], [0.15, 0.04, 0.0], [0.15, -0.04, 0.0]])
+    heel, ball = local[0] * [1, 0, 0], local[2] * [1, 0, 0]
+
+    def pitched(theta: float, pivot_local: np.ndarray, pivot_world: np.ndarray) -> np.ndarray:
+        c, s = np.cos(theta), np.sin(theta)
+        r = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])  # toe up for theta > 0
+        return pivot_world + (local - pivot_local) @ r.T
+
+    def smooth(x: float) -> float:
+        return x * x * (3 - 2 * x)
+
+    frames = []
+    up, rise = np.radians(20.0), np.radians(-40.0)
+    for i in range(round(0.2 * fps)):  # swing in: 1 m/s forwards, 1 m/s down, until the heel touches
+        left = (round(0.2 * fps) - i) / fps
+        frames.append(pitched(up, heel, np.array([-left, 0.0, left])))
+    for i in range(round(0.1 * fps)):  # heel rocker
+        frames.append(pitched(up * (1 - smooth(i / (0.1 * fps))), heel, np.zeros(3)))
+    frames += [pitched(0.0, heel, np.zeros(3))] * round(0.3 * fps)  # flat
+    for i in range(round(0.2 * fps)):  # forefoot rocker
+        frames.append(pitched(rise * smooth(i / (0.2 * fps)), ball, ball - heel))
+    for i in range(1, round(0.2 * fps)):  # off at 1 m/s forwards and up
+        frames.append(pitched(rise, ball, ball - heel + np.array([i / fps, 0.0, i / fps])))
+    return np.array(frames)[:, None]
+
+
+def test_a_rigid_foot_rolling_heel_to_toe_without_slipping_reads_no_skate():
+    """The plant is measured from its own frames: the swing before and after does not leak into
+    it (the centred 0.1 s speeds read the landing and the take-off into the plant's edges)."""
+    from mjmotion import evaluate as ev
+
+    tr = feet.foot_track(("left",), _rolling_foot(), 120.0, 0.0, feet.SPEED_WINDOW)
+    con = feet.contacts(tr)
+    assert 0.55 * 120 <= con.sum() <= 0.62 * 120  # the 0.6 s stance, less the frames the centred speeds blur
+    assert ev.planted_skate_mm_per_s(tr) < 1.0
+    assert 1000 * tr.speeds[con].mean() > 20.0  # the centred speeds over the same frames
+
+
+def test_planted_speeds_are_the_track_speeds_inside_a_long_plant():
+    """Away from a run's ends the clipped line's slope is the centred Savitzky–Golay slope."""
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh")[2:260]
+    tr = feet.foot_heights_speeds(None, m)
+    con = feet.contacts(tr)
+    planted = feet.planted_speeds(tr, con)
+    half = round(feet.SPEED_WINDOW * m.fps) // 2
+    inner = con.copy()
+    for d in range(-half, half + 1):
+        inner &= np.roll(con, d, axis=0)
+    inner[:half] = inner[-half:] = False
+    assert inner.sum() > 50
+    assert np.allclose(planted[inner], tr.speeds[inner], atol=1e-9)
+    assert np.isnan(planted[~con]).all()

@@ -46,3 +46,30 @@ def test_lowpass_quaternions_stay_unit_and_ignore_sign_flips():
     assert np.allclose(np.linalg.norm(out, axis=-1), 1.0)
     same = np.abs(np.sum(out * filters.lowpass_quaternions(q, 120.0, 6.0), axis=-1))
     assert same.min() == pytest.approx(1.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("fps, cutoff", [(120.0, 6.0), (60.0, 6.0), (30.0, 12.0)])
+def test_lowpass_is_scipys_butterworth_filtfilt(fps, cutoff):
+    """The hand-written Butterworth design and banded recursion equal SciPy's butter(2) and
+    filtfilt (padtype=None) on the same padded signal, for any number of channels."""
+    from scipy.signal import butter, filtfilt, lfilter, lfilter_zi
+
+    b, a = filters._butter(cutoff / (0.5 * fps))
+    b2, a2 = butter(2, cutoff / (0.5 * fps))
+    assert np.allclose(b, b2, rtol=1e-12, atol=0) and np.allclose(a, a2, rtol=1e-12, atol=0)
+    x = np.random.default_rng(1).normal(size=(257, 4, 3)).cumsum(axis=0)
+    assert np.allclose(filters._iir_pass(b, a, x), lfilter(b2, a2, x, axis=0, zi=lfilter_zi(b2, a2)[:, None, None] * x[0])[0], atol=1e-10)
+    y = filters.lowpass(x, fps, cutoff)
+    pad = int(np.ceil(3.0 * fps / cutoff))
+    fit = max(3, pad // 2)
+    padded = np.concatenate([filters._extrapolate(x[:fit][::-1], pad)[::-1], x, filters._extrapolate(x[-fit:], pad)])
+    assert np.allclose(y, filtfilt(b2, a2, padded, axis=0, padtype=None)[pad:-pad], atol=1e-10)
+
+
+@pytest.mark.parametrize("n", [5, 12, 13, 200])
+def test_velocity_is_scipys_savitzky_golay_derivative(n):
+    from scipy.signal import savgol_filter
+
+    x = np.random.default_rng(2).normal(size=(n, 3, 2))
+    ref = savgol_filter(x, 13 if n >= 13 else 5, 2, deriv=1, delta=1 / 120, axis=0, mode="interp")
+    assert np.allclose(filters.velocity(x, 120.0, 0.1 if n >= 13 else 5 / 120), ref, atol=1e-9)

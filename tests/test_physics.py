@@ -164,6 +164,54 @@ def test_free_fall_needs_no_force():
     assert not r.violation.any() and r.root_force_ratio[2:-2].max() < 5e-3
 
 
+def test_ballistic_residual_is_the_distance_from_free_fall():
+    """A thrown centre of mass reads 0 over its flight, whatever its launch; the same flight played
+    twice as fast (4 g of curvature) reads 3; hovering reads 1; stretches too short to fit, NaN."""
+    fps = 120.0
+    t = np.arange(60) / fps
+    arc = np.column_stack([0.3 + 3.0 * t, -0.5 * t, 1.0 + 2.0 * t - 0.5 * ph.GRAVITY * t * t])
+    air = np.zeros(60, dtype=bool)
+    air[10:50] = True
+    r = ph.ballistic_residual(arc, air, fps)
+    assert np.allclose(r[10:50], 0.0, atol=1e-9) and np.isnan(r[:10]).all() and np.isnan(r[50:]).all()
+    fast = np.column_stack([arc[:, 0], arc[:, 1], 1.0 + 4.0 * t - 2.0 * ph.GRAVITY * t * t])  # t -> 2t
+    assert ph.ballistic_residual(fast, air, fps)[30] == pytest.approx(3.0)
+    assert ph.ballistic_residual(np.ones((60, 3)), air, fps)[30] == pytest.approx(1.0)
+    short = np.zeros(60, dtype=bool)
+    short[20:24] = True
+    assert np.isnan(ph.ballistic_residual(arc, short, fps)).all()
+
+
+def test_toe_less_feet_push_on_their_unmodelled_toes():
+    """A cgspeed daz foot ends at the ball: weight borne 3 cm ahead of its ball line is only
+    feasible with the toes the skeleton does not model, which reach 0.13 x stature from the heel."""
+    m = _clip("cmu_cgspeed_daz/07_01.bvh")[60:90]
+    c = mjcf.compile(m.skeleton)
+    pose = kinematics.forward(c, m)
+    tr = feet.foot_heights_speeds(c, m, pose, floor=0.0)
+    t = 10
+    f = int(np.argmin(tr.heights[t]))
+    support = np.zeros(tr.points.shape[:3], dtype=bool)
+    support[:, f] = True
+    points, active = ph._with_toes(m.skeleton, tr, support)
+    n_soles = tr.points.shape[1] * tr.points.shape[2]
+    assert points.shape[1] == n_soles + 2 * len(tr.sides) and active[:, n_soles + 2 * f :][:, :2].all()
+    heel, ball = tr.points[t, f, :2].mean(axis=0), tr.points[t, f, 2:4].mean(axis=0)
+    toes = points[t, n_soles + 2 * f : n_soles + 2 * f + 2].mean(axis=0)
+    assert np.linalg.norm((toes - heel)[:2]) == pytest.approx(ph.TOE_REACH * m.skeleton.stature(), rel=1e-6)
+    weight = ph.total_mass(c) * ph.GRAVITY
+    ahead = (ball - heel)[:2] / np.linalg.norm((ball - heel)[:2])
+    cop = ball + 0.03 * np.array([ahead[0], ahead[1], 0.0])
+    origin = pose.joint_positions[t : t + 1, 0]
+    force = np.array([[0.0, 0.0, weight]])
+    torque = np.cross(cop - origin, force)  # the weight pushed up at the centre of pressure
+    lever = 0.5 * m.skeleton.stature()
+    flat = tr.points[t : t + 1].reshape(1, -1, 3)
+    without = ph.ground_reaction_residual(force, torque, origin, flat, support[t : t + 1].reshape(1, -1), weight, 1.0, lever)
+    with_toes = ph.ground_reaction_residual(force, torque, origin, points[t : t + 1], active[t : t + 1], weight, 1.0, lever)
+    assert without[0] > 0.02 and with_toes[0] < 1e-6
+
+
 def test_jump_flight_residual_near_zero():
     m = _clip("cmu_asfamc_converted/16_01.bvh")
     r = ph.residuals(mjcf.compile(m.skeleton), m)

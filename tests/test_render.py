@@ -227,3 +227,45 @@ def test_contact_shadows_darken_the_floor_under_the_feet_and_nothing_else(gl_wor
     row, col = int(ground_px[0, 1]), int(ground_px[0, 0])
     assert darker[max(row - 3, 0) : row + 4, max(col - 6, 0) : col + 7].max() > 15  # under the planted foot
     assert np.abs(darker[: max(int(sky_px[0, 1]), 1)]).max() <= 3  # the sky above the character: unchanged
+
+
+def test_cli_render_draws_the_floor_the_judge_uses(gl_works, mocap, tmp_path, capsys, monkeypatch):
+    """`render` draws the checker floor where `evaluate` finds it on the same frames: a cgspeed daz
+    walk's soles stand above z = 0 (detected), --floor 0 draws z = 0, and a copy lifted 5 cm judged
+    against its --source keeps the source's floor (its own is higher), so it floats."""
+    import json
+
+    from mjmotion.experiments import corruption
+
+    floors = []
+    build = render.build_scene
+
+    def spy(*args, **kwargs):
+        floors.append(kwargs.get("floor", 0.0))
+        return build(*args, **kwargs)
+
+    def judged(*args):
+        out = tmp_path / f"e{len(floors)}_{len(args)}.json"
+        assert main(["evaluate", *args, "--frames", "0:120", "--json", str(out)]) == 0
+        return json.loads(out.read_text())[0]["report"]
+
+    monkeypatch.setattr(render, "build_scene", spy)
+    clip = str(mocap / "cmu_cgspeed_daz" / "07_01.bvh")
+    small = ["--frames", "0:120", "--fps", "5", "--width", "32", "--height", "18", "--fast"]
+    own = judged(clip)
+    assert own["floor_from"] == "detected" and own["floor_m"] > 0.01, own["floor_m"]
+    capsys.readouterr()
+    assert main(["render", clip, *small, "-o", str(tmp_path / "a.gif")]) == 0
+    assert floors[-1] == pytest.approx(own["floor_m"], abs=1e-9)
+    assert f"floor {own['floor_m']:+.3f} m (detected)" in capsys.readouterr().out
+    assert main(["render", clip, *small, "--floor", "0", "-o", str(tmp_path / "b.gif")]) == 0
+    assert floors[-1] == 0.0
+    lifted = tmp_path / "lifted.bvh"
+    bvh.write(corruption.lifted(bvh.read(clip)), lifted)
+    against, alone = judged(str(lifted), "--source", clip), judged(str(lifted))
+    assert against["floor_from"] == "source" and alone["floor_m"] - against["floor_m"] > 0.02  # the source: all its frames
+    assert main(["render", str(lifted), clip, *small, "--source", clip, "-o", str(tmp_path / "c.gif")]) == 0
+    assert floors[-1] == pytest.approx(against["floor_m"], abs=1e-9)
+    capsys.readouterr()
+    assert main(["render", str(lifted), *small, "--source", str(lifted), "-o", str(tmp_path / "d.gif")]) == 2
+    assert "--source" in capsys.readouterr().err

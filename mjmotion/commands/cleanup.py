@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
     for k in before:
         print(f"{k:24s} {_f(before[k]):>10s} {_f(after[k]):>10s}")
     print(
-        f"parameters: h_c={params.h_c} m, v_c={params.v_c} m/s, hysteresis={params.hysteresis}, blend={params.blend} s, ease={params.ease} s, "
+        f"parameters: h_c={params.h_c} m, v_c={params.v_c} m/s, hysteresis={params.hysteresis}, blend={params.blend} s, "
         f"clearance={params.swing_clearance} m, min plant={params.min_plant} s, gap closed ≤ {params.max_gap} s (docs/METRICS.md)"
     )
     if rep_path is not None:

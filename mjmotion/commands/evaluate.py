@@ -27,7 +27,8 @@ DESCRIPTION = """Evaluate clips with the definitions of docs/METRICS.md (thresho
 report states them): foot contacts (with hysteresis) and planted footskate, the height-weighted
 footskate and the h_c sensitivity table, ground penetration, float and PhysDiff error, MuJoCo
 inverse-dynamics residuals (ground-reaction feasibility: can contact forces inside friction cones
-at the feet supply the wrench the motion needs?), joint-range violations, per-joint pops and, with a
+at the feet supply the wrench the motion needs? in a flight, does the centre of mass fall as a
+thrown body does?), joint-range violations, per-joint pops and, with a
 ball, the hitting metrics and a simulated ball launch.
 
 The floor every ground metric measures from is, in order: --floor METRES; the source clip(s) of a
@@ -122,22 +123,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_input_options(p)
 
 
-def add_judge_options(p: argparse.ArgumentParser) -> None:
-    """``--floor`` and ``--source``: where the judge's floor and references come from (evaluate, cleanup)."""
-    p.add_argument(
-        "--floor",
-        type=number(-100, 100, what="a floor height in metres"),
-        metavar="METRES",
-        help="the floor height (world z, m, within ±100) every ground metric measures from (default: from --source, else detected)",
-    )
-    p.add_argument(
-        "--source",
-        action="append",
-        default=[],
-        metavar="SRC.bvh",
-        help="a clip the input was made from (repeatable; same skeleton and frame rate): gives the floor, "
-        "calibrates the feet, and is the reference of the per-joint speed ratio and pops",
-    )
+FLOOR_HELP = "the floor height (world z, m, within ±100) every ground metric measures from (default: from --source, else detected)"
+SOURCE_HELP = (
+    "a clip the input was made from (repeatable; same skeleton and frame rate): gives the floor, "
+    "calibrates the feet, and is the reference of the per-joint speed ratio and pops"
+)
+
+
+def add_judge_options(p: argparse.ArgumentParser, floor_help: str = FLOOR_HELP, source_help: str = SOURCE_HELP) -> None:
+    """``--floor`` and ``--source``: where the judge's floor and references come from (evaluate,
+    cleanup, render: each says in its help what it uses them for)."""
+    p.add_argument("--floor", type=number(-100, 100, what="a floor height in metres"), metavar="METRES", help=floor_help)
+    p.add_argument("--source", action="append", default=[], metavar="SRC.bvh", help=source_help)
 
 
 def check_floor(args: argparse.Namespace) -> None:
@@ -253,7 +250,7 @@ def _params_line(report: dict[str, Any]) -> str:
     return (
         f"parameters: h_c={p['h_c']} m, v_c={p['v_c']} m/s, hysteresis={p['hysteresis']}, skating window={p['skate_window']} frames, "
         f"float tolerance={p['float_tol']} m, low-pass {p['cutoff_hz']} Hz before differentiating, mu={p['mu']}, "
-        f"ground-reaction residual>{p['residual_tol']} m·g or deeper than {p['penetration_tol']} m fails, "
+        f"ground-reaction residual>{p['residual_tol']} m·g, a flight>{p['flight_tol']} g from free fall or deeper than {p['penetration_tol']} m fails, "
         f"pops: angular acceleration>{p['pop_factor']}x the reference's p{p['peak_percentile']:g} (docs/METRICS.md)"
     )
 

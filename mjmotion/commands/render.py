@@ -11,9 +11,11 @@ import argparse
 
 from ..caps import MAX_MODEL_JOINTS, check_motion_size
 from ..errors import MjmotionError, printable
+from ..floor import Floor
 from ._common import add_input_options, load, output_path, parse_frames
 from ._options import COORD, VIDEO_FPS, UniqueProps, check_actors, integer, number
 from ._options import label as label_text
+from .evaluate import add_judge_options, check_floor, load_sources
 
 PIXELS = integer(16, 4096, what="pixels")
 
@@ -31,6 +33,12 @@ examples:
   mjmotion render kick.bvh --trail rtoes --frames 100:400 --fps 25 --fast -o kick.mp4
   mjmotion render walk.bvh --skin -o walk_skin.mp4
   mjmotion render walk.bvh --skin both -o skin_vs_capsules.mp4
+  mjmotion render cleaned.bvh raw.bvh --source raw.bvh -o compare.mp4
+
+The checker floor is drawn at the floor the judge uses (docs/METRICS.md "Floor"), as `mjmotion
+evaluate` finds it for the first clip: --floor METRES (--floor 0: z = 0 as captured), else its
+--source clip(s), else the first clip's own stance floor. Every character moves by the same
+amount, so a clip floating over (or sunk into) another's floor still shows.
 
 --skin draws each character as its skinned surface (the mesh and weights `mjmotion compile --skin`
 writes, deformed by MuJoCo's vertex blending) instead of capsules; --skin both draws every clip
@@ -99,7 +107,27 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         choices=("only", "both"),
         help="draw the skinned character instead of capsules; 'both': each clip skinned and as capsules, side by side",
     )
+    add_judge_options(
+        p,
+        floor_help="the floor height (world z, m, within ±100) drawn at the checker floor (default: from --source, else detected on the first clip)",
+        source_help="a clip the first one was made from (repeatable; same skeleton and frame rate): its stance floor is the one drawn",
+    )
     add_input_options(p)
+
+
+def scene_floor(args: argparse.Namespace, first) -> Floor | None:
+    """The floor the scene is drawn at: ``mjmotion evaluate``'s for the first clip ``first``
+    (as rendered), from ``--floor``, its ``--source`` clips, or its own stance; None (z = 0)
+    for a skeleton without feet and no ``--floor``."""
+    from ..feet import judged_floor
+
+    check_floor(args)
+    sources = load_sources(args, args.files[0], first) if args.source else []
+    if not first.skeleton.feet() or first.n_frames < 2:
+        if args.source:
+            raise MjmotionError(f"--source: {args.files[0]} has no feet found by name (or one frame); its floor cannot be judged")
+        return None if args.floor is None else Floor(float(args.floor), "given")
+    return judged_floor(first, sources, args.floor)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -128,18 +156,24 @@ def run(args: argparse.Namespace) -> int:
         else:
             actors.append(render.Actor(m, label=label, props=props, trail=trail, skin=args.skin == "only"))
     _check_scene([a.motion for a in actors], args.fps)
+    floor = scene_floor(args, actors[0].motion)
     ball = mjcf.Ball(position=tuple(args.ball)) if args.ball else None
     view = render.View(azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
     try:
-        scene = render.build_scene(actors, fps=args.fps, ball=ball, spacing=args.spacing, view=view)
+        scene = render.build_scene(actors, fps=args.fps, ball=ball, spacing=args.spacing, view=view, floor=0.0 if floor is None else floor.height)
     except MjmotionError as e:
         if not args.skin:
             raise
         raise MjmotionError(f"--skin: {e} ({', '.join(args.files)})") from None
     hq = args.hq and not args.fast
-    quality = {"contact_shadows": not (hq or args.fast or args.no_shadows), "shadows": hq and not args.no_shadows, "reflections": hq}
-    render.render(scene, out, width=args.width, height=args.height, **quality)
-    print(f"wrote {out}: {scene.n_frames} frames, {args.width}x{args.height} at {args.fps:g} fps, {len(actors)} character(s)")
+    contact_shadows = not (hq or args.fast or args.no_shadows)
+    render.render(
+        scene, out, width=args.width, height=args.height, contact_shadows=contact_shadows, shadows=hq and not args.no_shadows, reflections=hq
+    )
+    print(
+        f"wrote {out}: {scene.n_frames} frames, {args.width}x{args.height} at {args.fps:g} fps, {len(actors)} character(s), "
+        f"floor {'z = 0 (no feet to find one on)' if floor is None else f'{floor.height:+.3f} m ({floor.from_})'}"
+    )
     return 0
 
 

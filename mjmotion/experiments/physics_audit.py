@@ -6,7 +6,9 @@ from them: a linear and a registered blend of the bundled walk and run (judged a
 and run as sources), and the footskate cleanup of the linear blend. The notes add what cleanup
 does to linear walk/run blends of the shared skeletons and to clean walks
 (:func:`cleanup_of_blends`, judged against their inputs), with foot height and speed drawn
-before and after. Metric definitions: ``docs/METRICS.md`` (thresholds in the table's notes).
+before and after, and the planted footskate of a few walks over the foot-flat middle of their
+stances (:func:`mid_stance_skate`). Metric definitions: ``docs/METRICS.md`` (thresholds in the
+table's notes).
 """
 
 from __future__ import annotations
@@ -137,6 +139,50 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
     return lines, files
 
 
+#: Walks whose planted footskate is compared over the foot-flat part of each stance: the same CMU
+#: trial 07_04 in two conversions, and the clean walks of the other flavours.
+MID_STANCE_WALKS = (
+    "cmu_cgspeed_daz/07_04.bvh", "cmu_iclone_ccrig/007_04.bvh", "cmu_cgspeed_daz/07_01.bvh", "cmu_asfamc_converted/16_15.bvh",
+    "cmu_iclone_ccrig/002_01.bvh", "cmu_cgspeed_max/131_02.bvh",
+)  # fmt: skip
+
+
+def mid_stance_skate(motion: Motion, params: ev.Params = ev.DEFAULTS) -> tuple[float, float, int]:
+    """Planted footskate (mm/s) over every contact frame and over the middle third of each full
+    stance (a contact run at least 0.3 s long, not cut by the clip's ends), where the foot lies
+    flat: no heel strike or toe-off roll, so whatever point of the foot the soles model, a foot
+    that does not slip reads ~0 there. Returns both and the number of full stances."""
+    from .. import feet, kinematics, mjcf
+
+    compiled = mjcf.compile(motion.skeleton)
+    track = feet.judged_feet(compiled, motion, kinematics.forward(compiled, motion))[0]
+    con = feet.contacts(track, params.h_c, params.v_c, params.hysteresis)
+    speed = feet.planted_speeds(track, con)
+    mids = []
+    for f in range(con.shape[1]):
+        edges = np.diff(np.concatenate([[0], con[:, f].astype(int), [0]]))
+        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+            if b - a >= 0.3 * motion.fps and a > 0 and b < motion.n_frames:
+                mids.append(speed[a + (b - a) // 3 : a + 2 * (b - a) // 3, f])
+    mid = float(np.nanmean(np.concatenate(mids))) if mids else float("nan")
+    return 1000 * float(np.nanmean(speed)), 1000 * mid, len(mids)
+
+
+def mid_stance_lines(data_dir: Path | None) -> list[str]:
+    """One note: :func:`mid_stance_skate` of every :data:`MID_STANCE_WALKS` clip found under ``data_dir``."""
+    parts = []
+    for rel in MID_STANCE_WALKS if data_dir is not None else ():
+        if (data_dir / rel).is_file():
+            whole, mid, n = mid_stance_skate(_read(data_dir / rel))
+            parts.append(f"{rel.split('/')[0].removeprefix('cmu_')} {Path(rel).stem} {whole:.0f} → {mid:.0f} ({n} stances)")
+    if not parts:
+        return []
+    return [
+        "planted skate over all contact frames → over the middle third of each full stance (foot flat; mm/s, "
+        "experiments.physics_audit.mid_stance_skate): " + ", ".join(parts)
+    ]
+
+
 def _read(path: Path) -> Motion:
     """A shared clip as every verb reads it: its leading T-pose or rest frame skipped (mjmotion/trim.py;
     cgspeed's frames 0–3, iClone 007_04's frame 0)."""
@@ -158,7 +204,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
             (
                 f"thresholds (docs/METRICS.md): h_c = {params.h_c} m, v_c = {params.v_c} m/s, hysteresis {params.hysteresis}, "
                 f"float tolerance {params.float_tol * 1000:.0f} mm, foot speeds over {params.speed_window} s, low-pass {params.cutoff_hz} Hz "
-                f"before inverse dynamics, friction μ = {params.mu}, residual tolerance {params.residual_tol} m·g, "
+                f"before inverse dynamics, friction μ = {params.mu}, residual tolerance {params.residual_tol} m·g (a flight's: {params.flight_tol} g), "
                 f"penetration tolerance {params.penetration_tol} m, pops at {params.pop_factor}x the reference's p{params.peak_percentile:g}"
             ),
             (
@@ -191,6 +237,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
         rep = ev.evaluate(motion, props, params=params, sources=sources)  # type: ignore[arg-type]
         table.add(*_row("synthesized", name, rep.to_dict()))
     lines, files = cleanup_of_blends(None if data_dir is None or quick else Path(data_dir), out_dir)
+    table.notes.extend(mid_stance_lines(None if data_dir is None or quick else Path(data_dir)))
     table.notes.extend(lines)
     table.files.extend(files)
     table.write(out_dir)
