@@ -143,7 +143,7 @@ def grid_image(result: BlendResult, labels: tuple[str, str]) -> np.ndarray | Non
 #: Adaptations a shot remembers (the latest few ball positions).
 MEMO_SIZE = 8
 #: Frames a drag's preview solves (:func:`mjmotion.hitpoint.preview_frames`): about 0.1 s of DLS.
-PREVIEW_FRAMES = 32
+PREVIEW_FRAMES = 24
 
 
 @dataclass(frozen=True, eq=False)
