@@ -77,12 +77,11 @@ class Page:
 
     def tab(self, name: str) -> None:
         t = self.page.get_by_role("tab", name=name)
-        if t.get_attribute("aria-selected") != "true":  # skip it when open
-            t.click(force=True)
+        if t.get_attribute("aria-selected") != "true":  # a click waits for the page to settle: skip it when open
+            t.click()
 
     def click(self, button: str) -> None:
-        # force: no waiting for two equal animation frames (software WebGL draws few); the click itself is real
-        self.page.get_by_role("button", name=button, exact=True).click(force=True)
+        self.page.get_by_role("button", name=button, exact=True).click()
 
     def field(self, label: str, i: int = 0):
         """The ``i``-th input of the GUI row labelled ``label``."""
@@ -96,8 +95,8 @@ class Page:
 
     def choose(self, label: str, option: str) -> None:
         """Pick ``option`` in the dropdown labelled ``label``."""
-        self.field(label).click(force=True)
-        self.page.get_by_role("option", name=option, exact=True).click(force=True)
+        self.field(label).click()
+        self.page.get_by_role("option", name=option, exact=True).click()
 
     def wait_for(self, predicate, timeout: float = 15.0, fail: bool = True) -> bool:
         end = time.monotonic() + timeout
