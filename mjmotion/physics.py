@@ -502,7 +502,7 @@ def simulate_launch(
     poses_quat: np.ndarray,
     fps: float,
     hit_index: int,
-    ball_position: Sequence[float],
+    ball_position: Sequence[float] | np.ndarray,
     ball_radius: float = 0.036,
     ball_mass: float = 0.16,
     ball_velocity: Sequence[float] = (0.0, 0.0, 0.0),

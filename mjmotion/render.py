@@ -25,6 +25,7 @@ import sys
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -518,7 +519,7 @@ class Renderer:
         self._data = mujoco.MjData(model)
         self._rect = mujoco.MjrRect(0, 0, self.width, self.height)
         self._rgb = np.empty((self.height, self.width, 3), dtype=np.uint8)
-        self._font = None
+        self._font: Any = None  # PIL's font, made on the first label
         #: the camera of the last rendered frame (for projecting world points to pixels).
         self.camera: CameraPose | None = None
 
