@@ -5,7 +5,7 @@ launch is simulated in MuJoCo and its flight drawn; the report shown.
 
 Two kinds of job: ``hit`` (a drag's preview: short, a newer one waits for it rather than throwing
 it away, so a steady drag keeps showing answers) and ``hit-exact`` (the release, a typed ball, the
-NLP: cancelled at its next frame by any newer request, as a drag makes it stale)."""
+NLP: cancelled at its next checkpoint, every few frames, by any newer request: a drag makes it stale)."""
 
 from __future__ import annotations
 
