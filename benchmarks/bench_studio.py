@@ -14,11 +14,15 @@
    (deformation + assigning the mesh handles' vertices), this process's CPU per drawn frame
    (stream, FK, draw and viser's sending thread) and the bytes the client received per frame.
 3. **Ball drag → adapted shot**: a 300-frame shot (the bundled drive resampled to 300 frames; with
-   ``MJMOTION_DATA``, also CMU 64_01 cut to 300 frames around its hit) set up once when loaded, then
-   adapted to 5 dragged ball positions with the fast solver (DLS, what a drag runs) and, for the
-   ratio, the NLP (what "Adapt with NLP" runs). Goal: DLS ≤ 0.5 s. Then where a drag's time goes
-   (cProfile of one DLS adapt: ``hitpoint.setup`` and its PCA, the per-frame solve, the report),
-   the release at the dragged spot (the shot's memo: style error only) and the launch simulation.
+   ``MJMOTION_DATA``, also CMU 64_01 cut to 300 frames around its hit) set up once when loaded
+   (``engine.shot``), then, for 5 dragged ball positions, interleaved: *before*, what a drag ran
+   until now (``hitpoint.adapt`` with DLS: set-up, PCA and every frame the blend touches); *now*,
+   the drag's preview from the set-up (``engine.adapt(..., preview=True)``: about
+   ``engine.PREVIEW_FRAMES`` frames) plus the page's posing of the result; the release's exact
+   DLS from the set-up (checked equal to ``hitpoint.adapt``, bit for bit) and the NLP ("Adapt
+   with NLP"); how far the preview's effector path is from the exact one. Goal: a drag answered
+   within 0.5 s. Then where the verb's DLS adapt goes (cProfile: ``hitpoint.setup`` and its PCA,
+   the per-frame solve, the report), the release's style error and the launch simulation.
 
 Usage: ``python benchmarks/bench_studio.py``. Numbers on a shared machine are noisy: compare ratios.
 """
@@ -211,13 +215,14 @@ def skin_bench(rounds: int = 3, draws: int = 60) -> None:
 
 
 def adapt_breakdown(s: engine.Shot, target: np.ndarray) -> dict[str, float]:
-    """Seconds of one DLS adapt by phase (cProfile, cumulative per function; ``nan`` if a function is renamed)."""
+    """Seconds of the verb's DLS adapt (what a drag ran before the preview) by phase (cProfile, cumulative per function; ``nan`` if a function is renamed)."""
     import cProfile
     import pstats
 
+    from mjmotion import hitpoint
+
     prof = cProfile.Profile()
-    s.memo.clear()
-    prof.runcall(engine.adapt, s, target, "dls")
+    prof.runcall(hitpoint.adapt, s.motion, target=target, frame=s.hit_frame, effector=s.effector, solver="dls", prop=s.prop, style=False)
     stats = pstats.Stats(prof).stats  # type: ignore[attr-defined]
     want = {
         "adapt": ("hitpoint.py", "adapt"),
@@ -234,6 +239,10 @@ def adapt_breakdown(s: engine.Shot, target: np.ndarray) -> dict[str, float]:
 
 
 def drag_bench() -> None:
+    """Before/after in one run, interleaved per ball position: the verb's ``hitpoint.adapt`` (set-up and
+    every frame: what a drag ran before), the drag's preview from the shot's set-up (what it runs
+    now) and the exact solve from the set-up (the release: the verb's answer bit for bit)."""
+    from mjmotion import hitpoint
     from mjmotion.studio.scene import Kinematics
 
     shots = []
@@ -247,51 +256,75 @@ def drag_bench() -> None:
         s0 = engine.shot(g)
         a = int(np.clip(s0.hit_frame - 180, 0, g.n_frames - 300))
         shots.append(("CMU 64_01, 300 frames", engine.shot(g[a : a + 300].replace(name="64_01"), s0.prop)))
-    print()
-    print("ball drag → adapted 300-frame shot (setup done once at load; 5 ball positions)")
-    print("| shot | frames | DLS median s | DLS max s | NLP median s | NLP/DLS | max hit error mm (DLS) |")
-    print("|---|---|---|---|---|---|---|")
     offsets = [np.array(o) for o in ((0, 0.05, 0), (0, 0, 0.05), (0.05, 0, 0.05), (0, -0.05, 0.03), (0.03, 0.03, -0.03))]
-    later = []
+    rows, later = [], []
     for label, s in shots:
-        t_dls, t_nlp, err = [], [], []
+        compiled = mjcf.compile(s.motion.skeleton, (s.prop,) if s.prop is not None else ())
+        kin = Kinematics(compiled)
+        t: dict[str, list[float]] = {"before": [], "preview": [], "show": [], "exact": [], "nlp": []}
+        dev, err, same = [], [], True
         for k, off in enumerate(offsets):
             target = s.source_point + off
+            order = ("before", "preview", "exact") if k % 2 == 0 else ("exact", "preview", "before")
+            res = {}
+            for what in order:
+                s.memo.clear()  # a fresh solve each time (with few frames the preview is the exact solve, remembered)
+                a = time.perf_counter()
+                if what == "before":
+                    res[what] = hitpoint.adapt(
+                        s.motion, target=target, frame=s.hit_frame, effector=s.effector, solver="dls", prop=s.prop, style=False
+                    )
+                else:
+                    res[what] = engine.adapt(s, target, "dls", preview=what == "preview")
+                t[what].append(time.perf_counter() - a)
             a = time.perf_counter()
-            r = engine.adapt(s, target, "dls")
-            t_dls.append(time.perf_counter() - a)
-            err.append(r.report["hit_error_m"])
+            kin.poses(kinematics.qpos(compiled, res["preview"].motion))  # what the page does with it (session.show)
+            t["show"].append(time.perf_counter() - a)
+            same &= bool(np.array_equal(res["exact"].motion.rotations, res["before"].motion.rotations))
+            d = np.linalg.norm(res["preview"].achieved - res["exact"].achieved, axis=1)
+            dev.append((float(d.max()), float(np.median(d[s.problem.blend > 0]))))
+            err.append(res["preview"].report["hit_error_m"])
             if k < 2:
+                s.memo.clear()
                 a = time.perf_counter()
                 engine.adapt(s, target, "nlp")
-                t_nlp.append(time.perf_counter() - a)
-        print(
-            f"| {label} | {s.motion.n_frames} | {np.median(t_dls):.3f} | {max(t_dls):.3f} | {np.median(t_nlp):.3f} | "
-            f"{np.median(t_nlp) / np.median(t_dls):.1f}× | {1000 * max(err):.3f} |"
-        )
+                t["nlp"].append(time.perf_counter() - a)
+        n_prev = res["preview"].report.get("preview_frames", int((s.problem.blend > 0).sum()))
+        rows.append((label, s, t, dev, err, same, n_prev))
         target = s.source_point + offsets[0]
         phases = adapt_breakdown(s, target)
+        s.memo.clear()
+        engine.adapt(s, target, "dls")
         a = time.perf_counter()
-        released = engine.adapt(s, target, "dls", style=True)  # the memo: the drag just solved this spot
+        released = engine.adapt(s, target, "dls", style=True)  # the memo: the exact solve of this spot, plus the style error
         t_release = time.perf_counter() - a
         a = time.perf_counter()
         engine.launch(s, released.motion, target)
         t_launch = time.perf_counter() - a
-        compiled = mjcf.compile(s.motion.skeleton, (s.prop,) if s.prop is not None else ())
-        a = time.perf_counter()
-        Kinematics(compiled).poses(kinematics.qpos(compiled, released.motion))
-        t_show = time.perf_counter() - a
-        later.append((label, int((released.problem.blend > 0).sum()), phases, t_release, t_launch, t_show))
-    print("goal: DLS ≤ 0.5 s")
+        later.append((label, int((s.problem.blend > 0).sum()), phases, t_release, t_launch))
+    med = lambda x: float(np.median(x))
     print()
-    print("where one DLS drag goes (cProfile, seconds; profiling adds overhead) and what follows it")
+    print(f"ball drag → adapted 300-frame shot, DLS (5 ball positions, interleaved; preview of {engine.PREVIEW_FRAMES} frames)")
     print(
-        "| shot | frames solved | hitpoint.adapt | setup | of it PCA | per-frame solve | report | release at the dragged spot | launch | show (poses) |"
+        "| shot | frames the blend touches | before: hitpoint.adapt s | drag now: preview + show s | preview frames | before / now | "
+        "release: exact from set-up s | exact = hitpoint.adapt | NLP from set-up s | preview vs exact max / median mm | preview hit error mm |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    for label, n, ph, rel, lau, show in later:
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for label, s, t, dev, err, same, n_prev in rows:
+        now = np.array(t["preview"]) + np.array(t["show"])
+        print(
+            f"| {label} | {int((s.problem.blend > 0).sum())} | {med(t['before']):.3f} | {med(now):.3f} (max {max(now):.3f}) | {n_prev} | "
+            f"{med(t['before']) / med(now):.1f}× | {med(t['exact']):.3f} | {'yes' if same else 'NO'} | {med(t['nlp']):.3f} | "
+            f"{1000 * max(d[0] for d in dev):.1f} / {1000 * max(d[1] for d in dev):.2f} | {1000 * max(err):.3f} |"
+        )
+    print("goal: a drag answered within 0.5 s (median of 'drag now')")
+    print()
+    print("where the verb's DLS adapt goes (cProfile, seconds; profiling adds overhead) and what a release adds")
+    print("| shot | frames solved | hitpoint.adapt | setup | of it PCA | per-frame solve | report | release: style error (memo) | launch |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for label, n, ph, rel, lau in later:
         cells = " | ".join(f"{ph[k]:.3f}" for k in ("adapt", "setup", "PCA (PoseSpace.fit)", "per-frame solve", "report"))
-        print(f"| {label} | {n} | {cells} | {rel:.3f} | {lau:.3f} | {show:.3f} |")
+        print(f"| {label} | {n} | {cells} | {rel:.3f} | {lau:.3f} |")
 
 
 if __name__ == "__main__":

@@ -26,7 +26,8 @@ The pipeline, one pure function :func:`adapt` over a source :class:`Motion`:
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -276,6 +277,8 @@ class HitProblem:
         second_relative: ``(T, 4, 4)`` source pose of the second hand in the lead chain tip's frame.
         falloff: metres; ``prop``: the club (``None`` for other effectors).
         space: ``PoseSpace.fit(source)`` when the style weights needed it (reused for ``style_rmse``).
+        tip_rotations: ``(T, 3, 3)`` world rotation of the effector's joint in the source (the
+            frame the offset is carried in; :func:`aim` uses it).
     """
 
     source: Motion
@@ -293,6 +296,7 @@ class HitProblem:
     falloff: float
     prop: mjcf.Prop | None = None
     space: PoseSpace | None = None
+    tip_rotations: np.ndarray | None = None
 
 
 def _frames(pose: kinematics.Pose, j: int) -> np.ndarray:
@@ -352,13 +356,10 @@ def setup(
     hit = detect_hit_frame(e_fk, motion.fps) if frame is None else int(frame)
     if not 0 <= hit < motion.n_frames:
         raise MjmotionError(f"--frame {frame}: the clip has frames 0..{motion.n_frames - 1}")
-    tgt = np.asarray(target, dtype=float) if target is not None else e_fk[hit] + np.asarray(offset, dtype=float)
-    if tgt.shape != (3,) or not np.all(np.isfinite(tgt)):
-        raise MjmotionError(f"the target must be three finite numbers (metres), got {tgt}")
+    tgt = _check_target(np.asarray(target, dtype=float) if target is not None else e_fk[hit] + np.asarray(offset, dtype=float))
     blend = blend_weights(e_fk, hit, falloff, motion.fps, edge)
-    # §2.2.4: the offset is carried in the effector joint's frame.
-    local = tip_frames[hit, :3, :3].T @ (tgt - e_fk[hit])
-    goals = e_fk + blend[:, None] * np.einsum("tab,b->ta", tip_frames[:, :3, :3], local)
+    tip_rot = tip_frames[:, :3, :3].copy()
+    goals = _goals(e_fk, tip_rot, blend, hit, tgt)
     start = skel.index(chain_start) if chain_start else _chain_start(skel, eff.joint)
     chain_weights = "clip" if weights == "style" else weights
     lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=chain_weights)
@@ -380,7 +381,29 @@ def setup(
             if weights == "style" and second.n_dof:
                 second = second.with_weights(style_weights(motion, second, space=space))
             rel = np.linalg.inv(tip_frames) @ _frames(pose, h2)
-    return HitProblem(motion, compiled, eff, lead, second, qpos, e_fk, hit, tgt, blend, goals, rel, falloff, prop, space)
+    return HitProblem(motion, compiled, eff, lead, second, qpos, e_fk, hit, tgt, blend, goals, rel, falloff, prop, space, tip_rot)
+
+
+def _check_target(tgt: np.ndarray) -> np.ndarray:
+    if tgt.shape != (3,) or not np.all(np.isfinite(tgt)):
+        raise MjmotionError(f"the target must be three finite numbers (metres), got {tgt}")
+    return tgt
+
+
+def _goals(e_fk: np.ndarray, tip_rot: np.ndarray, blend: np.ndarray, hit: int, tgt: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` effector goals: the FK effector plus ``blend`` times the hit's offset (§2.2.4: carried in the effector joint's frame)."""
+    local = tip_rot[hit].T @ (tgt - e_fk[hit])
+    return e_fk + blend[:, None] * np.einsum("tab,b->ta", tip_rot, local)
+
+
+def aim(problem: HitProblem, target: np.ndarray) -> HitProblem:
+    """``problem`` with a new ``target (3,)``: exactly what :func:`setup` builds for it, without
+    redoing the work that does not depend on the target (model, FK, chains, the PCA of the style
+    weights). An interactive drag sets up once and aims many times."""
+    if problem.tip_rotations is None:
+        raise MjmotionError("this HitProblem has no tip rotations; build it with hitpoint.setup")
+    tgt = _check_target(np.asarray(target, dtype=float))
+    return replace(problem, target=tgt, goals=_goals(problem.effector_fk, problem.tip_rotations, problem.blend, problem.hit, tgt))
 
 
 # --- target grids (experiments) ---------------------------------------------------------------
@@ -493,8 +516,24 @@ def _rotations(problem: HitProblem, lead_delta: np.ndarray, second_delta: np.nda
     return q
 
 
-def _solve_frames(problem: HitProblem, solver: str) -> tuple[np.ndarray, np.ndarray, float, int]:
-    """Per-frame solve of the lead chain, then the second hand. Returns ``δ``s, seconds, frames solved."""
+def preview_frames(problem: HitProblem, n: int) -> np.ndarray:
+    """About ``n`` of the frames the blend touches, for a coarse solve: spaced evenly in time plus
+    the blend's change (so the short ramp around the hit gets its share), with both ends and the hit frame."""
+    active = np.flatnonzero(problem.blend > 0)
+    if n <= 0 or len(active) <= n:
+        return active
+    change = np.abs(np.diff(problem.blend[active]))
+    u = np.arange(len(active)) / (len(active) - 1) + np.concatenate([[0.0], np.cumsum(change)]) / max(float(change.sum()), 1e-12)
+    picks = np.minimum(np.searchsorted(u, np.linspace(0.0, u[-1], n)), len(active) - 1)
+    keep = np.union1d(active[picks], [active[0], active[-1]])
+    return np.union1d(keep, [problem.hit]) if problem.blend[problem.hit] > 0 else keep
+
+
+def _solve_frames(
+    problem: HitProblem, solver: str, frames: np.ndarray | None = None, on_frame: Callable[[int, int], None] | None = None
+) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """Per-frame solve of the lead chain, then the second hand, on ``frames`` (default: every frame
+    the blend touches); ``on_frame(i, n)`` before each. Returns ``δ``s, seconds, frames solved."""
     c = problem.compiled
     t_n = problem.source.n_frames
     lead, second = problem.lead, problem.second
@@ -511,20 +550,23 @@ def _solve_frames(problem: HitProblem, solver: str) -> tuple[np.ndarray, np.ndar
 
         fs1 = FrameSolver(c, lead)
         fs2 = FrameSolver(c, second, six=True) if second is not None else None
-    active = np.flatnonzero(problem.blend > 0)
+    active = np.flatnonzero(problem.blend > 0) if frames is None else np.asarray(frames, dtype=int)
     start = time.perf_counter()
-    for t in active:
+    for i, t in enumerate(active):
+        if on_frame is not None:
+            on_frame(i, len(active))
         q = problem.qpos[t]
         if solver == "nlp":
             kin1.set_frame(q)
             kin1.set_delta(np.zeros(lead.n_dof))
+            assert fs1 is not None
             r = fs1.solve(q, kin1.data.xpos, kin1.data.xmat, problem.goals[t], lo1[t], hi1[t])
         elif solver == "dls":
             r = dls.solve(kin1, q, problem.goals[t], lo1[t], hi1[t])
         else:
             r = ccd.solve(kin1, q, problem.goals[t], lo1[t], hi1[t])
         d1[t] = r.delta
-        if second is None:
+        if second is None or problem.second_relative is None:
             continue
         # §2.2.2: the second hand returns to its source placement relative to the (new) first hand.
         kin1.set_delta(r.delta)
@@ -534,6 +576,7 @@ def _solve_frames(problem: HitProblem, solver: str) -> tuple[np.ndarray, np.ndar
         goal = lead_new @ problem.second_relative[t]
         q2 = kin1.data.qpos.copy()
         if solver == "nlp":
+            assert fs2 is not None
             r2 = fs2.solve(q, kin1.data.xpos, kin1.data.xmat, goal[:3, 3], lo2[t], hi2[t], goal_rotation=goal[:3, :3])
             if r2.error > GRIP_TOLERANCE:
                 # IPOPT gave up on the equality (a local infeasibility near a limit): DLS may still get there.
@@ -569,7 +612,7 @@ def _solve_shot(problem: HitProblem, smoothness: float) -> tuple[np.ndarray, np.
         params[i] = fk.params(problem.qpos[t], data.xpos, data.xmat)
     goals = problem.goals[frames]
     lo, hi = (x[frames] for x in lead.bounds(problem.source))
-    if second is not None:
+    if second is not None and problem.second_relative is not None:
         lo2, hi2 = second.bounds(problem.source)
         lo, hi = np.hstack([lo, lo2[frames]]), np.hstack([hi, hi2[frames]])
         rel = problem.second_relative[frames]
@@ -623,16 +666,61 @@ def adapt(
         prop: the club to use (default: :func:`fit_club`).
         style: compute ``style_rmse`` (PCA of the source; METRICS.md "Style").
     """
+    _check_solver(solver)
+    problem = setup(motion, target, offset, frame, effector, falloff, wrist, lock, margin, weights, edge, chain_start, prop)
+    return solve(problem, solver, smoothness, style)
+
+
+def _check_solver(solver: str) -> None:
     if solver not in SOLVERS:
         raise MjmotionError(f"--solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
-    problem = setup(motion, target, offset, frame, effector, falloff, wrist, lock, margin, weights, edge, chain_start, prop)
+
+
+def solve(
+    problem: HitProblem,
+    solver: str = "nlp",
+    smoothness: float = 100.0,
+    style: bool = True,
+    preview: int = 0,
+    on_frame: Callable[[int, int], None] | None = None,
+) -> Adaptation:
+    """Solve a :class:`HitProblem` (:func:`setup`, or :func:`aim` at a new target): the IK part of :func:`adapt`.
+
+    ``solve(setup(m, target, ...), solver)`` is ``adapt(m, target, ..., solver=solver)``.
+
+    Args:
+        preview: a coarse preview (per-frame solvers) when the blend touches more frames than
+            this: solve only about ``preview`` of them (:func:`preview_frames`, the hit frame among
+            them) and interpolate the chains' ``δ`` linearly in between. The hit frame is solved
+            as exactly as ever, the frames between are approximate; the report gets
+            ``preview_frames``. ``0``: every frame, as :func:`adapt`.
+        on_frame: ``(i, n)`` before each frame's solve (progress; it may raise to stop the solve).
+    """
+    _check_solver(solver)
+    if preview and solver == "nlp-shot":
+        raise MjmotionError("a preview needs a per-frame solver (nlp, dls or ccd)")
+    active = np.flatnonzero(problem.blend > 0)
+    frames = preview_frames(problem, preview) if 0 < preview < len(active) else None
     if solver == "nlp-shot":
         d1, d2, elapsed, n = _solve_shot(problem, smoothness)
     else:
-        d1, d2, elapsed, n = _solve_frames(problem, solver)
+        d1, d2, elapsed, n = _solve_frames(problem, solver, frames, on_frame)
+    if frames is not None:
+        # between solved frames the δ of both chains is interpolated (it is 0 outside the blend)
+        d1[active] = _interp_rows(active, frames, d1[frames])
+        d2[active] = _interp_rows(active, frames, d2[frames])
     q = _rotations(problem, d1, d2 if problem.second is not None else None)
+    motion = problem.source
     out = motion.replace(rotations=q, name=f"{motion.name}_hit" if motion.name else "hit")
-    return _report(problem, out, solver, elapsed, n, style)
+    a = _report(problem, out, solver, elapsed, n, style)
+    if frames is not None:
+        a.report["preview_frames"] = int(len(frames))
+    return a
+
+
+def _interp_rows(at: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``(len(at), n)``: each column of ``y (len(x), n)`` interpolated linearly at ``at``."""
+    return np.stack([np.interp(at, x, y[:, k]) for k in range(y.shape[1])], axis=1) if y.shape[1] else np.zeros((len(at), 0))
 
 
 def _report(problem: HitProblem, out: Motion, solver: str, elapsed: float, n: int, style: bool) -> Adaptation:

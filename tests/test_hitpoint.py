@@ -10,6 +10,7 @@ import pytest
 from mjmotion import bvh, hitpoint, kinematics, mjcf
 from mjmotion import rotations as rot
 from mjmotion.cli import main
+from mjmotion.errors import MjmotionError
 
 GRID = [(dy, dz) for dy in (-0.2, 0.0, 0.2) for dz in (-0.2, 0.0, 0.2)]
 REPORT_KEYS = {
@@ -217,3 +218,51 @@ def test_table_2_1_with_the_seeds_solver_locked_wrist_keeps_the_style(short):
         assert all(r["hit_error_m"] < 1e-3 for r in reports)
         mean[wrist] = float(np.mean([r["style_rmse"] for r in reports]))
     assert mean["locked"] < mean["swing"], mean
+
+
+def test_aim_is_setup_at_the_new_target_and_solve_of_it_is_adapt(short):
+    """What the Studio's drag runs: one set-up, aimed at each ball position, gives the verb's answer bit for bit."""
+    s, prop = short
+    base = hitpoint.setup(s, offset=np.zeros(3), prop=prop)
+    target = base.effector_fk[base.hit] + np.array([0.0, 0.08, 0.06])
+    aimed, fresh = hitpoint.aim(base, target), hitpoint.setup(s, target=target, prop=prop)
+    np.testing.assert_array_equal(aimed.goals, fresh.goals)
+    np.testing.assert_array_equal(aimed.target, fresh.target)
+    assert aimed.hit == fresh.hit and base.goals is not aimed.goals
+    for solver in ("dls", "nlp"):
+        a = hitpoint.solve(aimed, solver, style=solver == "dls")
+        b = hitpoint.adapt(s, target=target, prop=prop, solver=solver, style=solver == "dls")
+        np.testing.assert_array_equal(a.motion.rotations, b.motion.rotations)
+        assert {k: v for k, v in a.report.items() if k != "solve_s_per_frame"} == {k: v for k, v in b.report.items() if k != "solve_s_per_frame"}
+    with pytest.raises(MjmotionError, match="three finite numbers"):
+        hitpoint.aim(base, np.array([0.0, np.nan, 1.0]))
+
+
+def test_a_preview_solves_few_frames_reaches_the_ball_and_stays_near_the_full_solve():
+    from mjmotion import synth
+
+    drive = synth.drive()  # a golf drive: the blend touches ~90 of its frames (it addresses the ball)
+    base = hitpoint.setup(drive.motion, offset=np.zeros(3), frame=drive.hit_frame, prop=drive.prop)
+    problem = hitpoint.aim(base, base.effector_fk[base.hit] + np.array([0.0, 0.05, 0.05]))
+    active = np.flatnonzero(problem.blend > 0)
+    frames = hitpoint.preview_frames(problem, 24)
+    assert len(active) > 80 and 16 <= len(frames) <= 27 and problem.hit in frames and frames[0] == active[0] and frames[-1] == active[-1]
+    assert np.array_equal(hitpoint.preview_frames(problem, len(active)), active)
+    seen = []
+    p = hitpoint.solve(problem, "dls", style=False, preview=24, on_frame=lambda i, n: seen.append((i, n)))
+    full = hitpoint.solve(problem, "dls", style=False)
+    assert seen == [(i, len(frames)) for i in range(len(frames))] and p.report["preview_frames"] == len(frames)
+    assert p.report["hit_error_m"] < 1e-3  # the hit frame is solved, not interpolated
+    np.testing.assert_array_equal(p.motion.rotations[frames], full.motion.rotations[frames])  # solved frames: the full solve's
+    assert hitpoint.source_kept(p) == (True, True)
+    between = np.setdiff1d(active, frames)
+    assert len(between) > 0 and not np.array_equal(p.motion.rotations[between], full.motion.rotations[between])
+    dev = np.linalg.norm(p.achieved - full.achieved, axis=1)
+    assert np.median(dev[between]) < 0.01 and dev.max() < 0.05  # interpolated δ: near the full solve's path
+
+    def stop(i: int, n: int) -> None:
+        if i == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        hitpoint.solve(problem, "dls", on_frame=stop)

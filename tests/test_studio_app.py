@@ -21,6 +21,8 @@ from mjmotion import bvh, kinematics, mjcf, synth
 from mjmotion.studio.app import CHROMIUM_ARGS as ARGS
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+#: The stream's speed in the tests that watch it play (the Speed slider's top, ``player.SPEEDS``).
+STREAM_SPEED = 2.0
 
 
 def _need(ok: bool, what: str) -> None:
@@ -107,7 +109,8 @@ class Page:
 
     def stream(self, playing: bool = True) -> None:
         """Set-up (server side): the page streams the bundled walk (sliders and weights all on
-        locomotion 1, no action), playing or paused."""
+        locomotion 1, no action), playing or paused, at :data:`STREAM_SPEED` (what the tests check
+        is in stream time: frames, weights, actions; only the wall clock runs faster)."""
         s = self.session
         if s.live is None:
             s.tabs["Stream"].run()
@@ -119,6 +122,7 @@ class Page:
             s.live.stop_action(0.05)
             s.live.set_weights(np.eye(len(s.live.locomotion))[0], 0.0)
             s.player.playing = playing
+            s.player.speed = STREAM_SPEED
             s.play_button.label = "Pause" if playing else "Play"
         if playing:
             self.wait_for(lambda: s.live_frame is not None and s.live_frame.action is None and s.live_frame.weights[0] > 0.999)
@@ -171,6 +175,7 @@ def _blue_pixels(page) -> tuple[float, int]:
 
 def test_page_loads_and_draws_a_non_blank_scene(page):
     page.wait_for(lambda: page.session.live_frame is not None and page.session.live_frame.index > 10)
+    page.pause()  # the stream plays on load; a still scene is drawn (and screenshot) faster by software WebGL
     # the client fades the scene in after loading
     page.wait_for(lambda: _blue_pixels(page)[1] > 300, timeout=30, fail=False)
     spread, blue = _blue_pixels(page)
@@ -273,9 +278,9 @@ def test_two_pages_at_once_keep_separate_state(browser, studio, page, tmp_path):
         a.set_number("Weight 2", 1.0)
         a.wait_for(lambda: a.session.live.target_weights[1] > 0.4)
         b.wait_for(lambda: any(f.action == "kick" for f in list(b.session.live_record)), timeout=20)
-        a.wait_for(lambda: sum(f.index > start for f in list(a.session.live_record)) > 30, timeout=20)  # a streamed on meanwhile
-        a_frames = [f for f in list(a.session.live_record) if f.index > start]
-        assert len(a_frames) > 30 and not any(f.action for f in a_frames) and a.session.live.target_weights[1] == pytest.approx(0.5)
+        a_frames = lambda: [f for f in list(a.session.live_record) if f.index > start]
+        a.wait_for(lambda: len(a_frames()) > 30)  # a streamed on while b kicked
+        assert not any(f.action for f in a_frames()) and a.session.live.target_weights[1] == pytest.approx(0.5)
         assert b.session.live.target_weights[0] == pytest.approx(1.0)
         good = tmp_path / "only_b.bvh"
         bvh.write(synth.walk(speed=1.0).motion, good)
@@ -305,3 +310,19 @@ def test_setting_the_ball_in_the_gui_gives_an_adapted_shot_that_reaches_it(page)
     spot = kinematics.forward(mjcf.compile(actor.motion.skeleton, actor.props), actor.motion).site("bat/sweet_spot")[hit.shot.hit_frame]
     assert np.linalg.norm(spot - target) < 1e-3
     assert "reached | True" in hit.report.content and "launch speed" in hit.report.content
+    # a drag (the gizmo's events, sent server side: software WebGL cannot pick the gizmo reliably):
+    # while it moves, a preview of a few frames that already meets the ball; on release, the verb's exact answer
+    from types import SimpleNamespace
+
+    moved = target + np.array([0.0, 0.04, -0.03])
+    hit._gizmo.position = tuple(moved)
+    hit._last_drag = 0.0
+    hit._on_drag(SimpleNamespace(phase="update"))
+    page.wait_for(lambda: "preview_frames" in hit.result.report and "preview (" in hit.report.content, timeout=30)
+    assert hit.result.report["hit_error_m"] < 1e-3 and "launch speed" not in hit.report.content
+    hit._on_release(SimpleNamespace(phase="end"))
+    page.wait_for(lambda: "preview_frames" not in hit.result.report and "launch speed" in hit.report.content, timeout=30)
+    page.idle()
+    # shown: the exact solve from the shot's set-up (tests/test_studio.py: `mjmotion hit --solver dls`'s answer), not the preview
+    assert hit.result.report["solver"] == "dls" and hit.result.report["hit_error_m"] < 1e-3
+    np.testing.assert_array_equal(page.session.shown.motion.rotations, hit.result.motion.rotations)

@@ -71,7 +71,7 @@ def solve(
     it = 0
     while True:
         kin.set_delta(delta)
-        if six:
+        if goal_rotation is not None:
             p, r = kin.tip_frame()
             e = np.concatenate([goal - p, ORIENTATION_SCALE * rotation_error(goal_rotation, r)])
         else:
@@ -92,7 +92,7 @@ def solve(
             w = np.where(out, 0.0, w)
         delta = np.clip(delta + step, lower, upper)
         it += 1
-    if six:
+    if goal_rotation is not None:
         p, r = kin.tip_frame()
         return IKResult(delta, float(np.linalg.norm(goal - p)), float(np.linalg.norm(rotation_error(goal_rotation, r))), it)
     return IKResult(delta, float(np.linalg.norm(e)), 0.0, it)

@@ -15,6 +15,7 @@ infeasible, the goal becomes a heavy penalty instead and the result says how far
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import mujoco
@@ -29,7 +30,7 @@ from .dls import ORIENTATION_SCALE, IKResult, rotation_error
 
 #: Penalty weight of the goal when it cannot be met exactly (per m²).
 SOFT_WEIGHT = 1e6
-_IPOPT = {
+_IPOPT: dict[str, Any] = {
     "ipopt.print_level": 0,
     "ipopt.sb": "yes",
     "print_time": False,
@@ -203,6 +204,7 @@ class FrameSolver:
         out = self.fk.function(delta, p)
         if self.six:
             x, r = np.asarray(out[0]).ravel(), np.asarray(out[1]).reshape(3, 3, order="F")
+            assert goal_rotation is not None
             return IKResult(delta, float(np.linalg.norm(x - goal)), float(np.linalg.norm(rotation_error(goal_rotation, r))), int(stats["iter_count"]))
         e = np.asarray(out[-1]).ravel()
         return IKResult(delta, float(np.linalg.norm(e - goal)), 0.0, int(stats["iter_count"]))
@@ -239,10 +241,14 @@ def _time_hessian(frames: np.ndarray, inv_w: np.ndarray, smoothness: float) -> s
     pos = {int(f): i for i, f in enumerate(frames)}
     rows, cols, vals = [], [], []
     for i, f in enumerate(frames):
-        rows.append(i), cols.append(i), vals.append(-2.0)
+        rows.append(i)
+        cols.append(i)
+        vals.append(-2.0)
         for nb in (int(f) - 1, int(f) + 1):
             if nb in pos:
-                rows.append(i), cols.append(pos[nb]), vals.append(1.0)
+                rows.append(i)
+                cols.append(pos[nb])
+                vals.append(1.0)
     d = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
     t = sp.identity(n) + smoothness * (d.T @ d)
     return (2.0 * sp.kron(t, sp.diags(inv_w))).tocsc()
@@ -307,8 +313,8 @@ class ShotSolver:
         opts["ipopt.max_iter"] = 300
         opts["hess_lag"] = hess_lag
         self.nd, self.n_goal = nd, n_goal
-        self._nlp = {"x": x, "p": pars, "f": cost, "g": residuals}
-        self._soft_nlp = {"x": x, "p": pars, "f": cost + SOFT_WEIGHT * ca.sumsqr(residuals)}
+        self._nlp: dict[str, Any] = {"x": x, "p": pars, "f": cost, "g": residuals}
+        self._soft_nlp: dict[str, Any] = {"x": x, "p": pars, "f": cost + SOFT_WEIGHT * ca.sumsqr(residuals)}
         self.hard = ca.nlpsol("shot_hard", "ipopt", self._nlp, opts)
         self._soft: ca.Function | None = None
         self.residual = ca.Function("res", [x, pars], [ca.reshape(residuals, n_res, n_frames)])

@@ -12,13 +12,16 @@ from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import mjcf
 from ..errors import MjmotionError
 from ..skeleton import Motion
+
+if TYPE_CHECKING:
+    from ..hitpoint import HitProblem
 
 ProgressFn = Callable[[float, str], None]
 
@@ -139,14 +142,18 @@ def grid_image(result: BlendResult, labels: tuple[str, str]) -> np.ndarray | Non
 # --------------------------------------------------------------------------------------------
 #: Adaptations a shot remembers (the latest few ball positions).
 MEMO_SIZE = 8
+#: Frames a drag's preview solves (:func:`mjmotion.hitpoint.preview_frames`): about 0.1 s of DLS.
+PREVIEW_FRAMES = 24
 
 
 @dataclass(frozen=True, eq=False)
 class Shot:
     """A clip set up for adaptation: the effector, its prop and hit frame, the source hit point ``(3,)``.
 
-    ``memo`` keeps the latest adaptations by (solver, ball position), so a release at the spot the
-    last drag solved reuses that solve (:func:`adapt`).
+    ``problem`` is the shot's :class:`~mjmotion.hitpoint.HitProblem` (model, FK, chains, the PCA
+    of the style weights), built once when the shot is loaded and aimed at each ball position
+    (:func:`mjmotion.hitpoint.aim`). ``memo`` keeps the latest adaptations by (solver, frames
+    previewed, ball position), so a release at the spot the last drag solved reuses that solve (:func:`adapt`).
     """
 
     motion: Motion
@@ -154,7 +161,8 @@ class Shot:
     prop: mjcf.Prop | None
     hit_frame: int
     source_point: np.ndarray
-    memo: OrderedDict[tuple[str, tuple[float, ...]], Any] = field(default_factory=OrderedDict, repr=False)
+    problem: HitProblem = field(repr=False)
+    memo: OrderedDict[tuple[str, int, tuple[float, ...]], Any] = field(default_factory=OrderedDict, repr=False)
 
 
 def shot(motion: Motion, prop: mjcf.Prop | None = None, hit_frame: int | None = None) -> Shot:
@@ -173,14 +181,19 @@ def shot(motion: Motion, prop: mjcf.Prop | None = None, hit_frame: int | None = 
         effector, prop = "club", hitpoint.fit_club(motion)
     else:
         raise MjmotionError(f"{motion.name}: no prop and not a two-handed swing, kick or punch by name; nothing to hit with")
+    # the defaults of `mjmotion hit` (falloff, wrist, weights, edge): the verb's answer for each ball position
     problem = hitpoint.setup(motion, offset=np.zeros(3), frame=hit_frame, effector=effector, prop=prop)
-    return Shot(motion, effector, prop, int(problem.hit), problem.effector_fk[problem.hit].copy())
+    return Shot(motion, effector, prop, int(problem.hit), problem.effector_fk[problem.hit].copy(), problem)
 
 
-def adapt(s: Shot, target: np.ndarray, solver: str = "dls", style: bool = False) -> Any:
-    """:func:`mjmotion.hitpoint.adapt` of the shot to ``target`` (an ``Adaptation``).
+def adapt(s: Shot, target: np.ndarray, solver: str = "dls", style: bool = False, preview: bool = False, progress: ProgressFn = _no_progress) -> Any:
+    """The shot adapted to ``target`` (an ``Adaptation``): what ``mjmotion hit``
+    (:func:`mjmotion.hitpoint.adapt`) answers with the same solver and the shot's hit frame, from
+    the shot's set-up; with ``preview``, a coarse preview of it that solves :data:`PREVIEW_FRAMES`
+    frames (:func:`mjmotion.hitpoint.solve`; the same answer when the blend touches no more).
 
-    The same ball position and solver again (a release where the last drag was solved) reuses the
+    ``progress`` is called every few frames' solves (a cancel checkpoint). The same ball
+    position, solver and preview again (a release where the last drag was solved) reuses the
     remembered solve; ``style`` then only adds the style error (:func:`mjmotion.style.style_rmse`
     with the PCA the solve fitted, as ``hitpoint.adapt`` computes it).
     """
@@ -190,10 +203,17 @@ def adapt(s: Shot, target: np.ndarray, solver: str = "dls", style: bool = False)
     from ..style import style_rmse
 
     target = np.asarray(target, float)
-    key = (solver, tuple(np.round(target, 6).tolist()))
+    n = PREVIEW_FRAMES if preview and int((s.problem.blend > 0).sum()) > PREVIEW_FRAMES else 0
+    key = (solver, n, tuple(np.round(target, 6).tolist()))
     a = s.memo.get(key)
     if a is None:
-        a = hitpoint.adapt(s.motion, target=target, frame=s.hit_frame, effector=s.effector, solver=solver, prop=s.prop, style=style)
+        what = f"adapting ({solver}{f', preview of {n} frames' if n else ''})"
+
+        def on_frame(i: int, count: int) -> None:
+            if i % 8 == 0:  # a checkpoint every few frames (each report is a message to the page)
+                progress(0.1 + 0.7 * i / count, what)
+
+        a = hitpoint.solve(hitpoint.aim(s.problem, target), solver, style=style, preview=n, on_frame=on_frame)
     elif style and a.report["style_rmse"] is None:
         rmse, k = style_rmse(a.problem.source, a.motion, space=a.problem.space)
         a = replace(a, report={**a.report, "style_rmse": float(rmse), "k": int(k)})

@@ -1,6 +1,11 @@
-"""Hit tab (seed 003 §2): a swing or kick with its prop; drag the ball (or type it); the shot is
-adapted with the fast solver (DLS) while dragging and on release, with the NLP on demand; the
-ball's launch is simulated in MuJoCo and its flight drawn; the report shown."""
+"""Hit tab (seed 003 §2): a swing or kick with its prop; drag the ball (or type it); while dragging
+the shot is previewed (DLS on a few frames, :data:`~mjmotion.studio.engine.PREVIEW_FRAMES`), on
+release adapted exactly as ``mjmotion hit --solver dls`` does, with the NLP on demand; the ball's
+launch is simulated in MuJoCo and its flight drawn; the report shown.
+
+Two kinds of job: ``hit`` (a drag's preview: short, a newer one waits for it rather than throwing
+it away, so a steady drag keeps showing answers) and ``hit-exact`` (the release, a typed ball, the
+NLP: cancelled at its next checkpoint, every few frames, by any newer request: a drag makes it stale)."""
 
 from __future__ import annotations
 
@@ -13,7 +18,7 @@ from .. import engine
 from . import pick, refresh, table
 
 #: Seconds between drag updates sent to the solver (the worker keeps only the latest).
-DRAG_INTERVAL = 0.15
+DRAG_INTERVAL = 0.1
 
 
 class HitTab:
@@ -104,7 +109,8 @@ class HitTab:
         self.solve(p, self.solver.value, final=True)
 
     def solve(self, target: np.ndarray, solver: str, final: bool) -> None:
-        """Adapt the shot to ``target``; ``final`` also simulates the launch and measures the style."""
+        """Adapt the shot to ``target``: a preview (``final`` false, while dragging) or the exact
+        answer, which also simulates the launch and measures the style."""
         shot = self.shot
         if shot is None:
             self.s.set_status("load a shot first", error=True)
@@ -117,8 +123,8 @@ class HitTab:
 
         def job(progress):
             t0 = time.perf_counter()
-            progress(0.1, f"adapting ({solver})")
-            a = engine.adapt(shot, target, solver, style=final)
+            progress(0.05, f"adapting ({solver})")
+            a = engine.adapt(shot, target, solver, style=final, preview=not final, progress=progress)
             latency = time.perf_counter() - t0
             flight = None
             if final:
@@ -126,9 +132,13 @@ class HitTab:
                 flight = engine.launch(shot, a.motion, target)
             return a, flight, latency
 
-        # a DLS solve cannot stop part-way: one still running for an earlier ball position is
-        # shown when it ends rather than thrown away (the worker then runs only the latest)
-        self.s.submit("hit", job, lambda out: self._solved(out, target, solver), label="Hit", keep_running=solver == "dls")
+        done = lambda out: self._solved(out, target, solver)
+        if final:
+            self.s.worker.cancel("hit")  # previews of the drag that ended: this answer replaces them
+            self.s.submit("hit-exact", job, done, label="Hit")
+        else:
+            self.s.worker.cancel("hit-exact")  # an exact solve for an earlier ball position is stale
+            self.s.submit("hit", job, done, label="Hit", keep_running=True)
 
     def _solved(self, out: Any, target: np.ndarray, solver: str) -> None:
         a, flight, latency = out
@@ -143,13 +153,16 @@ class HitTab:
             self.s.play_button.label = "Play"
             self.s._draw(frame)
         r = a.report
+        preview = f" preview ({r['preview_frames']} frames; exact on release)" if "preview_frames" in r else ""
         rows = [
             ("reached", r["reachable"]),
             ("hit error (mm)", 1000 * r["hit_error_m"]),
             ("grip error (mm)", 1000 * r["grip_error_m"]),
             ("style error", r["style_rmse"] if r["style_rmse"] is not None else "on release"),
-            ("solver", f"{solver}, {latency:.2f} s"),
+            ("solver", f"{solver}{preview}, {latency:.2f} s"),
         ]
+        if flight is None and "flight" in self._marks:
+            self._marks.pop("flight").remove()  # it was the launch from an earlier ball position
         if flight is not None:
             m = flight.metrics
             rows += [("contact", m.get("contact")), ("launch speed (m/s)", m.get("launch_speed", float("nan")))]
@@ -160,4 +173,5 @@ class HitTab:
             if len(flight.path) > 1:
                 self._marks["flight"] = scene.add_spline_catmull_rom("/hit/flight", flight.path, color=(217, 26, 26))
         self.report.content = table(rows) + ("" if r["reachable"] else f"\n\n{r.get('message', '')}")
-        self.s.set_status(f"adapted {a.motion.name} to the ball ({'reached' if r['reachable'] else 'not reached'})")
+        what = "previewed" if preview else "adapted"
+        self.s.set_status(f"{what} {a.motion.name} to the ball ({'reached' if r['reachable'] else 'not reached'})")
