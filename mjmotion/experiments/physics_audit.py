@@ -170,8 +170,10 @@ def mid_stance_skate(motion: Motion, params: ev.Params = ev.DEFAULTS) -> tuple[f
 
 def mid_stance_lines(data_dir: Path | None) -> list[str]:
     """One note: :func:`mid_stance_skate` of every :data:`MID_STANCE_WALKS` clip found under ``data_dir``."""
-    parts = []
-    for rel in MID_STANCE_WALKS if data_dir is not None else ():
+    parts: list[str] = []
+    if data_dir is None:
+        return parts
+    for rel in MID_STANCE_WALKS:
         if (data_dir / rel).is_file():
             whole, mid, n = mid_stance_skate(_read(data_dir / rel))
             parts.append(f"{rel.split('/')[0].removeprefix('cmu_')} {Path(rel).stem} {whole:.0f} → {mid:.0f} ({n} stances)")
