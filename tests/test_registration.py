@@ -340,14 +340,15 @@ def test_gaussian_smooth_equals_scipys_gaussian_filter1d(sigma):
 
 
 def test_register_loads_no_scipy(mocap):
-    """A fresh registration of two clips stays off SciPy (its import alone would double a fresh `register`)."""
+    """A fresh registration of two clips stays off SciPy (its import alone would double a fresh `register`),
+    Numba, CasADi, Matplotlib and MuJoCo (positions by NumPy FK, issue 19.2)."""
     code = (
         "import sys\n"
         "from mjmotion import bvh, registration as R\n"
         f"a = bvh.read({str(mocap / 'cmu_cgspeed_daz' / '07_01.bvh')!r})[4:]\n"
         f"b = bvh.read({str(mocap / 'cmu_cgspeed_daz' / '07_02.bvh')!r})[4:]\n"
         "R.register(a, b)\n"
-        "print(sorted({m.split('.')[0] for m in sys.modules} & {'scipy', 'numba', 'casadi', 'matplotlib'}))\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'scipy', 'numba', 'casadi', 'matplotlib', 'mujoco'}))\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]

@@ -41,15 +41,22 @@ def joint_weights(skeleton: Skeleton, weights: dict[str, float] | None = None) -
 
 
 def _window_clouds(
-    positions: np.ndarray, window: int, weights: np.ndarray, xy: np.ndarray, z: np.ndarray, scale: float = 1.0, z_scale: float = 1.0
+    positions: np.ndarray,
+    window: int,
+    weights: np.ndarray,
+    xy: np.ndarray,
+    z: np.ndarray,
+    scale: float = 1.0,
+    z_scale: float = 1.0,
+    frames: np.ndarray | None = None,
 ) -> np.ndarray:
     """Weighted, horizontally centred window clouds of one clip, written into GEMM operands.
 
-    ``positions: (T, J, 3)``, ``weights: (J,)`` (joints of weight zero are left out). Writes
-    ``xy: (T, 2, P)`` the horizontal features (each window centred on its weighted mean, times
-    ``scale·√w``) and ``z: (T, P)`` the heights times ``z_scale·√w`` (both may be views into
+    ``positions: (T, J, 3)``, ``weights: (J,)`` (joints of weight zero are left out); ``frames``:
+    only the windows around these frames (``F`` of them, default all ``T``). Writes ``xy: (F, 2, P)`` the horizontal features (each window centred on its weighted mean, times
+    ``scale·√w``) and ``z: (F, P)`` the heights times ``z_scale·√w`` (both may be views into
     larger operands; ``P = K·J'``); returns ``norms: (T,)`` each window's weighted squared norm
-    (horizontal, centred, plus heights; unscaled). Point ``k·J' + j`` is kept joint ``j`` at frame
+    (``(F,)``: horizontal, centred, plus heights; unscaled). Point ``k·J' + j`` is kept joint ``j`` at frame
     ``t + k − L``; windows are clamped at the clip's ends (edge frames repeat). The clip is
     gathered and weighted once, per coordinate, into one ``(3, T+2L, J')`` buffer; window ``t`` is
     then the contiguous run of ``P`` values from frame ``t`` on, a view of it, so the only ``K``-fold
@@ -68,6 +75,8 @@ def _window_clouds(
     coords[:, window + t :] = coords[:, window + t - 1 : window + t]
     mean = sliding_window_view(coords[:2] @ sw, k, axis=1).sum(axis=-1)  # (2, T) window means × scale
     win = sliding_window_view(coords.reshape(3, -1), k * n_j, axis=1)[:, ::n_j]  # (3, T, P) views, unit stride
+    if frames is not None:  # only these windows are written (the self-similarity's subsample)
+        win, mean = win[:, frames], mean[:, frames]
     np.subtract(win[:2], np.multiply.outer(mean, np.tile(sw, k)), out=xy.transpose(1, 0, 2))
     z[...] = win[2]
     norms = np.einsum("tcp,tcp->t", xy, xy) / scale**2
@@ -76,7 +85,12 @@ def _window_clouds(
 
 
 def grid_operands(
-    positions_a: np.ndarray, positions_b: np.ndarray, weights: np.ndarray, window: int
+    positions_a: np.ndarray,
+    positions_b: np.ndarray,
+    weights: np.ndarray,
+    window: int,
+    frames_a: np.ndarray | None = None,
+    frames_b: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The two matrix products of :func:`distance_grid`: ``(left, right, left_z, right_z)``.
 
@@ -84,20 +98,23 @@ def grid_operands(
     ``right = [x, y]_B``); ``left_z @ right_z.T`` is ``(nA, nB)``, the height term and both
     windows' norms in one product (``[−2 z, |c|², 1]_A · [z, 1, |c|²]_Bᵀ``), so the cost needs
     only ``√(a² + b²)`` and one subtraction after the products. ``weights: (J,)``, joints of
-    weight zero left out. Every operand is written once, in place (the scales 2 and −2 are exact).
+    weight zero left out; ``frames_a``, ``frames_b``: only these frames' rows (``nA``, ``nB`` of
+    them; windows still from the whole clips). Every operand is written once, in place (the scales
+    2 and −2 are exact).
     """
     pa, pb = np.asarray(positions_a, dtype=float), np.asarray(positions_b, dtype=float)
-    n_a, n_b = len(pa), len(pb)
+    n_a = len(pa) if frames_a is None else len(frames_a)
+    n_b = len(pb) if frames_b is None else len(frames_b)
     p = (2 * window + 1) * int(np.count_nonzero(weights > 0))
     left = np.empty((2, n_a, 2, p))
     left_z = np.empty((n_a, p + 2))
-    left_z[:, p] = _window_clouds(pa, window, weights, left[0], left_z[:, :p], scale=2.0, z_scale=-2.0)
+    left_z[:, p] = _window_clouds(pa, window, weights, left[0], left_z[:, :p], 2.0, -2.0, frames_a)
     left_z[:, p + 1] = 1.0
     left[1, :, 0] = left[0, :, 1]
     np.negative(left[0, :, 0], out=left[1, :, 1])
     right = np.empty((n_b, 2, p))
     right_z = np.empty((n_b, p + 2))
-    right_z[:, p + 1] = _window_clouds(pb, window, weights, right, right_z[:, :p])
+    right_z[:, p + 1] = _window_clouds(pb, window, weights, right, right_z[:, :p], frames=frames_b)
     right_z[:, p] = 1.0
     return left.reshape(2 * n_a, 2 * p), right.reshape(n_b, 2 * p), left_z, right_z
 
@@ -156,15 +173,12 @@ def distance_grid(
         raise MjmotionError(f"distance_grid needs (T, J, 3) positions with equal J, got {pa.shape} and {pb.shape}")
     if window < 0:
         raise MjmotionError(f"the window half-width must be ≥ 0 frames, got {window}")
-    rows = np.arange(len(pa)) if frames_a is None else np.asarray(frames_a, dtype=int)
-    cols = np.arange(len(pb)) if frames_b is None else np.asarray(frames_b, dtype=int)
-    check_grid_size(len(rows), len(cols), max_cells)
+    rows = None if frames_a is None else np.asarray(frames_a, dtype=int)
+    cols = None if frames_b is None else np.asarray(frames_b, dtype=int)
+    check_grid_size(len(pa) if rows is None else len(rows), len(pb) if cols is None else len(cols), max_cells)
     w = np.ones(pa.shape[1]) if weights is None else np.asarray(weights, dtype=float)
-    left, right, left_z, right_z = grid_operands(pa, pb, w, window)  # joints of weight zero left out
-    if frames_a is not None or frames_b is not None:  # rows and columns picked after the windows
-        left = left.reshape(2, len(pa), -1)[:, rows].reshape(2 * len(rows), -1)
-        left_z, right, right_z = left_z[rows], right[cols], right_z[cols]
-    return Grid(cost=_blocked_cost(left, right, left_z, right_z), window=window)
+    operands = grid_operands(pa, pb, w, window, rows, cols)  # joints of weight zero left out
+    return Grid(cost=_blocked_cost(*operands), window=window)
 
 
 #: Bytes of the reused block of ``2a, 2b`` products in :func:`distance_grid`: a few large blocks (fewer GEMM calls) measured best.
