@@ -24,14 +24,22 @@ def joint_positions(motion: Motion) -> np.ndarray:
     skel = motion.skeleton
     t, n = motion.n_frames, skel.n_joints
     local = rot.normalize(motion.rotations)
+    # a slide joint moves the body along its parent's axes: the translation replaces the offset
+    slides = [j for j in range(1, n) if skel.has_positions(j)] if motion.translations is not None else []
+    offsets: np.ndarray = np.broadcast_to(skel.offsets, (t, n, 3))
+    if slides:
+        offsets = offsets.copy()
+        offsets[:, slides] = motion.translations[:, slides]  # type: ignore[index]
     pos = np.empty((t, n, 3))
     world = np.empty((t, n, 4))
     pos[:, 0] = motion.root_positions
     world[:, 0] = local[:, 0]
-    for j in range(1, n):
-        p = int(skel.parents[j])
-        # a slide joint moves the body along its parent's axes: the translation replaces the offset
-        offset = motion.translations[:, j] if motion.translations is not None and skel.has_positions(j) else skel.offsets[j]
-        pos[:, j] = pos[:, p] + rot.rotate(world[:, p], offset)
-        world[:, j] = rot.multiply(world[:, p], local[:, j])
+    depth = np.zeros(n, dtype=int)
+    for j in range(1, n):  # parents come first (Skeleton's invariant)
+        depth[j] = depth[skel.parents[j]] + 1
+    for d in range(1, int(depth.max(initial=0)) + 1):  # one batch per tree level, not per joint
+        js = np.flatnonzero(depth == d)
+        ps = skel.parents[js]
+        pos[:, js] = pos[:, ps] + rot.rotate(world[:, ps], offsets[:, js])
+        world[:, js] = rot.multiply(world[:, ps], local[:, js])
     return pos
