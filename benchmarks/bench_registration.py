@@ -144,7 +144,7 @@ def main() -> None:
     print(f"BLAS threads: {os.environ.get('OPENBLAS_NUM_THREADS')}; load average {load:.1f} on {os.cpu_count()} cores")
     n_w = int((weights > 0).sum())
     print(f"two {N}-frame clips ({a.skeleton.n_joints} joints, {n_w} weighted), window {2 * window + 1} frames; median of {args.repeats}")
-    print(f"  forward kinematics (MuJoCo, both clips) {t_fk * 1e3:8.1f} ms")
+    print(f"  forward kinematics (NumPy, both clips)  {t_fk * 1e3:8.1f} ms")
     print(
         f"  grid  (vectorised, {N}×{N})           {t_grid * 1e3:8.1f} ms  (p90 {p90['grid'] * 1e3:.1f}; {len(samples['grid'])} runs interleaved with:)"
     )

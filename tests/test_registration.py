@@ -72,6 +72,31 @@ def test_grid_leaves_out_joints_of_weight_zero_and_its_products_give_the_cost():
     assert np.allclose(np.maximum(left_z @ right_z.T - np.hypot(ab[:9], ab[9:]), 0), full, rtol=0, atol=1e-13)
 
 
+def test_grid_in_row_blocks_equals_closed_form_cell_by_cell(monkeypatch):
+    """Issue 19.5: the products run in blocks of rows (a ragged last block, rows picked by
+    ``frames_a``); every cell equals Eq. 3–5 solved for that cell alone (``rigid_2d``, then the
+    residual summed point by point), with clamped windows and a joint of weight zero."""
+    rng = np.random.default_rng(5)
+    pa, pb = rng.normal(size=(11, 4, 3)) + [4.0, -3.0, 1.0], rng.normal(size=(8, 4, 3))
+    w, window = np.array([1.0, 0.0, 2.0, 0.5]), 2
+    monkeypatch.setattr(R.grid, "BLOCK_BYTES", 16 * 8 * 3)  # 3 rows a block: 3 + 3 + 3 + 2
+    grid = R.distance_grid(pa, pb, w, window).cost
+    ww = np.tile(w, 2 * window + 1) / (w.sum() * (2 * window + 1))
+    expect = np.empty((11, 8))
+    for i in range(11):
+        for j in range(8):
+            ca = pa[np.clip(np.arange(i - window, i + window + 1), 0, 10)].reshape(-1, 3)
+            cb = pb[np.clip(np.arange(j - window, j + window + 1), 0, 7)].reshape(-1, 3)
+            th, tx, ty = R.rigid_2d(ca[None], cb[None], ww)[0]
+            c, s = np.cos(th), np.sin(th)
+            moved = np.column_stack([c * cb[:, 0] - s * cb[:, 1] + tx, s * cb[:, 0] + c * cb[:, 1] + ty, cb[:, 2]])
+            expect[i, j] = ww @ np.sum((ca - moved) ** 2, axis=1)
+    assert np.allclose(grid, expect, rtol=1e-12, atol=1e-13)
+    rows, cols = np.array([10, 0, 4, 7, 7]), np.array([6, 1, 2])
+    picked = R.distance_grid(pa, pb, w, window, frames_a=rows, frames_b=cols).cost
+    assert np.allclose(picked, expect[np.ix_(rows, cols)], rtol=1e-12, atol=1e-13)
+
+
 def test_grid_is_zero_for_a_clip_moved_on_the_floor():
     rng = np.random.default_rng(2)
     skel = random_skeleton(rng, 8, inner_positions=False)
@@ -315,14 +340,15 @@ def test_gaussian_smooth_equals_scipys_gaussian_filter1d(sigma):
 
 
 def test_register_loads_no_scipy(mocap):
-    """A fresh registration of two clips stays off SciPy (its import alone would double a fresh `register`)."""
+    """A fresh registration of two clips stays off SciPy (its import alone would double a fresh `register`),
+    Numba, CasADi, Matplotlib and MuJoCo (positions by NumPy FK, issue 19.2)."""
     code = (
         "import sys\n"
         "from mjmotion import bvh, registration as R\n"
         f"a = bvh.read({str(mocap / 'cmu_cgspeed_daz' / '07_01.bvh')!r})[4:]\n"
         f"b = bvh.read({str(mocap / 'cmu_cgspeed_daz' / '07_02.bvh')!r})[4:]\n"
         "R.register(a, b)\n"
-        "print(sorted({m.split('.')[0] for m in sys.modules} & {'scipy', 'numba', 'casadi', 'matplotlib'}))\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'scipy', 'numba', 'casadi', 'matplotlib', 'mujoco'}))\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]

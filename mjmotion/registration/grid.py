@@ -40,39 +40,57 @@ def joint_weights(skeleton: Skeleton, weights: dict[str, float] | None = None) -
     return w
 
 
-def _window_clouds(positions: np.ndarray, window: int, weights: np.ndarray, xy: np.ndarray, z: np.ndarray, scale: float = 1.0) -> np.ndarray:
+def _window_clouds(
+    positions: np.ndarray,
+    window: int,
+    weights: np.ndarray,
+    xy: np.ndarray,
+    z: np.ndarray,
+    scale: float = 1.0,
+    z_scale: float = 1.0,
+    frames: np.ndarray | None = None,
+) -> np.ndarray:
     """Weighted, horizontally centred window clouds of one clip, written into GEMM operands.
 
-    ``positions: (T, J, 3)``, ``weights: (J,)`` (joints of weight zero are left out). Writes
-    ``xy: (T, 2, K, J')`` the horizontal features (each window centred on its weighted mean,
-    times ``scale·√w``) and ``z: (T, K, J')`` the heights times ``√w`` (both may be views into
-    larger operands); returns ``norms: (T,)`` each window's weighted squared norm (horizontal,
-    centred, plus heights). Point ``(k, j)`` is kept joint ``j`` at frame ``t + k − L``; windows
-    are clamped at the clip's ends (edge frames repeat). The clip is gathered once, per
-    coordinate and weighted, and every window is a view of it (no ``K``-fold copy); the weights
-    sum to one over a window (seed 004 §4.2.1).
+    ``positions: (T, J, 3)``, ``weights: (J,)`` (joints of weight zero are left out); ``frames``:
+    only the windows around these frames (``F`` of them, default all ``T``). Writes ``xy: (F, 2, P)`` the horizontal features (each window centred on its weighted mean, times
+    ``scale·√w``) and ``z: (F, P)`` the heights times ``z_scale·√w`` (both may be views into
+    larger operands; ``P = K·J'``); returns ``norms: (T,)`` each window's weighted squared norm
+    (``(F,)``: horizontal, centred, plus heights; unscaled). Point ``k·J' + j`` is kept joint ``j`` at frame
+    ``t + k − L``; windows are clamped at the clip's ends (edge frames repeat). The clip is
+    gathered and weighted once, per coordinate, into one ``(3, T+2L, J')`` buffer; window ``t`` is
+    then the contiguous run of ``P`` values from frame ``t`` on, a view of it, so the only ``K``-fold
+    writes are the operands themselves (the weights sum to one over a window, seed 004 §4.2.1).
     """
     t = positions.shape[0]
     k = 2 * window + 1
     joints = np.flatnonzero(weights > 0)
+    n_j = len(joints)
     wn = weights[joints] / (k * weights[joints].sum())  # per point of a window: Σ over the window = 1
     sw = np.sqrt(wn)
-    rows = np.clip(np.arange(-window, t + window), 0, t - 1)
-    coords = np.asarray(positions, dtype=float).transpose(2, 0, 1)[:, rows[:, None], joints]  # (3, T+2L, J')
-    coords[:2] *= scale * sw
-    coords[2] *= sw
+    factor = np.stack([scale * sw, scale * sw, z_scale * sw])[:, None, :]  # (3, 1, J')
+    coords = np.empty((3, t + 2 * window, n_j))
+    np.multiply(np.take(positions, joints, axis=1).transpose(2, 0, 1), factor, out=coords[:, window : window + t])
+    coords[:, :window] = coords[:, window : window + 1]  # clamped ends: edge frames repeat
+    coords[:, window + t :] = coords[:, window + t - 1 : window + t]
     mean = sliding_window_view(coords[:2] @ sw, k, axis=1).sum(axis=-1)  # (2, T) window means × scale
-    win = sliding_window_view(coords, k, axis=1).transpose(0, 1, 3, 2)  # (3, T, K, J') views
-    for c in range(2):
-        np.subtract(win[c], mean[c, :, None, None] * sw, out=xy[:, c])
+    win = sliding_window_view(coords.reshape(3, -1), k * n_j, axis=1)[:, ::n_j]  # (3, T, P) views, unit stride
+    if frames is not None:  # only these windows are written (the self-similarity's subsample)
+        win, mean = win[:, frames], mean[:, frames]
+    np.subtract(win[:2], np.multiply.outer(mean, np.tile(sw, k)), out=xy.transpose(1, 0, 2))
     z[...] = win[2]
-    norms = np.einsum("tckj,tckj->t", xy, xy) / scale**2
-    norms += np.einsum("tkj,tkj->t", z, z)
+    norms = np.einsum("tcp,tcp->t", xy, xy) / scale**2
+    norms += np.einsum("tp,tp->t", z, z) / z_scale**2
     return norms
 
 
 def grid_operands(
-    positions_a: np.ndarray, positions_b: np.ndarray, weights: np.ndarray, window: int
+    positions_a: np.ndarray,
+    positions_b: np.ndarray,
+    weights: np.ndarray,
+    window: int,
+    frames_a: np.ndarray | None = None,
+    frames_b: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The two matrix products of :func:`distance_grid`: ``(left, right, left_z, right_z)``.
 
@@ -80,22 +98,23 @@ def grid_operands(
     ``right = [x, y]_B``); ``left_z @ right_z.T`` is ``(nA, nB)``, the height term and both
     windows' norms in one product (``[−2 z, |c|², 1]_A · [z, 1, |c|²]_Bᵀ``), so the cost needs
     only ``√(a² + b²)`` and one subtraction after the products. ``weights: (J,)``, joints of
-    weight zero left out.
+    weight zero left out; ``frames_a``, ``frames_b``: only these frames' rows (``nA``, ``nB`` of
+    them; windows still from the whole clips). Every operand is written once, in place (the scales
+    2 and −2 are exact).
     """
-    n_a, n_b, k = len(positions_a), len(positions_b), 2 * window + 1
-    j = int(np.count_nonzero(weights > 0))
-    p = k * j
-    left = np.empty((2, n_a, 2, k, j))
+    pa, pb = np.asarray(positions_a, dtype=float), np.asarray(positions_b, dtype=float)
+    n_a = len(pa) if frames_a is None else len(frames_a)
+    n_b = len(pb) if frames_b is None else len(frames_b)
+    p = (2 * window + 1) * int(np.count_nonzero(weights > 0))
+    left = np.empty((2, n_a, 2, p))
     left_z = np.empty((n_a, p + 2))
-    za = left_z[:, :p].reshape(n_a, k, j)  # a view: the heights are written in place
-    left_z[:, p] = _window_clouds(positions_a, window, weights, left[0], za, scale=2.0)
+    left_z[:, p] = _window_clouds(pa, window, weights, left[0], left_z[:, :p], 2.0, -2.0, frames_a)
     left_z[:, p + 1] = 1.0
-    za *= -2.0
     left[1, :, 0] = left[0, :, 1]
     np.negative(left[0, :, 0], out=left[1, :, 1])
-    right = np.empty((n_b, 2, k, j))
+    right = np.empty((n_b, 2, p))
     right_z = np.empty((n_b, p + 2))
-    right_z[:, p + 1] = _window_clouds(positions_b, window, weights, right, right_z[:, :p].reshape(n_b, k, j))
+    right_z[:, p + 1] = _window_clouds(pb, window, weights, right, right_z[:, :p], frames=frames_b)
     right_z[:, p] = 1.0
     return left.reshape(2 * n_a, 2 * p), right.reshape(n_b, 2 * p), left_z, right_z
 
@@ -144,31 +163,52 @@ def distance_grid(
     frame ``j`` of B. After centring each window on its weighted mean, with
     ``a = Σ w (x x' + y y')`` and ``b = Σ w (y x' − x y')`` the optimum is ``θ = atan2(b, a)`` and
     the horizontal residual ``Σ w|c|² + Σ w|c'|² − 2√(a² + b²)``; heights add ``Σ w (z − z')²``.
-    Two matrix products (:func:`grid_operands`) carry every sum; after them only ``hypot``, one
-    subtraction and the clamp at zero touch the ``nA × nB`` cells.
+    Two matrix products (:func:`grid_operands`) carry every sum; they run in blocks of rows whose
+    products stay in one reused 2 MB buffer (:data:`BLOCK_BYTES`), so ``√(a² + b²)``, the
+    subtraction and the clamp at zero run on each block while it is in cache and no ``2nA × nB``
+    temporary is allocated: the only fresh ``nA × nB`` array is the cost itself.
     """
     pa, pb = np.asarray(positions_a, dtype=float), np.asarray(positions_b, dtype=float)
     if pa.ndim != 3 or pb.ndim != 3 or pa.shape[1:] != pb.shape[1:] or pa.shape[2] != 3:
         raise MjmotionError(f"distance_grid needs (T, J, 3) positions with equal J, got {pa.shape} and {pb.shape}")
     if window < 0:
         raise MjmotionError(f"the window half-width must be ≥ 0 frames, got {window}")
-    rows = np.arange(len(pa)) if frames_a is None else np.asarray(frames_a, dtype=int)
-    cols = np.arange(len(pb)) if frames_b is None else np.asarray(frames_b, dtype=int)
-    check_grid_size(len(rows), len(cols), max_cells)
+    rows = None if frames_a is None else np.asarray(frames_a, dtype=int)
+    cols = None if frames_b is None else np.asarray(frames_b, dtype=int)
+    check_grid_size(len(pa) if rows is None else len(rows), len(pb) if cols is None else len(cols), max_cells)
     w = np.ones(pa.shape[1]) if weights is None else np.asarray(weights, dtype=float)
-    left, right, left_z, right_z = grid_operands(pa, pb, w, window)  # joints of weight zero left out
-    if frames_a is not None or frames_b is not None:  # rows and columns picked after the windows
-        left = left.reshape(2, len(pa), -1)[:, rows].reshape(2 * len(rows), -1)
-        left_z, right, right_z = left_z[rows], right[cols], right_z[cols]
-    ab = left @ right.T  # (2nA, nB): 2a over 2b
-    cost = left_z @ right_z.T  # Σw|c|² + Σw|c'|² + heights, before the rotation term
-    a2, b2 = ab[: len(rows)], ab[len(rows) :]
-    np.multiply(a2, a2, out=a2)  # in place: 2√(a² + b²) in four passes (np.hypot is slower)
-    np.multiply(b2, b2, out=b2)
-    a2 += b2
-    cost -= np.sqrt(a2, out=a2)
-    np.maximum(cost, 0.0, out=cost)  # round-off can dip a hair below zero
-    return Grid(cost=cost, window=window)
+    operands = grid_operands(pa, pb, w, window, rows, cols)  # joints of weight zero left out
+    return Grid(cost=_blocked_cost(*operands), window=window)
+
+
+#: Bytes of the reused block of ``2a, 2b`` products in :func:`distance_grid`: a few large blocks (fewer GEMM calls) measured best.
+BLOCK_BYTES = 1 << 21
+
+
+def _blocked_cost(left: np.ndarray, right: np.ndarray, left_z: np.ndarray, right_z: np.ndarray) -> np.ndarray:
+    """``max(left_z @ right_zᵀ − √(a² + b²), 0)`` with ``[2a; 2b] = left @ rightᵀ``, block by block of rows.
+
+    ``left: (2nA, P)``, ``right: (nB, P)``, ``left_z: (nA, Q)``, ``right_z: (nB, Q)`` → ``(nA, nB)``.
+    Each block's products land in one preallocated buffer and the cost rows (``out=``), and the
+    element-wise terms run in place there, on rows still in cache.
+    """
+    n_a, n_b = len(left_z), len(right_z)
+    halves = left.reshape(2, n_a, -1)
+    cost = np.empty((n_a, n_b))
+    step = max(1, min(n_a, BLOCK_BYTES // (16 * max(n_b, 1))))
+    buf = np.empty((2, step, n_b))
+    rt, rzt = right.T, right_z.T
+    for i0 in range(0, n_a, step):
+        i1 = min(i0 + step, n_a)
+        ab, out = buf[:, : i1 - i0], cost[i0:i1]
+        np.matmul(halves[0, i0:i1], rt, out=ab[0])  # 2a
+        np.matmul(halves[1, i0:i1], rt, out=ab[1])  # 2b
+        np.matmul(left_z[i0:i1], rzt, out=out)  # Σw|c|² + Σw|c'|² + heights, before the rotation term
+        np.multiply(ab, ab, out=ab)  # 2√(a² + b²) in three in-place passes (np.hypot is slower)
+        np.add(ab[0], ab[1], out=ab[0])
+        np.subtract(out, np.sqrt(ab[0], out=ab[0]), out=out)
+        np.copyto(out, 0.0, where=out < 0.0)  # round-off can dip a hair below zero (faster than np.maximum)
+    return cost
 
 
 def rigid_2d(cloud_a: np.ndarray, cloud_b: np.ndarray, weights: np.ndarray) -> np.ndarray:

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import MjmotionError
+from ..fk import joint_positions
 from ..skeleton import Motion
 from .align import alignment_curve
 from .blendability import Blendability, blendability
@@ -71,9 +72,8 @@ class PairRegistration:
 
 
 def positions_of(motion: Motion) -> np.ndarray:
-    """World joint positions ``(T, J, 3)`` through MuJoCo (imported lazily)."""
-    from ..kinematics import joint_positions
-
+    """World joint positions ``(T, J, 3)``: NumPy FK of MuJoCo's tree (:mod:`mjmotion.fk`), so a
+    registration loads no MuJoCo."""
     return joint_positions(motion)
 
 

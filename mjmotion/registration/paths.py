@@ -107,48 +107,63 @@ def _reachable(di: int, dj: int, run_h: int, run_v: int, slope: SlopeLimit) -> b
 
 
 def _dp_tables_numpy(c: np.ndarray, wv: int, wh: int, bp_dtype) -> tuple[np.ndarray, ...]:
-    """Row-by-row NumPy DP (see :func:`dp_path`): back-pointers and the boundary values."""
+    """Row-by-row NumPy DP (see :func:`dp_path`): back-pointers and the boundary values.
+
+    Two row buffers are swapped from row to row and every step writes into them (``out=``); a
+    state's predecessor is gathered by flat index (``take``), not by a 2D fancy index.
+    """
     n_a, n_b = c.shape
-    s_n = 1 + wv + wh  # state 0 = D, 1..wv = V_r, wv+1..wv+wh = H_r
+    s_n = 1 + wv + wh
     not_v = np.r_[0, np.arange(1 + wv, s_n)]
-    not_h = np.arange(0, 1 + wv)
     cols = np.arange(n_b)
     bp_d = np.zeros((n_a, n_b), dtype=bp_dtype)
     bp_v = np.zeros((n_a, n_b), dtype=bp_dtype)
     bp_h = np.zeros((n_a, n_b), dtype=bp_dtype)
     last_col = np.full((n_a, s_n), np.inf)
     last_col_len = np.zeros((n_a, s_n))
-    prev, prev_len = np.full((s_n, n_b), np.inf), np.zeros((s_n, n_b))
+    # two row buffers swapped each row: only column 0's D and H states need resetting
+    prev, cur = np.full((s_n, n_b), np.inf), np.full((s_n, n_b), np.inf)
+    prev_len, cur_len = np.zeros((s_n, n_b)), np.zeros((s_n, n_b))
+    flat_prev, flat_prev_len = prev.reshape(-1), prev_len.reshape(-1)
+    nv_rows = np.empty((len(not_v), n_b))
     for i in range(n_a):
         ci = c[i]
-        cur = np.full((s_n, n_b), np.inf)
-        cur_len = np.zeros((s_n, n_b))
         if i == 0:
             cur[0, 0] = ci[0]
             cur_len[0, 0] = 1
         else:
-            k = np.argmin(prev, axis=0)
-            cur[0, 1:] = ci[1:] + prev[k, cols][:-1]
-            cur_len[0, 1:] = prev_len[k, cols][:-1] + 1
-            bp_d[i, 1:] = k[:-1]
+            cur[0, 0], cur_len[0, 0] = np.inf, 0.0
+            k = np.argmin(prev[:, :-1], axis=0)
+            idx = k * n_b + cols[:-1]
+            np.add(ci[1:], flat_prev.take(idx), out=cur[0, 1:])
+            np.add(flat_prev_len.take(idx), 1.0, out=cur_len[0, 1:])
+            bp_d[i, 1:] = k
             if wv:
-                kv = np.argmin(prev[not_v], axis=0)
-                cur[1] = ci + prev[not_v][kv, cols]
-                cur_len[1] = prev_len[not_v][kv, cols] + 1
-                bp_v[i] = not_v[kv]
-                cur[2 : 1 + wv] = ci + prev[1:wv]
-                cur_len[2 : 1 + wv] = prev_len[1:wv] + 1
+                np.take(prev, not_v, axis=0, out=nv_rows)
+                kv = np.argmin(nv_rows, axis=0)
+                sv = not_v[kv]
+                idx = sv * n_b + cols
+                np.add(ci, flat_prev.take(idx), out=cur[1])
+                np.add(flat_prev_len.take(idx), 1.0, out=cur_len[1])
+                bp_v[i] = sv
+                np.add(ci, prev[1:wv], out=cur[2 : 1 + wv])
+                np.add(prev_len[1:wv], 1.0, out=cur_len[2 : 1 + wv])
         if wh:
-            kh = np.argmin(cur[not_h], axis=0)
-            cur[1 + wv, 1:] = ci[1:] + cur[not_h][kh, cols][:-1]
-            cur_len[1 + wv, 1:] = cur_len[not_h][kh, cols][:-1] + 1
-            bp_h[i, 1:] = not_h[kh][:-1]
+            cur[1 + wv :, 0], cur_len[1 + wv :, 0] = np.inf, 0.0
+            kh = np.argmin(cur[: 1 + wv, :-1], axis=0)  # from D or any V (rows 0..wv, a view)
+            idx = kh * n_b + cols[:-1]
+            flat_cur, flat_cur_len = cur.reshape(-1), cur_len.reshape(-1)
+            np.add(ci[1:], flat_cur.take(idx), out=cur[1 + wv, 1:])
+            np.add(flat_cur_len.take(idx), 1.0, out=cur_len[1 + wv, 1:])
+            bp_h[i, 1:] = kh
             for r in range(2, wh + 1):
-                cur[wv + r, 1:] = ci[1:] + cur[wv + r - 1, :-1]
-                cur_len[wv + r, 1:] = cur_len[wv + r - 1, :-1] + 1
+                np.add(ci[1:], cur[wv + r - 1, :-1], out=cur[wv + r, 1:])
+                np.add(cur_len[wv + r - 1, :-1], 1.0, out=cur_len[wv + r, 1:])
         last_col[i] = cur[:, -1]
         last_col_len[i] = cur_len[:, -1]
-        prev, prev_len = cur, cur_len
+        prev, cur = cur, prev
+        prev_len, cur_len = cur_len, prev_len
+        flat_prev, flat_prev_len = prev.reshape(-1), prev_len.reshape(-1)
     return bp_d, bp_v, bp_h, prev, prev_len, last_col, last_col_len
 
 
