@@ -18,6 +18,10 @@ HELP = "move a swing's hit point (IK with importance-based blending, keeping the
 DESCRIPTION = """Adapt SHOT.bvh so its effector (a club's sweet spot, a foot, a fist, or a site) meets a new
 ball position at the hit frame, blending IK in and out by the effector's distance to the hit
 point (seed 003 §2.2.5). Coordinates are metres in the model's world frame (Z up).
+The hit frame is the moment of contact: the effector's lowest pass in the downswing (a ball on
+the ground or a tee), or with --source-ball the downswing frame nearest the source's ball; the
+report gives the rule and the effector's height there above the floor the feet stand on
+(measured, not z = 0: CMU subject 64's floor is 2-4 cm below it).
 An unreachable target is solved best-effort: the clip and report are written (with
 "reachable": false), one error line says so, and the exit status is 2.
 The report's hit_error_m is the effector's distance to the target point at the hit frame
@@ -36,7 +40,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group(required=True)
     g.add_argument("--target", nargs=3, type=float, metavar=("X", "Y", "Z"), help="new hit point (metres, world)")
     g.add_argument("--offset", nargs=3, type=float, metavar=("DX", "DY", "DZ"), help="move the hit point by this (metres)")
-    p.add_argument("--frame", type=int, default=None, metavar="H", help="hit frame (default: peak effector speed in the downswing)")
+    p.add_argument(
+        "--frame", type=int, default=None, metavar="H", help="hit frame (default: the moment of contact, the effector's lowest pass in the downswing)"
+    )
+    p.add_argument(
+        "--source-ball",
+        nargs=3,
+        type=float,
+        default=None,
+        metavar=("X", "Y", "Z"),
+        help="where the ball was in the source (m): the hit frame is the downswing frame where the effector comes nearest to it",
+    )
     p.add_argument("--effector", default="club", metavar="NAME", help="club|left_foot|right_foot|left_fist|right_fist|SITE (default: club)")
     p.add_argument("--solver", default="nlp", choices=("nlp", "nlp-shot", "dls", "ccd"), help="IK solver (default: nlp)")
     p.add_argument("--falloff", type=float, default=None, metavar="D", help="importance falloff distance in metres (default: 0.6)")
@@ -69,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
         falloff=falloff,
         wrist=args.wrist,
         lock=tuple(args.lock),
+        source_ball=None if args.source_ball is None else np.array(args.source_ball),
     )
     bvh.write(result.motion, out)
     text = json.dumps(result.report, indent=2)
@@ -76,7 +91,8 @@ def run(args: argparse.Namespace) -> int:
         write_text_atomic(report_path, text + "\n")
     r = result.report
     print(
-        f"wrote {out}: hit frame {r['hit_frame']}, hit error {r['hit_error_m'] * 1000:.3f} mm, "
+        f"wrote {out}: hit frame {r['hit_frame']} ({r['hit_rule']}; effector {r['source_effector_height_m']:.3f} m above the floor "
+        f"at {r['floor_m']:.3f} m), hit error {r['hit_error_m'] * 1000:.3f} mm, "
         f"grip error {r['grip_error_m'] * 1000:.3f} mm, style_rmse {r['style_rmse']}, solver {r['solver']}"
     )
     if not r["reachable"]:
