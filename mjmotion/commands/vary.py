@@ -16,8 +16,9 @@ NAME = "vary"
 HELP = "exaggerate, mute or abort a shot by moving along its PCA score path"
 DESCRIPTION = """Build the principal-component space of a shot (root translation and every joint's
 quaternion, standardised), take the shot's own path of scores through it and change the path:
-  --scale F        exaggerate (F > 1) or mute (F < 1) about the path's centre, or about the
-                   centre of --segment A:B (tapered at the segment's ends)
+  --scale F        exaggerate (F > 1) or mute (F < 1) about the path's centre, fading to none
+                   at the first and last frames (the shot keeps its start and end poses), or
+                   about the centre of --segment A:B (tapered at the segment's ends)
   --abort-at F     follow the shot to frame F, then head for the rest pose's scores over
                    --abort-frames N frames (default: at the shot's own pace); the rest pose is
                    the last frame unless --rest-frame says otherwise
