@@ -31,6 +31,7 @@ examples:
   mjmotion evaluate walk.bvh
   mjmotion evaluate walk.bvh --json walk_report.json --csv
   mjmotion evaluate swing.bvh --prop club:rwrist --ball 0.6 0.1 0.03 --frame 212
+  mjmotion evaluate drive.bvh --prop bat:RightHand --ball 0.27 0.35 0.18 --frame 66 --delivery medium
   mjmotion evaluate ../shared/mocap --json all.json
 """
 
@@ -61,6 +62,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--frame", type=int, metavar="H", help="hit frame (0-based, of the file) for --ball")
     p.add_argument(
+        "--ball-release", nargs=3, type=float, metavar=("X", "Y", "Z"), help="--ball is a delivered ball released here (m; seed 003 §2.3.2)"
+    )
+    p.add_argument("--release-velocity", nargs=3, type=float, metavar=("VX", "VY", "VZ"), help="its release velocity (m/s)")
+    p.add_argument("--delivery", choices=("fast", "medium", "slow"), help="--ball is a ball delivered at it at this pace, from --bowler's end")
+    p.add_argument("--bowler", nargs=2, type=float, default=(0.0, 1.0), metavar=("DX", "DY"), help="direction to the bowler (default 0 1)")
+    p.add_argument(
         "--hit-grid",
         type=int,
         metavar="N",
@@ -82,6 +89,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:
     """Evaluate one file; returns ``{"file", "skipped_frames", "report"}`` (runs in worker processes)."""
+    import numpy as np
+
     from .. import evaluate as ev
     from .. import mjcf
 
@@ -106,7 +115,18 @@ def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:
         if not 0 <= hit < m.n_frames:
             raise MjmotionError(f"--frame {args.frame}: outside the evaluated frames {offset}..{offset + m.n_frames - 1}")
     params = ev.Params(h_c=args.h_c, v_c=args.v_c)
-    rep = ev.evaluate(m.replace(name=Path(path).stem), props, ball, hit, params, ball_velocity=tuple(args.ball_velocity))
+    ball_velocity = tuple(args.ball_velocity)
+    if ball is not None and (args.ball_release is not None or args.delivery is not None):
+        from .. import delivery
+
+        # a delivered ball (released, pitching on the floor): its velocity where it passes the ball's position
+        dv = (
+            delivery.Delivery(tuple(args.ball_release), tuple(args.release_velocity), radius=args.ball_radius)
+            if args.ball_release is not None
+            else delivery.aimed(np.asarray(args.ball), bowler=np.asarray(args.bowler), preset=args.delivery)
+        )
+        ball_velocity = tuple(delivery.fly(dv).nearest(np.asarray(args.ball))[2])
+    rep = ev.evaluate(m.replace(name=Path(path).stem), props, ball, hit, params, ball_velocity=ball_velocity)
     return {"file": path, "skipped_frames": offset, "report": rep.to_dict(), "row": rep.row()}
 
 
@@ -174,6 +194,12 @@ def check_options(args: argparse.Namespace) -> None:
     for option, values in (("--ball", args.ball), ("--ball-velocity", args.ball_velocity)):
         if values is not None and not all(math.isfinite(v) for v in values):
             raise MjmotionError(f"{option} {' '.join(f'{v:g}' for v in values)}: expected three finite numbers")
+    if (args.ball_release is None) != (args.release_velocity is None):
+        raise MjmotionError("--ball-release and --release-velocity go together")
+    if (args.ball_release is not None or args.delivery is not None) and args.ball is None:
+        raise MjmotionError("a delivered ball (--ball-release or --delivery) needs --ball X Y Z, where it meets the bat")
+    if args.ball_release is not None and args.delivery is not None:
+        raise MjmotionError("give --ball-release or --delivery, not both")
     if args.jobs < 1:
         raise MjmotionError(f"--jobs {args.jobs}: expected a number of processes ≥ 1")
     if args.hit_grid is not None and args.hit_grid < 2:

@@ -22,6 +22,11 @@ The hit frame is the moment of contact: the effector's lowest pass in the downsw
 the ground or a tee), or with --source-ball the downswing frame nearest the source's ball; the
 report gives the rule and the effector's height there above the floor the feet stand on
 (measured, not z = 0: CMU subject 64's floor is 2-4 cm below it).
+A delivered ball (seed 003 §2.3.2: released, pitching on the floor in MuJoCo with restitution
+0.5) can be given by its release (--ball-release, --release-velocity: the target is then where
+its path passes nearest the source's hit point, seed §2.5.1, unless --target/--offset say
+otherwise) or as --delivery PACE aimed at the target from the bowler's end (--bowler); the report
+adds how it arrives and the launch of the ball struck by the adapted shot.
 An unreachable target is solved best-effort: the clip and report are written (with
 "reachable": false), one error line says so, and the exit status is 2.
 The report's hit_error_m is the effector's distance to the target point at the hit frame
@@ -32,14 +37,26 @@ examples:
   mjmotion hit 64_01.bvh --target 0.62 0.54 0.47 --solver dls --falloff 0.4 -o out.bvh
   mjmotion hit 10_01.bvh --effector right_foot --offset 0.1 0 0 -o kick.bvh
   mjmotion hit 64_01.bvh --offset 0 0 0.2 --wrist swing --lock lclavicle -o out.bvh
+  mjmotion hit drive.bvh --prop bat --frame 66 --offset 0 0 0.1 --delivery medium -o out.bvh
+  mjmotion hit drive.bvh --prop bat --frame 66 --ball-release 0.3 18 2.1 --release-velocity 0 -30 -2 -o out.bvh
 """
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="SHOT.bvh", help="the source clip")
-    g = p.add_mutually_exclusive_group(required=True)
+    g = p.add_mutually_exclusive_group()
     g.add_argument("--target", nargs=3, type=float, metavar=("X", "Y", "Z"), help="new hit point (metres, world)")
     g.add_argument("--offset", nargs=3, type=float, metavar=("DX", "DY", "DZ"), help="move the hit point by this (metres)")
+    d = p.add_mutually_exclusive_group()
+    d.add_argument("--ball-release", nargs=3, type=float, metavar=("X", "Y", "Z"), help="a delivered ball released here (m; with --release-velocity)")
+    d.add_argument(
+        "--delivery",
+        choices=("fast", "medium", "slow"),
+        help="a ball delivered at the hit point from the bowler's end at this pace (38, 30, 22 m/s), pitching before it",
+    )
+    p.add_argument("--release-velocity", nargs=3, type=float, metavar=("VX", "VY", "VZ"), help="the delivered ball's release velocity (m/s)")
+    p.add_argument("--bowler", nargs=2, type=float, default=(0.0, 1.0), metavar=("DX", "DY"), help="horizontal direction to the bowler (default 0 1)")
+    p.add_argument("--prop", default="club", choices=("club", "bat"), help="the prop fitted to both hands for --effector club (default: club)")
     p.add_argument(
         "--frame", type=int, default=None, metavar="H", help="hit frame (default: the moment of contact, the effector's lowest pass in the downswing)"
     )
@@ -72,19 +89,45 @@ def run(args: argparse.Namespace) -> int:
         if report_path == out:
             raise MjmotionError("--json and -o name the same file")
     falloff = hitpoint.DEFAULT_FALLOFF if args.falloff is None else args.falloff
+    if (args.ball_release is None) != (args.release_velocity is None):
+        raise MjmotionError("--ball-release and --release-velocity go together")
+    if args.target is None and args.offset is None and args.ball_release is None and args.delivery is None:
+        raise MjmotionError("give --target or --offset (or a delivered ball: --ball-release with --release-velocity, or --delivery)")
     m = load(args.file, args)
+    prop = hitpoint.fit_club(m, args.prop) if args.effector == "club" else None
+    source_ball = None if args.source_ball is None else np.array(args.source_ball)
+    target = None if args.target is None else np.array(args.target)
+    flight = None
+    if args.ball_release is not None or args.delivery is not None:
+        from .. import delivery
+
+        base = hitpoint.setup(m, offset=np.zeros(3), frame=args.frame, effector=args.effector, weights="clip", prop=prop, source_ball=source_ball)
+        source_hit = base.effector_fk[base.hit]
+        if target is None and args.offset is not None:
+            target = source_hit + np.array(args.offset)
+        if args.delivery is not None:
+            ball = delivery.aimed(source_hit if target is None else target, bowler=np.array(args.bowler), preset=args.delivery)
+        else:
+            ball = delivery.Delivery(tuple(args.ball_release), tuple(args.release_velocity))
+        flight = delivery.fly(ball)
+        if target is None:
+            # seed 003 §2.5.1: the new hit point is the point of the ball's path nearest the source's
+            target = flight.nearest(source_hit)[1]
     result = hitpoint.adapt(
         m,
-        target=None if args.target is None else np.array(args.target),
-        offset=None if args.offset is None else np.array(args.offset),
+        target=target,
+        offset=None if (args.offset is None or target is not None) else np.array(args.offset),
+        prop=prop,
         frame=args.frame,
         effector=args.effector,
         solver=args.solver,
         falloff=falloff,
         wrist=args.wrist,
         lock=tuple(args.lock),
-        source_ball=None if args.source_ball is None else np.array(args.source_ball),
+        source_ball=source_ball,
     )
+    if flight is not None:
+        result.report["delivery"] = _launch(result, ball, flight, args.delivery)
     bvh.write(result.motion, out)
     text = json.dumps(result.report, indent=2)
     if report_path is not None:
@@ -95,8 +138,50 @@ def run(args: argparse.Namespace) -> int:
         f"at {r['floor_m']:.3f} m), hit error {r['hit_error_m'] * 1000:.3f} mm, "
         f"grip error {r['grip_error_m'] * 1000:.3f} mm, style_rmse {r['style_rmse']}, solver {r['solver']}"
     )
+    if "delivery" in r:
+        dl, ln = r["delivery"], r["delivery"]["launch"]
+        print(
+            f"delivered ball: pitched {dl['pitched_m_before']:.2f} m before the hit, met at {np.linalg.norm(dl['incoming_velocity']):.1f} m/s "
+            f"({dl['miss_m'] * 1000:.1f} mm from the effector); launched at {ln['speed']:.1f} m/s, azimuth {ln['azimuth_deg']:.1f}°, "
+            f"elevation {ln['elevation_deg']:.1f}°" + ("" if ln["contacted"] else " (no contact)")
+        )
     if not r["reachable"]:
         # Best effort is written and reported (issue 5); the exit status says the request failed (issue 9).
         sys.stderr.write(f"error: {r['message']}; best effort written to {out}\n")
         return 2
     return 0
+
+
+def _launch(result, ball, flight, preset: str | None) -> dict:
+    """The delivered ball met by the adapted shot: where and how it arrives, and how it leaves (seed 003 §2.3.2)."""
+    from .. import mjcf, physics
+
+    h = result.problem.hit
+    t, at, incoming, miss = flight.nearest(result.achieved[h])
+    prop = result.problem.prop
+    hit = physics.hit_metrics(
+        result.motion,
+        mjcf.Ball(position=tuple(at), radius=ball.radius, mass=ball.mass),
+        h,
+        props=(prop,) if prop is not None else (),
+        ball_velocity=tuple(incoming),
+        restitution=ball.restitution,
+    )
+    bounce = flight.bounce
+    return {
+        "preset": preset,
+        "release": list(ball.release),
+        "release_velocity": list(ball.velocity),
+        "bounce": None if bounce is None else bounce.tolist(),
+        "pitched_m_before": None if bounce is None else float(np.linalg.norm((bounce - at)[:2])),
+        "ball_at_hit": at.tolist(),
+        "time_from_release_s": t,
+        "incoming_velocity": incoming.tolist(),
+        "miss_m": miss,
+        "launch": {
+            "azimuth_deg": hit["launch_azimuth_deg"],
+            "elevation_deg": hit["launch_elevation_deg"],
+            "speed": hit["launch_speed"],
+            "contacted": hit["launch_contacted"],
+        },
+    }
