@@ -35,7 +35,7 @@ import numpy as np
 from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
-from .ik.chains import DEFAULT_MARGIN, Chain, Effector, _coords, build_chain, factor_rates, rotation_angle
+from .ik.chains import DEFAULT_MARGIN, Chain, Effector, _coords, build_chain, factor_rates, joint_role, rotation_angle
 from .ik.reach import envelope, nearest_reachable, paced_walk
 from .ik.twohand import FrameSolution, TwoHandIK
 from .skeleton import Motion, Skeleton
@@ -332,6 +332,7 @@ class HitProblem:
         clearance: ``(T,)`` metres, the lowest the effector may go per frame: the floor, or the
             source's own lowest point where it is already below the floor.
         requested: ``(3,)`` the target asked for, when :attr:`target` had to stop short of it.
+        source_lowest: ``(T,)`` metres, the height of the effector's lowest point in the source.
     """
 
     source: Motion
@@ -355,6 +356,7 @@ class HitProblem:
     radius: float = 0.0
     clearance: np.ndarray | None = None
     requested: np.ndarray | None = None
+    source_lowest: np.ndarray | None = None
 
 
 def _frames(pose: kinematics.Pose, j: int) -> np.ndarray:
@@ -449,8 +451,12 @@ def setup(
             h2 = other[0]
             anc = _lca(skel, eff.joint, h2)
             s2 = skel.chain(anc, h2)[1]
-            # The second arm only follows the first hand; its limits get twice the margin.
-            second = build_chain(motion, s2, h2, None, wrist="swing", margin=2 * margin, weights=chain_weights, max_angles=max_angles)
+            # The second arm only follows the first hand; its limits get twice the margin. Its wrist
+            # swings (§2.1.2); it twists too where the arm has no forearm roll bone to do it.
+            roll = any(joint_role(skel, j) == "twist" for j in skel.chain(s2, h2))
+            second = build_chain(
+                motion, s2, h2, None, wrist="swing" if roll else "ball", margin=2 * margin, weights=chain_weights, max_angles=max_angles
+            )
             if weights == "style" and second.n_dof:
                 second = second.with_weights(style_weights(motion, second, space=space))
             rel = np.linalg.inv(tip_frames) @ _frames(pose, h2)
@@ -464,8 +470,9 @@ def setup(
     lowest = np.min(tip_frames[:, 2, 3][:, None] + tip_frames[:, 2, :3] @ points.T, axis=1)
     clearance = np.minimum(floor, lowest - radius) - CLEARANCE_SLACK
     return HitProblem(
-        motion, compiled, eff, lead, second, qpos, e_fk, hit, tgt, blend, goals, rel, falloff, prop, space, rule, floor, points, radius, clearance
-    )
+        motion, compiled, eff, lead, second, qpos, e_fk, hit, tgt, blend, goals, rel, falloff, prop, space, rule, floor, points, radius, clearance,
+        source_lowest=lowest - radius,
+    )  # fmt: skip
 
 
 # --- target grids (experiments) ---------------------------------------------------------------
@@ -486,11 +493,16 @@ def swing_plane_axes(problem: HitProblem) -> np.ndarray:
 
 def target_grid(problem: HitProblem, spacing: float) -> np.ndarray:
     """``(9, 3)`` offsets of a 3×3 grid in the plane across the swing (metres): ``{−s, 0, s}`` across
-    and ``{−s, 0, s}`` up, or ``{0, s, 2s}`` up when the hit is the effector's lowest pass (a ball on
-    the ground or a tee can only be met higher: lower would be under the floor)."""
+    and ``{−s, 0, s}`` up, or ``{0, s, 2s}`` up when a row ``s`` lower would put the effector's
+    lowest point (a club's head, a bat's toe) under the floor (:attr:`HitProblem.clearance`): a ball
+    on the ground or a tee can only be met higher."""
     axes = swing_plane_axes(problem)
     steps = (-spacing, 0.0, spacing)
-    ups = (0.0, spacing, 2 * spacing) if problem.hit_rule == "lowest pass" else steps
+    h = problem.hit
+    grounded = (
+        problem.clearance is not None and problem.source_lowest is not None and problem.source_lowest[h] - spacing * axes[1, 2] < problem.clearance[h]
+    )
+    ups = (0.0, spacing, 2 * spacing) if grounded else steps
     return np.array([a * axes[0] + b * axes[1] for a in steps for b in ups])
 
 

@@ -1,5 +1,7 @@
 """Shot variations in PCA space: exaggerated, muted, aborted (seed 003 §3, Figures 3.1, 3.4, 3.7).
 
+Figure 3.1: the shots that share a skeleton, in one PCA space (:func:`shared_space`).
+
 For each shot: the PCA space of the clip (``style.PoseSpace``, root translation and every
 joint's quaternion, standardised), its own score path with ``k`` controlled components (the
 fewest explaining ``variations.DEFAULT_VARIANCE`` of the motion), and three new paths:
@@ -230,6 +232,46 @@ def plot(result: ShotResult, out_dir: Path) -> list[Path]:
     return [f1, f2]
 
 
+def shared_space(shots: list[Shot], out_dir: Path) -> list[Path]:
+    """Seed Figure 3.1: several shots plotted in one 3-D principal-component space.
+
+    Shots on the same skeleton (the five golf swings, the two kicks, the bundled drive and pull)
+    are pooled, each with its root moved so it starts over the origin, into one PCA space
+    (``style.PoseSpace`` of their frames together); each shot's path is drawn in its first three
+    components with its impact marked. A group of one shot is skipped.
+    """
+    from .. import plots
+    from ..style import PoseSpace
+
+    groups: dict[tuple[str, ...], list[Shot]] = {}
+    for sh in shots:
+        groups.setdefault(sh.motion.skeleton.names, []).append(sh)
+    out = []
+    for members in groups.values():
+        if len(members) < 2:
+            continue
+        moved = [sh.motion.replace(root_positions=sh.motion.root_positions - np.array([*sh.motion.root_positions[0, :2], 0.0])) for sh in members]
+        first = moved[0]
+        pooled = first.replace(
+            root_positions=np.concatenate([m.root_positions for m in moved]),
+            rotations=np.concatenate([m.rotations for m in moved]),
+            translations=None if first.translations is None else np.concatenate([m.translations for m in moved]),
+        )
+        space = PoseSpace.fit(pooled)
+        paths = {sh.name: space.scores(m, 3) for sh, m in zip(members, moved)}
+        name = "_".join(sh.name for sh in members) if len(members) <= 2 else f"{members[0].name}-{members[-1].name[-2:]}"
+        out.append(
+            plots.score_paths(
+                paths,
+                out_dir / f"shared_space_{name}.png",
+                dims=3,
+                highlight={sh.name: sh.hit_frame for sh in members},
+                title=f"{len(members)} shots in one PC space ({100 * space.cumulative[2]:.0f} % of their variance; ★ impact)",
+            )  # fmt: skip
+        )
+    return out
+
+
 def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: int = 2) -> Table:
     """Make, clean and measure the variants; write ``out_dir/table.md`` and the score-path PNGs."""
     from tqdm import tqdm
@@ -266,6 +308,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
             for row in r.rows:
                 table.add(*row)
             table.files += [str(p) for p in plot(r, out_dir)]
+        table.files += [str(p) for p in shared_space(shots, out_dir)]
     table.notes += [
         (
             f"k: controlled components, the fewest explaining {V.DEFAULT_VARIANCE:.0%} of the clip's variance (var. expl.); "
