@@ -60,6 +60,8 @@ FRACTION_RATE = 10.0
 #: the importance blend would make one, its deviation ramps in and out at that pace instead
 #: (:func:`ik.reach.rate_limit`; the hit frame stays exact).
 JOINT_SPEED_BOUND = 2.0
+#: A paced frame keeps the second hand on the branch of the frame before within this grip error (m).
+PACED_GRIP = 2e-3
 #: Butt of the club above the lead hand's palm along the shaft (metres).
 BUTT_EXTENSION = 0.03
 #: Frames faster than this fraction of the downswing's peak effector speed are the swing through the ball.
@@ -832,7 +834,12 @@ def _pace(problem: HitProblem, ik: TwoHandIK, d1: np.ndarray, d2: np.ndarray) ->
             return None
         if lam not in trial:
             a = state["lead"] + lam * (d1[t] - state["lead"])  # type: ignore[operator]
-            trial[lam] = (a, ik.hold(t, a).second)
+            # from the previous frame's grip (to stay on its branch), else afresh from the source's
+            warm = ik.hold(t, a, dls_only=True, start=state["second"])  # type: ignore[arg-type]
+            if warm.grip_error > PACED_GRIP:
+                cold = ik.hold(t, a, dls_only=True)
+                warm = cold if cold.grip_error < warm.grip_error else warm
+            trial[lam] = (a, warm.second)
         return trial[lam]
 
     def step_ok(t: int, lam: float) -> bool:
@@ -843,13 +850,19 @@ def _pace(problem: HitProblem, ik: TwoHandIK, d1: np.ndarray, d2: np.ndarray) ->
         state["rot"] = rotations(t, ab)
         if ab is not None:
             d1[t], d2[t] = ab
-        state["lead"] = d1[t].copy()
+        state["lead"], state["second"] = d1[t].copy(), d2[t].copy()
         trial.clear()
 
     h = problem.hit
+    if second is not None and ik.solver != "dls":
+        # the walk's frames hold the grip by DLS: so does the hit, where DLS holds it as well
+        held = ik.hold(h, d1[h], dls_only=True)
+        if held.grip_error <= REACH_TOLERANCE:
+            d2[h] = held.second
+            solved[1][h] = second.apply(q_src[1][h : h + 1], d2[h][None])[0]
     n = 0
     for step in (1, -1):
-        state["lead"], state["rot"] = d1[h].copy(), rotations(h, None)
+        state["lead"], state["second"], state["rot"] = d1[h].copy(), d2[h].copy(), rotations(h, None)
         ends = np.arange(h + step, src.n_frames) if step > 0 else np.arange(h - 1, -1, -1)
         n += paced_walk(ends, step_ok, accept)
     return d1, d2, n

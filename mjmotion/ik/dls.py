@@ -60,6 +60,7 @@ def solve(
     damping: float = 1e-3,
     cones: np.ndarray | None = None,
     max_step: float = 0.3,
+    start: np.ndarray | None = None,
 ) -> IKResult:
     """DLS from the FK pose ``qpos: (nq,)`` (``δ = 0``) to ``goal: (3,)`` metres.
 
@@ -72,10 +73,12 @@ def solve(
         damping: ``λ`` in metres.
         cones: ``(Jc,)`` this frame's cone limits (``Chain.cones``; default: each joint's ``max_angle``).
         max_step: radians, the largest change of one coordinate in one iteration.
+        start: ``(n_dof,)`` the ``δ`` to start from (default 0, the FK pose; a neighbouring frame's
+            solution keeps a sequence of solves on one branch). It is clipped to the limits.
     """
     chain = kin.chain
     n = chain.n_dof
-    delta = np.zeros(n)
+    delta = np.zeros(n) if start is None else np.clip(np.asarray(start, dtype=float), lower, upper)
     w0 = chain.weights
     kin.set_frame(qpos)
     six = goal_rotation is not None

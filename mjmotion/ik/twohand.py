@@ -99,10 +99,15 @@ class TwoHandIK:
             r = ccd.solve(kin1, q, goal, self.lo1[t], self.hi1[t], cones=self.cones1[t])
         return self.hold(t, r.delta, r.error)
 
-    def hold(self, t: int, lead_delta: np.ndarray, error: float = float("nan")) -> FrameSolution:
+    def hold(
+        self, t: int, lead_delta: np.ndarray, error: float = float("nan"), dls_only: bool = False, start: np.ndarray | None = None
+    ) -> FrameSolution:
         """Frame ``t`` with the lead chain at ``lead_delta``: the second hand put back on the grip.
 
-        ``error``: the lead's goal error, passed through to the solution.
+        ``error``: the lead's goal error, passed through to the solution. ``dls_only``: the second
+        hand by DLS whatever the solver (it moves continuously with the lead, where IPOPT may
+        land on another of two nearly equal solutions from one frame to the next); ``start``: the
+        second chain's ``δ`` DLS starts from (a neighbouring frame's, to stay on its branch).
         """
         q = self.qpos[t]
         kin1 = self.kin1
@@ -118,12 +123,12 @@ class TwoHandIK:
         want = lead_new @ self.rel[t]  # type: ignore[index]
         q2 = kin1.data.qpos.copy()
         lo2, hi2, c2 = self.lo2[t], self.hi2[t], self.cones2[t]  # type: ignore[index]
-        if self.solver == "nlp":
+        if self.solver == "nlp" and not dls_only:
             r2 = self.fs2.solve(q, kin1.data.xpos, kin1.data.xmat, want[:3, 3], lo2, hi2, goal_rotation=want[:3, :3], cones=c2)  # type: ignore[union-attr]
             if r2.error > GRIP_TOLERANCE:
                 # IPOPT gave up on the equality (a local infeasibility near a limit): DLS may still get there.
                 r3 = dls.solve(self.kin2, q2, want[:3, 3], lo2, hi2, goal_rotation=want[:3, :3], cones=c2)
                 r2 = r3 if r3.error < r2.error else r2
         else:
-            r2 = dls.solve(self.kin2, q2, want[:3, 3], lo2, hi2, goal_rotation=want[:3, :3], cones=c2)
+            r2 = dls.solve(self.kin2, q2, want[:3, 3], lo2, hi2, goal_rotation=want[:3, :3], cones=c2, start=start)
         return FrameSolution(lead_delta, r2.delta, error, r2.error, lowest)
