@@ -153,4 +153,4 @@ def test_shots_on_one_skeleton_share_one_pca_space(tmp_path):
     shots = HG.load_shots(None)
     files = VE.shared_space(shots, tmp_path)
     assert len(files) == 1 and _png(files[0])
-    assert files[0].name == "shared_space_drive-ck.png"
+    assert files[0].name == "shared_space_drive_pull_kick.png"

@@ -235,7 +235,7 @@ def plot(result: ShotResult, out_dir: Path) -> list[Path]:
 def shared_space(shots: list[Shot], out_dir: Path) -> list[Path]:
     """Seed Figure 3.1: several shots plotted in one 3-D principal-component space.
 
-    Shots on the same skeleton (the five golf swings, the two kicks, the bundled drive and pull)
+    Shots of one subject (the five golf swings, the two kicks, the bundled drive, pull and kick)
     are pooled, each with its root moved so it starts over the origin, into one PCA space
     (``style.PoseSpace`` of their frames together); each shot's path is drawn in its first three
     components with its impact marked. A group of one shot is skipped.
@@ -243,9 +243,11 @@ def shared_space(shots: list[Shot], out_dir: Path) -> list[Path]:
     from .. import plots
     from ..style import PoseSpace
 
-    groups: dict[tuple[str, ...], list[Shot]] = {}
+    groups: dict[tuple, list[Shot]] = {}
     for sh in shots:
-        groups.setdefault(sh.motion.skeleton.names, []).append(sh)
+        sk = sh.motion.skeleton
+        # one subject: the same joints with the same bones (CMU's subjects share joint names)
+        groups.setdefault((sk.names, tuple(np.round(sk.offsets, 3).ravel())), []).append(sh)
     out = []
     for members in groups.values():
         if len(members) < 2:
@@ -259,7 +261,7 @@ def shared_space(shots: list[Shot], out_dir: Path) -> list[Path]:
         )
         space = PoseSpace.fit(pooled)
         paths = {sh.name: space.scores(m, 3) for sh, m in zip(members, moved)}
-        name = "_".join(sh.name for sh in members) if len(members) <= 2 else f"{members[0].name}-{members[-1].name[-2:]}"
+        name = "_".join(sh.name for sh in members) if len(members) <= 3 else f"{members[0].name}-{members[-1].name}"
         out.append(
             plots.score_paths(
                 paths,
