@@ -128,6 +128,7 @@ def test_variants_lengthen_shorten_abort_and_clean_up(variants):
     ex, mu, ab = rows["exaggerated"], rows["muted"], rows["aborted"]
     assert ex["path m"] > ex["path src m"] > mu["path m"], (ex, mu)
     assert ex["path ratio"] > 1.0 > mu["path ratio"]
+    assert max(r["first/last dev mm"] for r in rows.values()) < 1.0  # common start and end poses (seed §2.2.5)
     # the abort follows the source exactly to the abort frame, ends at the rest pose, and does not jerk
     assert ab["prefix dev mm"] < 1e-3 and ab["end dev mm"] < 2.0, ab
     assert ab["speed ratio clean"] <= 1.5, ab

@@ -43,7 +43,7 @@ TOP = 0.2
 COLUMNS = (
     "shot", "variant", "k", "var. expl.", "path src m", "path m", "path ratio", "speed ratio raw",
     "speed ratio clean", "skate src", "skate raw", "skate clean", "planted src", "planted raw",
-    "planted clean", "grip raw mm", "grip clean mm", "style_rmse", "prefix dev mm", "end dev mm",
+    "planted clean", "grip raw mm", "grip clean mm", "style_rmse", "prefix dev mm", "end dev mm", "first/last dev mm",
 )  # fmt: skip
 
 
@@ -185,6 +185,10 @@ def run_shot(shot: Shot) -> ShotResult:
         )
         style = style_rmse(src, clean)[0] if clean.n_frames == src.n_frames else float("nan")
         prefix = end = float("nan")
+        # seed §2.2.5: the shots' common start and end poses (an abort ends at the rest pose where it stands)
+        got_fk = pose_clean.joint_positions
+        ends = [0] if label.startswith("aborted") else [0, -1]
+        first_last = 1000 * max(float(np.max(np.linalg.norm(got_fk[i] - ref[i], axis=-1))) for i in ends)
         if label.startswith("aborted"):
             got = pose_clean.joint_positions
             f = ph.abort
@@ -199,7 +203,7 @@ def run_shot(shot: Shot) -> ShotResult:
             ev.max_joint_speed_ratio(raw, src), ev.max_joint_speed_ratio(clean, src),
             skate_src, ev.skate_mm_per_s(track_raw), ev.skate_mm_per_s(track_clean),
             planted_src, ev.planted_skate_mm_per_s(track_raw), ev.planted_skate_mm_per_s(track_clean),
-            grip[0], grip[1], style, prefix, end,
+            grip[0], grip[1], style, prefix, end, first_last,
         ))  # fmt: skip
         paths[label] = p.scores
     return ShotResult(shot.name, ph, k, float(space.cumulative[k - 1]), rows, paths, marks)
@@ -334,6 +338,10 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
         (
             "grip: second hand from its source placement relative to the first hand on the club/bat, max over frames "
             "(– for a kick); style_rmse: against the source (same length only)"
+        ),
+        (
+            "first/last dev: largest joint-position difference from the source at the first and last frames (an abort: "
+            "the first; seed §2.2.5's common start and end poses: the scaling fades to none there, variations.end_weights)"
         ),
         (
             "abort: prefix dev = largest joint-position difference from the source up to the abort frame; end dev = "
