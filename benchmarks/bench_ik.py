@@ -7,9 +7,11 @@ the default falloff (every frame the blend touches is solved), locked lead wrist
 1. Per frame, on the same goals and the same lead chain (lower spine → left hand), each from that
    frame's FK pose: CCD, DLS (MuJoCo Jacobians), NLP (CasADi/IPOPT), and ``mink`` (differential
    IK on MuJoCo with a QP; a frame task on the sweet spot, a posture task toward the FK pose weighted
-   like our stiffness, the other DOFs frozen as constraints; mink cannot restrict a ball joint to a
-   hinge, so its elbow/forearm keep 3 DOF). Time per frame (median and 90th percentile) and final
-   goal error (median, max).
+   like our stiffness, the other DOFs frozen as constraints) on a copy of the model whose chain
+   joints have our freedoms (hinges about our axes: a 1-DOF elbow, a locked wrist) and our per-frame
+   limits (``mink.ConfigurationLimit``). The solvers run interleaved (every solver on frame t, the
+   order alternating frame by frame), each to the same tolerance (1e-5 m). Time per frame (median and
+   90th percentile) and final goal error (median, max).
 2. Whole-shot NLP (both hands as constraints, smoothness term): wall time including the build.
 3. Style error (``style.style_rmse``) of the full adaptation with each solver, and how smoothly
    the IK deviation from the source varies (RMS second difference of ``log(q_src⁻¹ q)``, rad/s²:
@@ -33,6 +35,12 @@ import sys
 import time
 from pathlib import Path
 
+# One BLAS thread (as the CLI runs): OpenBLAS threads contend on a shared 2-core machine, and
+# mink's QP objective (products of ~100 × 100 matrices) then slows ~20x.
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import mujoco
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
@@ -66,20 +74,10 @@ def per_frame(problem: hitpoint.HitProblem, with_ccd: bool) -> None:
     frames = np.flatnonzero(problem.blend > 0)
     lo, hi = lead.bounds(problem.source)
     kin = ChainKinematics(c, lead)
-    rows: dict[str, tuple[list[float], list[float]]] = {}
-
-    def run(name: str, fn) -> None:
-        ts, es = [], []
-        for t in frames:
-            s = time.perf_counter()
-            err = fn(t)
-            ts.append(time.perf_counter() - s)
-            es.append(err)
-        rows[name] = (ts, es)
-
+    solvers: dict[str, object] = {}
     if with_ccd:
-        run("ccd", lambda t: ccd.solve(kin, problem.qpos[t], problem.goals[t], lo[t], hi[t]).error)
-    run("dls", lambda t: dls.solve(kin, problem.qpos[t], problem.goals[t], lo[t], hi[t]).error)
+        solvers["ccd"] = lambda t: ccd.solve(kin, problem.qpos[t], problem.goals[t], lo[t], hi[t]).error
+    solvers["dls"] = lambda t: dls.solve(kin, problem.qpos[t], problem.goals[t], lo[t], hi[t]).error
     fs = FrameSolver(c, lead)
 
     def nlp(t: int) -> float:
@@ -87,10 +85,19 @@ def per_frame(problem: hitpoint.HitProblem, with_ccd: bool) -> None:
         kin.set_delta(np.zeros(lead.n_dof))
         return fs.solve(problem.qpos[t], kin.data.xpos, kin.data.xmat, problem.goals[t], lo[t], hi[t]).error
 
-    run("nlp", nlp)
+    solvers["nlp"] = nlp
     mink_fn, why = mink_solver(problem)
     if mink_fn is not None:
-        run("mink", mink_fn)
+        solvers["mink"] = mink_fn
+    # interleaved: every solver on frame t (same input), alternating the order frame by frame
+    rows: dict[str, tuple[list[float], list[float]]] = {name: ([], []) for name in solvers}
+    order = list(solvers)
+    for n, t in enumerate(frames):
+        for name in order if n % 2 else order[::-1]:
+            s = time.perf_counter()
+            err = solvers[name](t)  # type: ignore[operator]
+            rows[name][0].append(time.perf_counter() - s)
+            rows[name][1].append(err)
     print(
         f"\nper-frame lead-chain IK over {len(frames)} frames ({lead.n_dof} DOF: {', '.join(f'{n}:{j.dof}' for n, j in zip(lead.names, lead.joints))})"
     )
@@ -102,42 +109,104 @@ def per_frame(problem: hitpoint.HitProblem, with_ccd: bool) -> None:
     else:
         base = np.median(rows["mink"][0])
         print("time ratio to mink (median): " + ", ".join(f"{n} {np.median(v[0]) / base:.2f}x" for n, v in rows.items()))
+        tol = 1e-5
+        reached = {n: int(np.sum(np.asarray(v[1]) < tol * 1.0001)) for n, v in rows.items()}
+        print(
+            f"equal accuracy: every solver iterates to {tol * 1e3:g} mm; frames within it: "
+            + ", ".join(f"{n} {k}/{len(frames)}" for n, k in reached.items())
+            + "; mink has our freedoms (hinge elbow and forearm, locked wrist) and per-frame limits (ConfigurationLimit)"
+        )
 
 
-def mink_solver(problem: hitpoint.HitProblem, posture_scale: float = 1e-3, max_iter: int = 50, tol: float = 1e-5):
+def mink_model(problem: hitpoint.HitProblem):
+    """A copy of the character for mink with the lead chain's freedoms as ours: each chain joint's
+    ball joint replaced by hinges about its free axes (the columns of its ``basis``, in order), so a
+    hinge elbow is one DOF and a locked wrist none; limited, the ranges set per frame.
+
+    Per frame the chain bodies' rest orientation becomes ``body_quat ⊗ q_fk`` (the frame's FK
+    rotation), so hinge angles are exactly our coordinates ``δ`` (``q = q_fk ⊗ Rot(b₁, δ₁) ⊗ …``,
+    MuJoCo composing a body's joints in order) and their box limits are our per-frame bounds.
+    Returns ``(model, chain_bodies, hinge_qpos_adr, hinge_dof_adr, qpos_map)``: ``qpos_map[i]`` is the address in
+    our model's ``qpos`` of the mink model's ``qpos[i]`` (``-1`` for a hinge).
+    """
+    c, lead = problem.compiled, problem.lead
+    spec = c.spec.copy()
+    names = [lead.skeleton.names[j.joint] for j in lead.joints]
+    for name, j in zip(names, lead.joints):
+        body = spec.body(name)
+        spec.delete(spec.joint(name))
+        for k in range(j.dof):
+            body.add_joint(type=mujoco.mjtJoint.mjJNT_HINGE, name=f"{name}/h{k}", axis=j.basis[:, k].tolist(), limited=1, range=[-1.0, 1.0])
+    for jnt in spec.joints:  # only the chain's hinges are limited (the rest is frozen anyway)
+        if "/h" not in jnt.name:
+            jnt.limited = 0
+    model = spec.compile()
+    qmap = np.full(model.nq, -1, dtype=int)
+    sizes = {
+        int(mujoco.mjtJoint.mjJNT_FREE): 7,
+        int(mujoco.mjtJoint.mjJNT_BALL): 4,
+        int(mujoco.mjtJoint.mjJNT_HINGE): 1,
+        int(mujoco.mjtJoint.mjJNT_SLIDE): 1,
+    }
+    hinge_adr, hinge_dof = [], []
+    for jid in range(model.njnt):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, jid)
+        adr, size = int(model.jnt_qposadr[jid]), sizes[int(model.jnt_type[jid])]
+        if model.jnt_type[jid] == mujoco.mjtJoint.mjJNT_HINGE and "/h" in name:
+            hinge_adr.append(adr)
+            hinge_dof.append(int(model.jnt_dofadr[jid]))
+            continue
+        src = mujoco.mj_name2id(c.model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        qmap[adr : adr + size] = np.arange(c.model.jnt_qposadr[src], c.model.jnt_qposadr[src] + size)
+    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n) for n in names]
+    return model, bodies, np.array(hinge_adr, dtype=int), np.array(hinge_dof, dtype=int), qmap
+
+
+def mink_solver(problem: hitpoint.HitProblem, posture_scale: float = 1e-3, max_iter: int = 100, tol: float = 1e-5):
+    """mink (differential IK as a QP) on the same chain freedoms and per-frame limits as ours.
+
+    A frame task on the club's sweet spot, a posture task toward the FK pose weighted like our
+    stiffness, every other DOF frozen by a constraint, ``ConfigurationLimit`` (gain 1: the box
+    itself) on the hinges with our per-frame bounds; iterated to the same tolerance as DLS.
+    """
     try:
         import mink
     except ImportError as exc:  # an optional peer
         return None, f"mink does not import ({exc}); pip install mink"
     c, lead = problem.compiled, problem.lead
-    model = c.model
-    chain_dofs = set()
-    for j in lead.joints:
-        if j.dof:
-            chain_dofs.update(range(c.dof_adr[j.joint], c.dof_adr[j.joint] + 3))
-    frozen = [i for i in range(model.nv) if i not in chain_dofs]
-    cost = np.zeros(model.nv)
-    for j in lead.joints:
-        if j.dof:
-            cost[c.dof_adr[j.joint] : c.dof_adr[j.joint] + 3] = posture_scale / np.sqrt(j.weight.mean())
     site = problem.prop.site if problem.prop is not None else None
     if site is None:
         return None, "the mink comparison needs a site effector (the club)"
+    model, bodies, hinge_adr, hinge_dof, qmap = mink_model(problem)
+    frozen = [i for i in range(model.nv) if i not in set(hinge_dof.tolist())]
+    cost = np.zeros(model.nv)
+    cost[hinge_dof] = posture_scale / np.sqrt(lead.weights)
+    rest = model.body_quat[bodies].copy()
     task = mink.FrameTask(site, "site", position_cost=1.0, orientation_cost=0.0)
     posture = mink.PostureTask(model, cost=cost)
     freeze = mink.DofFreezingTask(model, dof_indices=frozen)
+    limit = mink.ConfigurationLimit(model, gain=1.0)
     config = mink.Configuration(model)
+    lo_all, hi_all = lead.bounds(problem.source)
+    q_src = np.zeros(model.nq)
 
     def solve(t: int) -> float:
-        q = problem.qpos[t]
-        config.update(q)
-        posture.set_target(q)
+        qpos = problem.qpos[t]
+        for b, j, r in zip(bodies, lead.joints, rest):
+            model.body_quat[b] = rot.multiply(r, qpos[c.qpos_adr[j.joint] : c.qpos_adr[j.joint] + 4])
+        keep = qmap >= 0
+        q_src[keep] = qpos[qmap[keep]]
+        q_src[hinge_adr] = 0.0
+        limit.lower[hinge_adr] = lo_all[t]
+        limit.upper[hinge_adr] = hi_all[t]
+        config.update(q_src)
+        posture.set_target(q_src)
         task.set_target(mink.SE3.from_translation(problem.goals[t]))
         for _ in range(max_iter):
             err = np.linalg.norm(config.get_transform_frame_to_world(site, "site").translation() - problem.goals[t])
             if err < tol:
                 break
-            v = mink.solve_ik(config, [task, posture], dt=1.0, solver="daqp", damping=1e-8, limits=[], constraints=[freeze])
+            v = mink.solve_ik(config, [task, posture], dt=1.0, solver="daqp", damping=1e-8, limits=[limit], constraints=[freeze])
             config.integrate_inplace(v, 1.0)
         return float(np.linalg.norm(config.get_transform_frame_to_world(site, "site").translation() - problem.goals[t]))
 

@@ -1,6 +1,6 @@
 """Run every benchmark once and write BENCHMARKS.md with all their ratios from that one run.
 
-    python benchmarks/run_all.py [--out BENCHMARKS.md] [--only bvh registration ik]
+    python benchmarks/run_all.py [--out BENCHMARKS.md] [--only bvh registration ik audit]
 
 Each ``benchmarks/bench_*.py`` prints its own table (times and ratios against its peers and
 baselines, all measured in the same process run); this collects them with the machine's

@@ -1,6 +1,6 @@
 """Physics audit of every shared clip and every synthesized result (issue 8; METRICS.md).
 
-python experiments/physics_audit.py [--data DIR | --bundled] [--out DIR] [--quick]
+python experiments/physics_audit.py [--data DIR | --bundled] [--out DIR] [--quick] [--jobs N | --workers N | --scheduler ADDRESS]
 """
 
 from mjmotion.experiments import script

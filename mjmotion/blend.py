@@ -248,12 +248,14 @@ def blend(
     method: str = "registered",
     registration: Registration | None = None,
     name: str = "blend",
+    joint_weights: dict[str, float] | None = None,
 ) -> Motion:
     """Blend clips of one skeleton topology on the first clip's skeleton.
 
     ``weights``: ``(n,)`` summing to 1, or a :class:`WeightCurve` over output time (seconds).
     ``registered``: timewarped, aligned, incrementally rooted (module docstring); runs over the
-    span the registration covers. ``linear``: the baseline, frame ``n`` of every clip averaged.
+    span the registration covers (``registration``, or one :func:`mjmotion.registration.register_many`
+    makes with ``joint_weights``). ``linear``: the baseline, frame ``n`` of every clip averaged.
     """
     if len(motions) < 1:
         raise MjmotionError("blend needs at least one clip")
@@ -267,7 +269,7 @@ def blend(
     if method != "registered":
         raise MjmotionError(f"unknown blend method {method!r}; expected registered or linear")
     fps = motions[0].fps
-    reg = registration if registration is not None else register_many(motions, reference=0 if n <= 2 else None)
+    reg = registration if registration is not None else register_many(motions, reference=0 if n <= 2 else None, weights=joint_weights)
     tau = registered_clock(reg, curve, fps)
     times = reg.at(tau)  # (N, n)
     steps = np.vstack([np.zeros((1, n)), np.diff(times, axis=0)])

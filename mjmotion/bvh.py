@@ -16,15 +16,19 @@ import functools
 import io
 import itertools
 import os
-import stat
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from . import compiled
 from . import rotations as rot
+from .caps import MAX_COORD_M, MAX_FILE_BYTES, MAX_FPS, MAX_JOINTS, MIN_FPS, check_motion_size
 from .errors import BvhError, MjmotionError
+from .inputs import InputError, read_input
 from .skeleton import (
+    MM,
     POSITION_CHANNELS,
     ROTATION_CHANNELS,
     Motion,
@@ -47,6 +51,7 @@ class _Node:
     offset: np.ndarray | None = None
     channels: tuple[str, ...] | None = None
     is_end: bool = False
+    offset_line: int = 0
 
 
 def read(
@@ -62,49 +67,18 @@ def read(
         scale: metres per file unit; ``None`` detects it from the skeleton's extent
             (centimetres, metres, millimetres or CMU's ASF unit).
         up: the file's up axis, ``"y"`` (the BVH norm) or ``"z"``.
-        max_bytes: refuse files larger than this (``None``: no limit).
+        max_bytes: refuse files larger than this (``None``: :data:`mjmotion.caps.MAX_FILE_BYTES`).
+
+    Only a regular file is read (a FIFO, a device or a directory is refused before it is
+    opened) and never more than ``max_bytes`` of it (:func:`mjmotion.inputs.read_input`).
     """
     p = str(path)
     try:
-        if not stat.S_ISREG(os.stat(p).st_mode) and not os.path.isdir(p):
-            raw = _read_stream(p, max_bytes if max_bytes is not None else _STREAM_LIMIT)
-        else:
-            size = os.path.getsize(p)
-            if max_bytes is not None and size > max_bytes:
-                raise BvhError(p, None, f"file is {size} bytes, larger than the limit of {max_bytes}")
-            with open(p, "rb") as fh:
-                raw = fh.read()
-    except FileNotFoundError:
-        raise BvhError(p, None, "no such file") from None
-    except IsADirectoryError:
-        raise BvhError(p, None, "is a directory, expected a .bvh file") from None
-    except PermissionError:
-        raise BvhError(p, None, "permission denied") from None
-    except OSError as e:
-        raise BvhError(p, None, f"cannot read: {e.strerror or e}") from None
+        raw = read_input(p, MAX_FILE_BYTES if max_bytes is None else max_bytes, "a .bvh file")
+    except InputError as e:
+        raise BvhError(p, None, e.message) from None
     motion = parse(raw, p, scale=scale, up=up)
     return motion.replace(name=Path(p).stem)
-
-
-#: Most bytes read from a pipe or device (``/dev/stdin``), whose size is not known in advance.
-_STREAM_LIMIT = 1 << 30
-
-
-def _read_stream(p: str, limit: int) -> bytes:
-    """A pipe or device, in chunks: refuses binary data at once (``/dev/zero`` would never end)."""
-    chunks: list[bytes] = []
-    total = lines = 0
-    with open(p, "rb") as fh:
-        while chunk := fh.read(1 << 20):
-            nul = chunk.find(b"\x00")
-            if nul >= 0:
-                raise BvhError(p, lines + chunk.count(b"\n", 0, nul) + 1, "binary data (a NUL byte); expected a text BVH file")
-            total += len(chunk)
-            if total > limit:
-                raise BvhError(p, None, f"more than {limit} bytes from a pipe or device; expected a BVH file")
-            lines += chunk.count(b"\n")
-            chunks.append(chunk)
-    return b"".join(chunks)
 
 
 def parse(data: bytes | str, path: str = "<string>", scale: float | None = None, up: str = "y") -> Motion:
@@ -114,20 +88,59 @@ def parse(data: bytes | str, path: str = "<string>", scale: float | None = None,
         return fast
     lines = _decode(data, path).split("\n")  # the decoded text is not kept: memory is ~2x the file
     nodes, motion_line = _parse_hierarchy(lines, path)
-    frames, frame_time, first_data_line = _parse_motion_header(lines, motion_line, path)
     joints = [n for n in nodes if not n.is_end]
+    frames, frame_time, first_data_line = _parse_motion_header(lines, motion_line, path, len(joints))
     n_channels = sum(len(n.channels or ()) for n in joints)
     values = _parse_values(lines, first_data_line, n_channels, frames, path)
     skel = _build_skeleton(nodes, path, scale, up)
+    bad = _position_out_of_range(values, skel)
+    if bad is not None:
+        row, col, what = bad
+        ln = first_data_line + 1 + _nonempty_line_offset(lines, first_data_line, row)
+        raise BvhError(path, ln, f"value {col + 1} ({what}) is {values[row, col]:g} file units, {_coord_limit(skel)}")
     return _to_motion(skel, values, 1.0 / frame_time, path)
 
 
+def _coord_limit(skel: Skeleton) -> str:
+    return f"beyond the ±{MAX_COORD_M:g} m a clip may span ({MAX_COORD_M / skel.scale:g} units of {skel.scale:g} m)"
+
+
+def _position_out_of_range(values: np.ndarray, skel: Skeleton) -> tuple[int, int, str] | None:
+    """``(row, column, channel)`` of the first position value beyond :data:`MAX_COORD_M` in metres, or ``None``."""
+    cols = [
+        (c, f"{skel.names[j]} {ch}")
+        for j, c0 in enumerate(np.cumsum([0, *map(len, skel.channels)])[:-1])
+        for c, ch in enumerate(skel.channels[j], int(c0))
+        if ch in POSITION_CHANNELS
+    ]
+    if not cols:
+        return None
+    idx = np.array([c for c, _ in cols])
+    big = np.abs(values[:, idx]) > MAX_COORD_M / skel.scale
+    if not big.any():
+        return None
+    row, k = map(int, np.argwhere(big)[0])
+    return row, int(idx[k]), cols[k][1]
+
+
 # --- the compiled path for long clips --------------------------------------------------------
-#: Motion sections from this many bytes up take the compiled path (``mjmotion._fast``): below
-#: it, importing Numba (~0.5 s, once per process) costs more than the NumPy path saves.
+#: Motion sections from this many bytes up may take the compiled path (``mjmotion._fast``), when
+#: it pays end to end (:mod:`mjmotion.compiled`): the kernels are loaded in this process already,
+#: or the NumPy path would take longer than their first call on a machine.
 FAST_MIN_BYTES = 1 << 20
+#: The NumPy path's speed, to predict its time (``benchmarks/bench_compiled.py``: 9–12 ns per byte).
+NUMPY_SECONDS_PER_BYTE = 1.2e-8
 #: At most this many numbers per file are converted by Python for the compiled path.
 _MAX_DEFERRED = 1 << 16
+
+
+def _compiled_pays(n_bytes: int) -> bool:
+    """Whether a motion section of ``n_bytes`` takes the compiled path (see :data:`FAST_MIN_BYTES`)."""
+    if n_bytes < FAST_MIN_BYTES:
+        return False
+    fast = sys.modules.get(f"{__package__}._fast")
+    loaded = fast is not None and compiled.ready(fast.parse_values, fast.euler_quats)
+    return compiled.pays(n_bytes * NUMPY_SECONDS_PER_BYTE, loaded)
 
 
 @functools.lru_cache(maxsize=1)
@@ -153,6 +166,8 @@ def _parse_fast(data: bytes | str, path: str, scale: float | None, up: str) -> M
         return None
     nodes, frame_time, values, kernels = head
     skel = _build_skeleton(nodes, path, scale, up)
+    if _position_out_of_range(values, skel) is not None:
+        return None  # the NumPy path names the line
     return _to_motion(skel, values, 1.0 / frame_time, path, kernels)
 
 
@@ -168,7 +183,7 @@ def _parse_values_fast(data: bytes | str, path: str):
     if data.startswith((b"\xff\xfe", b"\xfe\xff")) or data.find(b"\x00") >= 0:
         return None
     cut = _motion_values_start(data)
-    if cut is None or len(data) - cut < FAST_MIN_BYTES:
+    if cut is None or not _compiled_pays(len(data) - cut):
         return None
     kernels = _fast_kernels()
     if kernels is None:
@@ -176,7 +191,7 @@ def _parse_values_fast(data: bytes | str, path: str):
     try:
         lines = _decode(data[:cut], path).split("\n")
         nodes, motion_line = _parse_hierarchy(lines, path)
-        frames, frame_time, first_data_line = _parse_motion_header(lines, motion_line, path)
+        frames, frame_time, first_data_line = _parse_motion_header(lines, motion_line, path, sum(not n.is_end for n in nodes))
     except BvhError:
         return None
     n_channels = sum(len(n.channels or ()) for n in nodes if not n.is_end)
@@ -314,6 +329,11 @@ def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
                 name = " ".join(rest[:-1] if brace else rest)
                 if not name:
                     raise BvhError(path, ln, f"{t} needs a joint name")
+                if not name.isprintable():
+                    bad = next(ch for ch in name if not ch.isprintable())
+                    raise BvhError(path, ln, f"joint name {_q(name)} has a control character (U+{ord(bad):04X}); expected printable text")
+                if len(names) >= MAX_JOINTS:
+                    raise BvhError(path, ln, f"more than {MAX_JOINTS} joints; the limit for one skeleton (is this a character?)")
                 if t == "ROOT":
                     if seen_root:
                         raise BvhError(path, ln, "a second ROOT; expected one hierarchy per file")
@@ -368,6 +388,7 @@ def _parse_hierarchy(lines: list[str], path: str) -> tuple[list[_Node], int]:
                 if cur.offset is not None:
                     raise BvhError(path, ln, f"a second OFFSET for {_q(cur.name)}")
                 cur.offset = np.array([_parse_float(x, path, ln, "OFFSET") for x in toks[k + 1 : k + 4]])
+                cur.offset_line = ln
                 k += 4
             elif t == "CHANNELS":
                 cur = _current(nodes, stack, pending, path, ln, "CHANNELS")
@@ -419,8 +440,9 @@ def _current(nodes: list[_Node], stack: list[int], pending: int | None, path: st
     return nodes[stack[-1]]
 
 
-def _parse_motion_header(lines: list[str], motion_idx: int, path: str) -> tuple[int, float, int]:
-    """``(frames, frame_time, 0-based index of the first data line)``."""
+def _parse_motion_header(lines: list[str], motion_idx: int, path: str, n_joints: int = 1) -> tuple[int, float, int]:
+    """``(frames, frame_time, 0-based index of the first data line)``; refuses a clip over the
+    size limits (:func:`mjmotion.caps.check_motion_size`) before its values are read."""
     toks_after = lines[motion_idx].split()
     if toks_after != ["MOTION"]:
         raise BvhError(path, motion_idx + 1, "expected 'MOTION' alone on its line")
@@ -444,6 +466,10 @@ def _parse_motion_header(lines: list[str], motion_idx: int, path: str) -> tuple[
         raise BvhError(path, ln, f"Frames: {_q(val)} {what}") from None
     if frames < 1:
         raise BvhError(path, ln, f"Frames: {frames}; expected at least one frame")
+    try:
+        check_motion_size(frames, n_joints, "Frames")
+    except MjmotionError as e:
+        raise BvhError(path, ln, str(e)) from None
     if len(header) < 2:
         raise BvhError(path, ln + 1, "expected 'Frame Time: SECONDS'")
     ln, s = header[1]
@@ -453,6 +479,12 @@ def _parse_motion_header(lines: list[str], motion_idx: int, path: str) -> tuple[
     ft = _parse_float(val, path, ln, "Frame Time")
     if ft <= 0:
         raise BvhError(path, ln, f"Frame Time {_q(val)}; expected a positive number of seconds")
+    if not 1.0 / MAX_FPS <= ft <= 1.0 / MIN_FPS:
+        raise BvhError(
+            path,
+            ln,
+            f"Frame Time {_q(val)}: expected {1.0 / MAX_FPS:g} to {1.0 / MIN_FPS:g} seconds per frame ({MIN_FPS:g} to {MAX_FPS:g} frames per second)",
+        )
     return frames, ft, i
 
 
@@ -519,8 +551,12 @@ def _diagnose_values(lines: list[str], start: int, n_channels: int, path: str) -
 # --- building the data model ----------------------------------------------------------------
 def _build_skeleton(nodes: list[_Node], path: str, scale: float | None, up: str) -> Skeleton:
     index: dict[int, int] = {}
-    names, parents, offsets, channels = [], [], [], []
-    end_parents, end_offsets = [], []
+    names: list[str] = []
+    parents: list[int] = []
+    offsets: list[np.ndarray] = []
+    channels: list[tuple[str, ...]] = []
+    end_parents: list[int] = []
+    end_offsets: list[np.ndarray] = []
     for i, n in enumerate(nodes):
         off = n.offset if n.offset is not None else np.zeros(3)
         if n.is_end:
@@ -535,6 +571,15 @@ def _build_skeleton(nodes: list[_Node], path: str, scale: float | None, up: str)
     c = up_matrix(up)
     offs = np.asarray(offsets)
     ends = np.asarray(end_offsets).reshape(-1, 3)
+    # Before unit detection, which would only say it cannot tell the unit: with no scale given,
+    # the limit in file units is the one for millimetres, the smallest unit detected.
+    unit = MM if scale is None or not (np.isfinite(scale) and scale > 0) else scale
+    for n in nodes:
+        if n.offset is not None and np.abs(n.offset).max() * unit > MAX_COORD_M:
+            where = f"the End Site of {_q(n.name[:-4])}" if n.is_end else _q(n.name)
+            raise BvhError(
+                path, n.offset_line, f"OFFSET of {where} is {np.abs(n.offset).max():g} file units, beyond the ±{MAX_COORD_M:g} m a skeleton may span"
+            )
     if scale is None:
         file_skel = Skeleton(tuple(names), np.asarray(parents), offs, tuple(channels), np.asarray(end_parents, dtype=int), ends)
         try:
@@ -642,18 +687,23 @@ def format_motion(motion: Motion) -> str:
     c = up_matrix(skel.up)
     q_c = rot.from_matrix(c)
     t = motion.n_frames
-    file_offsets = skel.offsets @ c / skel.scale
-    file_ends = skel.end_offsets @ c / skel.scale
-    local_file = motion.local_translations() @ c / skel.scale  # (T, J, 3)
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused below, not warned about
+        file_offsets = skel.offsets @ c / skel.scale
+        file_ends = skel.end_offsets @ c / skel.scale
+        local_file = motion.local_translations() @ c / skel.scale  # (T, J, 3)
+        disps = local_file - file_offsets
+    if not (np.isfinite(file_offsets).all() and np.isfinite(file_ends).all() and np.isfinite(disps).all()):
+        # e.g. a position of 1e306 m written in units of 1e-5 m: the file would hold 'inf'
+        raise MjmotionError(f"motion is not finite in the file's units ({skel.scale:g} m per unit); refusing to write it")
     q_file = rot.multiply(rot.multiply(rot.conjugate(q_c), motion.rotations), q_c)
     columns: list[np.ndarray] = []
     # Decimals per column: 6 for degrees; positions fine enough for 5 nm in metres (≥ 6).
     pos_decimals = max(6, int(np.ceil(8 + np.log10(skel.scale))))
     decimals: list[int] = []
     channels_out: list[tuple[str, ...]] = []
-    for j, chans in enumerate(skel.channels):
-        chans = list(chans)
-        disp = local_file[:, j] - file_offsets[j]
+    for j, file_chans in enumerate(skel.channels):
+        chans = list(file_chans)
+        disp = disps[:, j]
         pos_axes = [ch[0] for ch in chans if ch in POSITION_CHANNELS]
         missing_pos = [a for a in "XYZ" if a not in pos_axes]
         if missing_pos and np.max(np.abs(disp[:, ["XYZ".index(a) for a in missing_pos]]), initial=0.0) > _WIDEN_TOL:
@@ -681,7 +731,7 @@ def format_motion(motion: Motion) -> str:
     _write_hierarchy(out, skel, channels_out, file_offsets, file_ends)
     out.write("MOTION\n")
     out.write(f"Frames: {t}\n")
-    out.write(f"Frame Time: {_frame_time_text(motion.fps)}\n")
+    out.write(f"Frame Time: {frame_time_text(motion.fps)}\n")
     if columns:
         data = np.column_stack(columns)
         dec = np.array(decimals)
@@ -692,7 +742,7 @@ def format_motion(motion: Motion) -> str:
     return out.getvalue()
 
 
-def _frame_time_text(fps: float) -> str:
+def frame_time_text(fps: float) -> str:
     """The shortest frame time (≥ 6 significant digits) that reads back as exactly ``fps``."""
     ft = 1.0 / fps
     for digits in range(6, 18):
@@ -704,6 +754,10 @@ def _frame_time_text(fps: float) -> str:
 
 def _wrap_degrees(a: np.ndarray) -> np.ndarray:
     return (a + 180.0) % 360.0 - 180.0
+
+
+#: Deepest indentation written (tabs); whitespace means nothing to a BVH reader.
+_MAX_INDENT = 32
 
 
 def _write_hierarchy(
@@ -723,11 +777,12 @@ def _write_hierarchy(
     def fmt(v: np.ndarray) -> str:
         return " ".join(f"{0.0 if abs(x) < 1e-12 else x:.10g}" for x in v)
 
-    # Iterative depth-first walk (deep hierarchies would overflow recursion).
+    # Iterative depth-first walk (deep hierarchies would overflow recursion); the indentation
+    # stops growing at _MAX_INDENT levels, or a deep chain's file grows with its depth squared.
     stack: list[tuple[str, int, int]] = [("open", 0, 0)]
     while stack:
         kind, j, depth = stack.pop()
-        ind = "\t" * depth
+        ind = "\t" * min(depth, _MAX_INDENT)
         if kind == "close":
             out.write(f"{ind}}}\n")
             continue

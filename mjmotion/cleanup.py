@@ -1,28 +1,32 @@
 """Footskate cleanup after Kovar, Schreiner & Gleicher (2002), the constraint step seed 000 §2.1
-planned and §4 left undone.
+planned and §4 left undone. Feet, floor and contacts are the judge's (:mod:`mjmotion.feet`,
+:mod:`mjmotion.floor`): a cleaned clip is held still exactly where the judge looks.
 
-1. **Plants**: runs of METRICS contact frames per foot (:func:`mjmotion.evaluate.contacts`),
-   gaps of up to ``max_gap`` frames closed, runs shorter than ``min_plant`` frames dropped. Then,
-   up to ``refine`` times, the result is labelled with the same contact definition the metric
-   uses, and every contact frame that is not held still (a plant's inner frame) grows the plant
-   beside it or starts one (:func:`grow_plants`): held orientations and ramps change which frames
-   touch the floor, and a plant's end frames take half their speed from outside it.
-2. **Fix each plant**: the foot holds one world orientation (its middle frame's) and the point
-   that touches the floor — the lowest foot point, a heel or toe box corner or the toe, which is
-   what METRICS measures — stays where it is: the ankle rolls about it (:func:`contact_paths`;
-   for a rigid foot that is a fixed ankle at the plant's mean). Plant heights stay as captured.
+1. **Plants**: runs of the judge's contact frames per foot (:func:`mjmotion.feet.contacts`, with
+   hysteresis), gaps of up to ``max_gap`` frames closed, runs shorter than ``min_plant`` frames
+   dropped. Then, up to ``refine`` times, the result is labelled again and every contact frame
+   that is not held still grows the plant beside it or starts one (:func:`grow_plants`).
+2. **Fix each plant**: the point that touches the floor — the lowest sole point, heel, ball or
+   toe tip — stays where it is while the foot turns as captured (:func:`contact_paths`: the
+   ankle rolls about it). ``hold_orientation`` holds one world orientation through each plant
+   instead (its middle frame's; stiller feet, but the leg must then stretch at toe-off and the
+   knee pops, measured). A plant below the floor is raised onto it.
 3. **Blend**: outside plants the pinning offset fades with a smoothstep over ``blend`` seconds;
-   between two close plants it moves smoothly from one offset to the next — nothing pops.
-4. **Swing clearance** (:func:`swing_lift`): METRICS counts a foot as skating whenever it moves
-   within ``h_c`` of the floor, swinging or not. Outside plants, a foot faster than ``v_c`` with
-   its lowest point under ``clearance`` (default ``h_c``; 0 turns this off) is lifted to it, the
-   lift spread smoothly over ``lift_ramp`` seconds; a plant's foot rises in place over its last
-   frames (comes down over its first), so it leaves the floor before it moves.
+   between two close plants it moves smoothly from one offset to the next; for ``ease`` seconds
+   beside each plant the foot leaves (reaches) it from rest, its touching point still at the
+   edge (:func:`edge_paths`), so neither the knee nor the judge's smoothed foot speed sees a jump.
+4. **Floor**: no sole below the floor: a foot in it is lifted out, smoothly (max filter and Hann
+   window over ``lift_ramp`` seconds). Swing lifting (:func:`swing_lift`, ``clearance`` > 0) is an
+   option, off by default: it raises a foot that moves within ``clearance`` of the floor outside
+   plants, which fixes the old height-only footskate metric more than the motion.
 5. **Root**: where a target is beyond the leg's reach (``reach`` × thigh + shin), the root moves
-   towards it by the shortfall, smoothed with a finite Hann window so it stays local.
-6. **Legs**: analytic two-bone IK per frame (vectorised): the knee bends in its current plane to
-   the law-of-cosines angle, the hip swings the ankle onto the target; the ankle's local rotation
-   is then set so the foot takes its step-2 world orientation. Bone lengths are unchanged.
+   towards it by the shortfall, smoothed with a finite Hann window so it stays local; where a
+   knee would go lower than captured under the floor, the root rises.
+6. **Legs**: analytic two-bone IK per frame (vectorised, :func:`mjmotion.ik.analytic.two_bone`):
+   the knee bends in its captured plane — turning towards its own hinge where the captured knee
+   is nearly straight (:data:`STRAIGHT_KNEE_DEG`), whose plane is marker noise — and the hip
+   swings the ankle onto the target; the ankle's local rotation then gives the foot its
+   orientation. Bone lengths are unchanged.
 
 Frames outside every plant's blend window (and the root window) where no foot is lifted keep
 their joint angles exactly; only hips, knees and ankles (and the root) ever change.
@@ -32,36 +36,45 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import evaluate as ev
+from . import feet as ft
+from . import floor as floors
 from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError, require_number
 from .ik import analytic
 from .skeleton import Motion
+from .thresholds import H_C, HYSTERESIS, V_C
 
 
 @dataclass(frozen=True)
 class CleanupParams:
-    """Cleanup settings. ``h_c``/``v_c`` as METRICS contact; times in seconds.
+    """Cleanup settings. ``h_c``/``v_c``/``hysteresis`` as the judge's contact; times in seconds.
 
-    ``clearance`` (m): height a moving foot is lifted to outside plants (None: ``h_c``; 0: never
-    lift, swings stay as captured); ``lift_ramp``: how quickly a lift rises.
+    ``floor`` (m): the floor height plants stand on (None: from the sources given to
+    :func:`cleanup`, else the clip's own stance floor, as :mod:`mjmotion.floor` decides).
+    ``clearance`` (m): height a moving foot is lifted to outside plants (0, the default: never
+    lift, swings stay as captured; None: ``h_c``); ``lift_ramp``: how quickly a lift rises.
     """
 
-    h_c: float = ev.H_C
-    v_c: float = ev.V_C
+    h_c: float = H_C
+    v_c: float = V_C
+    hysteresis: float = HYSTERESIS
     min_plant: float = 0.05
     max_gap: float = 0.03
     blend: float = 0.2
     reach: float = 0.995
     root_window: float = 0.3
     refine: int = 8
-    clearance: float | None = None
+    clearance: float | None = 0.0
     lift_ramp: float = 0.05
+    floor: float | None = None
+    hold_orientation: bool = False
+    ease: float = 0.05
 
     def __post_init__(self) -> None:
         for name, low, strict in (("h_c", 0.0, True), ("v_c", 0.0, True), ("min_plant", 0.0, False), ("max_gap", 0.0, False),
@@ -69,6 +82,9 @@ class CleanupParams:
             require_number(f"CleanupParams.{name} =", getattr(self, name), low, strict, 1.0 if name == "reach" else None)
         if self.clearance is not None:
             require_number("CleanupParams.clearance =", self.clearance, 0.0, False, None)
+        if self.floor is not None and not (isinstance(self.floor, numbers.Real) and math.isfinite(self.floor)):
+            raise MjmotionError(f"CleanupParams.floor = {self.floor!r}: expected a finite floor height in metres")
+        require_number("CleanupParams.hysteresis =", self.hysteresis, 0.0, False, 0.999)
         if not isinstance(self.refine, numbers.Integral) or isinstance(self.refine, bool) or self.refine < 0:
             raise MjmotionError(f"CleanupParams.refine = {self.refine!r}: expected a whole number ≥ 0")
 
@@ -90,7 +106,9 @@ class Plant:
 
 @dataclass(frozen=True)
 class CleanupResult:
-    """The cleaned motion and what was done; ``lift: (T, F)`` how far step 4 raised each foot (m)."""
+    """The cleaned motion and what was done; ``lift: (T, F)`` how far step 4 raised each foot (m:
+    out of the floor, and swing lifting when on);
+    ``floor``: the floor used (m, world z, and where it came from)."""
 
     motion: Motion
     plants: tuple[Plant, ...]
@@ -99,6 +117,8 @@ class CleanupResult:
     unreached_frames: int
     params: CleanupParams = field(default_factory=CleanupParams)
     lift: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    floor: floors.Floor = field(default_factory=lambda: floors.Floor(0.0, "given"))
+    raised_plants: int = 0
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -108,8 +128,29 @@ class CleanupResult:
             "unreached_frames": self.unreached_frames,
             "lifted_frames": int((self.lift > 0).any(axis=1).sum()) if self.lift.size else 0,
             "max_lift_m": float(self.lift.max()) if self.lift.size else 0.0,
+            "raised_plants": self.raised_plants,
+            "floor_m": self.floor.height,
+            "floor_from": self.floor.from_,
             "params": self.params.__dict__,
         }
+
+    def __repr__(self) -> str:
+        """What the cleanup did, in a line (:meth:`to_dict` has the plants)."""
+        from .summary import fields
+
+        d = self.to_dict()
+        keep = ("changed_frames", "max_root_shift_m", "unreached_frames", "raised_plants", "floor_m")
+        return fields("CleanupResult", repr(self.motion.name), plants=len(self.plants), **{k: d[k] for k in keep})
+
+    def to_markdown(self) -> str:
+        """The result as a two-column Markdown table (plants counted, parameters as ``params.NAME``)."""
+        from .summary import markdown_table
+
+        d = self.to_dict()
+        del d["params"]
+        d["plants"] = len(self.plants)
+        params = {f"params.{k}": v for k, v in vars(self.params).items()}
+        return markdown_table({**d, **params}, header=("cleanup", self.motion.name or "value"))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -119,9 +160,9 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
-def find_plants(track: ev.FootTrack, ankles: np.ndarray, fps: float, params: CleanupParams = CleanupParams()) -> list[Plant]:
-    """Plants from contact labels; ``ankles: (T, F, 3)`` world ankle positions."""
-    con = ev.contacts(track, params.h_c, params.v_c)
+def find_plants(track: ft.FootTrack, ankles: np.ndarray, fps: float, params: CleanupParams = CleanupParams()) -> list[Plant]:
+    """Plants from the judge's contact labels; ``ankles: (T, F, 3)`` world ankle positions."""
+    con = ft.contacts(track, params.h_c, params.v_c, params.hysteresis)
     gap = round(params.max_gap * fps)
     shortest = max(2, round(params.min_plant * fps))
     plants = []
@@ -143,7 +184,13 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
 
 
 def pin_offsets(
-    plants: list[Plant], ankles_xy: np.ndarray, fps: float, blend: float, paths: np.ndarray | None = None
+    plants: list[Plant],
+    ankles_xy: np.ndarray,
+    fps: float,
+    blend: float,
+    paths: np.ndarray | None = None,
+    edges: np.ndarray | None = None,
+    ease: float = 0.1,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """How strongly and where to pin one foot.
 
@@ -152,7 +199,9 @@ def pin_offsets(
     ``position``; :func:`contact_paths` lets the ankle roll so the touching point stays put).
     Returns the floor-plane offset ``(T, 2)`` onto the pinned positions, a weight ``(T,)`` in
     [0, 1] (1 inside plants, smoothstep ramps of ``blend`` seconds outside) and the index
-    ``(T,)`` of the plant each frame is blended towards (-1 for none).
+    ``(T,)`` of the plant each frame is blended towards (-1 for none). ``edges: (T, 2)`` (NaN
+    elsewhere): where the ankle would be beside each plant if its touching point stayed put
+    (:func:`edge_paths`), what the foot leaves from and arrives on (default: the edge position).
     """
     t_count = len(ankles_xy)
     off = np.zeros((t_count, 2))
@@ -191,7 +240,46 @@ def pin_offsets(
         off[p.stop : hi] = s[:, None] * off[p.stop - 1]
         w[p.stop : hi] = s
         owner[p.stop : hi] = i
+    _ease_off_plants(plants, off, ankles_xy, w, max(1, round(ease * fps)), edges)
     return off, w, owner
+
+
+def _smootherstep(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * x * (x * (6.0 * x - 15.0) + 10.0)
+
+
+def _ease_off_plants(plants: list[Plant], off: np.ndarray, ankles_xy: np.ndarray, w: np.ndarray, m: int, edges: np.ndarray | None) -> None:
+    """Make the pinned foot leave and reach each plant from rest (in place on ``off``).
+
+    An offset faded in or out keeps the captured foot's velocity at the plant's edge, a jump
+    from the held foot's zero (the knee pops, and the jump reads as footskate through the judge's
+    smoothed speeds). For ``m`` frames beside each plant the ankle target moves from where the
+    touching point would stay put (``edges``; else the edge position) to the faded path with a
+    smootherstep (matching velocity and acceleration at both ends).
+    """
+    t_count = len(off)
+    inside = np.zeros(t_count, dtype=bool)
+    for p in plants:
+        inside[p.start : p.stop] = True
+    target = ankles_xy + off
+    for p in plants:
+        for edge, step in ((p.stop - 1, 1), (p.start, -1)):
+            goal = np.broadcast_to(target[edge], target.shape).copy()
+            if edges is not None:
+                known = np.isfinite(edges[:, 0])
+                goal[known] = edges[known]
+            frames = edge + step * np.arange(1, m + 1)
+            keep = (frames >= 0) & (frames < t_count)
+            frames = frames[keep]
+            free = frames[~inside[frames]] if len(frames) else frames
+            # Stop at the next plant (or halfway to it when it is near).
+            if len(free) < len(frames):
+                free = free[: max(0, (np.flatnonzero(inside[frames])[0]) // 2)] if np.any(inside[frames]) else free
+            g = _smootherstep(np.abs(free - edge) / (len(free) + 1)) if len(free) else free
+            target[free] = (1 - g)[:, None] * goal[free] + g[:, None] * target[free]
+            w[free] = np.maximum(w[free], 1e-3)
+    off[:] = target - ankles_xy
 
 
 def hold_orientations(plants: list[Plant], rotations: np.ndarray, fps: float, blend: float) -> tuple[np.ndarray, np.ndarray]:
@@ -237,24 +325,6 @@ def hold_orientations(plants: list[Plant], rotations: np.ndarray, fps: float, bl
     return held, w
 
 
-def two_bone_ik(
-    hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, target: np.ndarray, fallback: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Analytic two-bone IK of a leg, vectorised over frames (:func:`mjmotion.ik.analytic.two_bone`).
-
-    ``hip, knee, ankle, target: (T, 3)``. Returns world rotations ``(T, 4)`` wxyz to apply to
-    the thigh (``r_hip``, about the hip) and to the shin (``r_knee``, about the knee, applied
-    before ``r_hip``), and ``reached: (T,)`` bool. The knee stays in its current bending plane;
-    a straight leg bends about ``fallback: (T, 3)`` (default: the axis perpendicular to the
-    thigh and the target; :func:`knee_hinge_axis` gives the knee's own).
-    """
-    if fallback is None:
-        fallback = np.cross(knee - hip, target - hip)
-    axis = analytic.bend_axes(hip, knee, ankle, fallback=fallback)
-    r_hip, r_knee, short = analytic.two_bone(hip, knee, ankle, target, axis)
-    return r_hip, r_knee, short <= 1e-9
-
-
 def knee_hinge_axis(pose: kinematics.Pose, hip: int, knee: int, ankle: int) -> np.ndarray | None:
     """The knee's bend axis in the thigh's frame ``(3,)``: the mean over the frames where the
     captured knee is bent (over 3°) of ``(knee − hip) × (ankle − knee)``, or None if it never is.
@@ -271,6 +341,25 @@ def knee_hinge_axis(pose: kinematics.Pose, hip: int, knee: int, ankle: int) -> n
     local = rot.rotate(rot.conjugate(pose.joint_rotations[bent, hip]), n[bent] / nn[bent, None]).mean(axis=0)
     size = np.linalg.norm(local)
     return local / size if size > 1e-9 else None
+
+
+#: Below this knee bend (degrees) the captured bending plane is mostly marker noise: the IK's bend
+#: axis turns smoothly towards the knee's own hinge (a straight knee's plane swivels from frame to frame).
+STRAIGHT_KNEE_DEG = 15.0
+
+
+def _knee_axes(hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, hinge: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` unit bend axes: the captured bending plane's normal where the knee is bent, the
+    knee's hinge ``(T, 3)`` (world) where it is straight, blended by a smoothstep of the bend angle."""
+    u, v = knee - hip, ankle - knee
+    n = np.cross(u, v)
+    sine = np.linalg.norm(n, axis=-1) / np.maximum(np.linalg.norm(u, axis=-1) * np.linalg.norm(v, axis=-1), 1e-12)
+    bend = np.degrees(np.arcsin(np.clip(sine, 0.0, 1.0)))
+    w = _smoothstep(bend / STRAIGHT_KNEE_DEG)[:, None]
+    plane = n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+    plane = np.where(np.sum(plane * hinge, axis=-1, keepdims=True) < 0, -plane, plane)  # the hinge's side
+    axis = w * plane + (1 - w) * hinge
+    return axis / np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-12)
 
 
 def _hann_smooth_max(x: np.ndarray, n: int) -> np.ndarray:
@@ -338,6 +427,27 @@ def contact_paths(plants: list[Plant], ankles_xy: np.ndarray, reach: np.ndarray)
     return out
 
 
+def edge_paths(plants: list[Plant], paths: np.ndarray, reach: np.ndarray, margin: int) -> np.ndarray:
+    """``(T, 2)`` ankle positions for ``margin`` frames beside each plant that keep the plant's edge
+    touching point (its lowest point at the first and last plant frame) where it is, the foot
+    turning as captured; NaN elsewhere and inside plants. ``paths: (T, 2)`` from
+    :func:`contact_paths`, ``reach: (T, P, 3)`` as there."""
+    t_count = len(paths)
+    out = np.full((t_count, 2), np.nan)
+    inside = np.zeros(t_count, dtype=bool)
+    for p in plants:
+        inside[p.start : p.stop] = True
+    for p in plants:
+        for edge, frames in ((p.stop - 1, np.arange(p.stop, min(t_count, p.stop + margin))), (p.start, np.arange(max(0, p.start - margin), p.start))):
+            frames = frames[~inside[frames]]
+            if not len(frames):
+                continue
+            k = int(np.argmin(reach[edge, :, 2]))
+            pivot = paths[edge] + reach[edge, k, :2]
+            out[frames] = pivot - reach[frames, k, :2]
+    return out
+
+
 def _merge(plants: list[Plant], ankles_xy: np.ndarray, gap: int) -> list[Plant]:
     """One foot's plants sorted, those overlapping or closer than ``gap`` frames joined (positions re-averaged)."""
     spans: list[list[int]] = []
@@ -351,7 +461,7 @@ def _merge(plants: list[Plant], ankles_xy: np.ndarray, gap: int) -> list[Plant]:
     return [Plant(side, a, b, (float(m[0]), float(m[1]))) for (a, b), m in zip(spans, means)]
 
 
-def grow_plants(plants: list[Plant], residual: np.ndarray, ankles_xy: np.ndarray, gap: int) -> list[Plant]:
+def grow_plants(plants: list[Plant], residual: np.ndarray, ankles_xy: np.ndarray, gap: int, side: str | None = None) -> list[Plant]:
     """One foot's plants grown over ``residual: (T,)`` frames (contact in the result but not held still).
 
     A residual frame becomes a plant's inner frame (the plant covers it and one frame either side,
@@ -359,20 +469,31 @@ def grow_plants(plants: list[Plant], residual: np.ndarray, ankles_xy: np.ndarray
     of each other join one plant, and plants that come within ``gap`` frames merge.
     """
     t_count = len(residual)
-    side = plants[0].side if plants else ""
+    side = side if side is not None else plants[0].side if plants else ""  # a foot with no plant yet: the caller's side
     extra = [Plant(side, max(0, a - 1), min(t_count, b + 1), (0.0, 0.0)) for a, b in _runs(residual)]
     return _merge(list(plants) + extra, ankles_xy, gap)
 
 
-def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupResult:
-    """Remove footskate from ``motion`` (see the module docstring)."""
+def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Sequence[Motion] = ()) -> CleanupResult:
+    """Remove footskate from ``motion`` (see the module docstring).
+
+    ``sources``: the clip(s) ``motion`` was made from (same skeleton), as for the judge: they
+    calibrate the soles and give the floor unless ``params.floor`` is set.
+    """
     skel = motion.skeleton
     feet = skel.feet()
     if not feet:
         raise MjmotionError(f"{motion.name}: no feet found by name; cleanup needs ankle joints")
+    for s in sources:
+        skel.require_same_topology(s.skeleton, "the clip and its source")
     compiled = mjcf.compile(skel)
     pose = kinematics.forward(compiled, motion)
-    track = ev.foot_heights_speeds(compiled, motion, pose)
+    src_poses = [(kinematics.forward(compiled, s), s.fps) for s in sources]
+    soles = ft.calibrate_soles(skel, src_poses or [(pose, motion.fps)])
+    own = ft.foot_heights_speeds(compiled, motion, pose, floor=0.0, soles=soles)
+    src_floors = [ft.foot_heights_speeds(compiled, s, p, floor=0.0, soles=soles).detected_floor() for s, (p, _) in zip(sources, src_poses)]
+    fl = floors.resolve(params.floor, src_floors, own.detected_floor())
+    track = own.at_floor(fl.height)
     legs = []
     for side in track.sides:
         ankle = feet[side][0]
@@ -382,27 +503,29 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupR
             raise MjmotionError(f"{motion.name}: the {side} foot {skel.names[ankle]!r} needs a knee and a hip above it")
         legs.append((hip, knee, ankle))
     ankles = pose.joint_positions[:, [a for _, _, a in legs]]
-    # Every METRICS foot point in its ankle's frame (T, F, P, 3): constant for a rigid foot, moving with a toe joint.
+    # Every sole point in its ankle's frame (T, F, P, 3): constant for a rigid foot, moving with a toe joint.
     a_rot = pose.joint_rotations[:, [a for _, _, a in legs]]
     local = rot.rotate(rot.conjugate(a_rot)[:, :, None, :].repeat(track.points.shape[2], axis=2), track.points - ankles[:, :, None, :])
     plants = find_plants(track, ankles, motion.fps, params)
     gap = round(params.max_gap * motion.fps)
-    sole_geoms = [_subtree_geoms(compiled, a) for _, _, a in legs]
-    old_low = np.minimum(_soles(compiled, pose, sole_geoms), 0.0)
+    ground = _Ground(fl.height, soles)
+    old_low = np.minimum(ground.feet(pose), 0.0)
     for it in range(params.refine + 1):
-        out, shift, unreached, lift = _pin(compiled, motion, pose, legs, track.sides, ankles, local, plants, sole_geoms, old_low, params)
+        out, shift, unreached, lift, raised = _pin(compiled, motion, pose, legs, track.sides, ankles, local, plants, ground, old_low, params)
         if it == params.refine:
             break
-        # Plants as the metric sees the result: any contact frame not held still grows or starts a plant.
-        tr = ev.foot_heights_speeds(compiled, out)
+        # Plants as the judge sees the result: any contact frame not held still grows or starts a plant.
+        tr = ft.foot_heights_speeds(compiled, out, floor=fl.height, soles=soles)
         t_count = motion.n_frames
         held = np.zeros((t_count, len(legs)), dtype=bool)
         for p in plants:
             # A plant's end frames take their speed half from outside it (the clip's ends are one-sided).
             held[p.start + (p.start > 0) : p.stop - (p.stop < t_count), track.sides.index(p.side)] = True
-        residual = ev.contacts(tr, params.h_c, params.v_c) & ~held
+        residual = ft.contacts(tr, params.h_c, params.v_c, params.hysteresis) & ~held
         grown = [
-            q for f, side in enumerate(track.sides) for q in grow_plants([p for p in plants if p.side == side], residual[:, f], ankles[:, f, :2], gap)
+            q
+            for f, side in enumerate(track.sides)
+            for q in grow_plants([p for p in plants if p.side == side], residual[:, f], ankles[:, f, :2], gap, side)
         ]
         if sorted(grown, key=lambda p: (p.side, p.start)) == sorted(plants, key=lambda p: (p.side, p.start)):
             break
@@ -417,7 +540,25 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams()) -> CleanupR
         unreached_frames=unreached,
         params=params,
         lift=lift,
+        floor=fl,
+        raised_plants=raised,
     )
+
+
+@dataclass(frozen=True, eq=False)
+class _Ground:
+    """The floor (m, world z) and the soles the cleanup measures feet and body with, as the judge does."""
+
+    floor: float
+    soles: ft.Soles
+
+    def feet(self, pose: kinematics.Pose) -> np.ndarray:
+        """``(T, F)`` lowest sole point of each foot above the floor."""
+        return ft.sole_points(self.soles, pose)[..., 2].min(axis=2) - self.floor
+
+    def body(self, compiled: mjcf.CompiledModel, pose: kinematics.Pose) -> np.ndarray:
+        """``(T,)`` lowest point of the body (bone capsules and soles) above the floor."""
+        return ft.lowest_body_point(compiled, pose, self.feet(pose).min(axis=1) + self.floor) - self.floor
 
 
 def _pin(
@@ -429,36 +570,49 @@ def _pin(
     ankles: np.ndarray,
     local: np.ndarray,
     plants: list[Plant],
-    sole_geoms: list[np.ndarray],
+    ground: _Ground,
     old_low: np.ndarray,
     params: CleanupParams,
-) -> tuple[Motion, np.ndarray, int, np.ndarray]:
+) -> tuple[Motion, np.ndarray, int, np.ndarray, int]:
     """One pass of steps 2–6 for the given plants: the cleaned motion, root shift ``(T, 3)``,
-    unreached frames and the swing lift ``(T, F)`` (m)."""
+    unreached frames, the swing lift ``(T, F)`` (m) and how many plants were raised onto the floor."""
     t_count = motion.n_frames
     targets = ankles.copy()
     lifts = np.zeros((t_count, len(legs)))
     support = np.zeros((t_count, len(legs)), dtype=bool)
     foot_rot = pose.joint_rotations[:, [a for _, _, a in legs]].copy()  # (T, F, 4) world
+    # Where each foot must stay no lower than: on the floor (a captured foot in it is lifted out).
+    floor_low = np.zeros_like(old_low)
+    raised = 0
     for f, side in enumerate(sides):
         mine = sorted((p for p in plants if p.side == side), key=lambda p: p.start)
-        _, w, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend)
+        _, w, owner = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend)
         support[:, f] = w > 0
         # The foot holds one orientation through a plant (that of its middle frame), blended in/out.
-        held, w_rot = hold_orientations(mine, foot_rot[:, f], motion.fps, params.blend)
-        foot_rot[:, f] = rot.slerp(foot_rot[:, f], held, w_rot)
+        if params.hold_orientation:
+            held, w_rot = hold_orientations(mine, foot_rot[:, f], motion.fps, params.blend)
+            foot_rot[:, f] = rot.slerp(foot_rot[:, f], held, w_rot)
         # The point that touches the floor stays put (not the ankle): roll about it.
         reach = rot.rotate(foot_rot[:, f, None, :].repeat(local.shape[2], axis=1), local[:, f])
         paths = contact_paths(mine, ankles[:, f, :2], reach)
-        off, _, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend, paths)
+        edges = edge_paths(mine, paths, reach, max(1, round(params.ease * motion.fps)))
+        off, _, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend, paths, edges, params.ease)
         targets[:, f, :2] += off
+        # A plant under the floor is raised onto it, the raise blended in and out with the plant.
+        low = targets[:, f, 2] + reach[..., 2].min(axis=1) - ground.floor  # (T,) lowest sole point
+        deficit = np.array([max(0.0, -float(low[p.start : p.stop].min())) for p in mine])
+        if deficit.size and deficit.max() > 0:
+            raised += int((deficit > 0).sum())
+            targets[:, f, 2] += np.where(owner >= 0, w * deficit[np.maximum(owner, 0)], 0.0)
+        for p in mine:
+            floor_low[p.start : p.stop, f] = 0.0
         if params.swing_clearance > 0:
             # A foot moving over the floor within h_c of it is what METRICS' footskate counts: lift it.
             planted = np.zeros(t_count, dtype=bool)
             for p in mine:
                 planted[p.start : p.stop] = True
             pts = targets[:, f, None, :] + reach
-            tr = ev.foot_track((side,), pts[:, None], motion.fps)
+            tr = ft.foot_track((side,), pts[:, None], motion.fps, ground.floor)
             lift = swing_lift(tr.heights[:, 0], tr.speeds[:, 0], planted, motion.fps, params.swing_clearance, params.v_c, params.lift_ramp)
             targets[:, f, 2] += lift
             support[:, f] |= lift > 0
@@ -489,18 +643,27 @@ def _pin(
     moved = motion.replace(root_positions=root)
     pose2 = kinematics.forward(compiled, moved) if np.any(shift) else pose
     out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
-    # The held foot orientation may tip a sole below where it was: lift those targets and re-solve.
-    for _ in range(2):
-        lift = np.maximum(old_low - _soles(compiled, kinematics.forward(compiled, out), sole_geoms), 0.0)
-        if lift.max() <= 1e-4:
+    # No sole below the floor (plants on it): lift those targets, spread smoothly over a few frames
+    # (a max filter and a Hann window cover every frame's need), and re-solve.
+    from scipy.ndimage import maximum_filter1d
+
+    n_lift = max(1, round(params.lift_ramp * motion.fps))
+    for _ in range(3):
+        need = np.maximum(floor_low - ground.feet(kinematics.forward(compiled, out)), 0.0)
+        if need.max() <= 1e-4:
             break
-        targets[:, :, 2] += lift + 1e-4 * (lift > 0)
+        need = need + 1e-4 * (need > 0)
+        spread = np.pad(maximum_filter1d(need, size=2 * n_lift + 1, axis=0, mode="nearest"), ((n_lift, n_lift), (0, 0)), mode="edge")
+        lift = _hann_smooth_max(spread, n_lift)[n_lift:-n_lift]
+        targets[:, :, 2] += lift
+        lifts += lift
+        support |= lift > 1e-9
         out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
     # A knee bent lower (a pinned foot under a crouch) may go below the floor: raise the root there
     # (smoothed like the reach shift) and solve the legs again, the feet staying on their targets.
-    low_src = np.minimum(ev.lowest_body_point(compiled, pose), 0.0)
+    low_src = np.minimum(ground.body(compiled, pose), 0.0)
     for _ in range(3):
-        deficit = np.maximum(low_src - ev.lowest_body_point(compiled, kinematics.forward(compiled, out)), 0.0)
+        deficit = np.maximum(low_src - ground.body(compiled, kinematics.forward(compiled, out)), 0.0)
         if deficit.max() <= 5e-4:
             break
         up = _hann_smooth_max((deficit + 5e-4 * (deficit > 0))[:, None], n_root)[:, 0]
@@ -510,7 +673,7 @@ def _pin(
         moved = motion.replace(root_positions=motion.root_positions + shift)
         pose2 = kinematics.forward(compiled, moved)
         out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
-    return out, shift, unreached, lifts
+    return out, shift, unreached, lifts, raised
 
 
 def _solve_legs(
@@ -535,8 +698,13 @@ def _solve_legs(
         if not act.any():
             continue
         hinge = knee_hinge_axis(pose, h, k, a)
-        fallback = None if hinge is None else rot.rotate(wr[act, h], np.broadcast_to(hinge, (int(act.sum()), 3)))
-        r_hip, r_knee, ok = two_bone_ik(jp[act, h], jp[act, k], jp[act, a], targets[act, f], fallback)
+        top, mid, end = jp[act, h], jp[act, k], jp[act, a]
+        if hinge is None:
+            axis = analytic.bend_axes(top, mid, end, fallback=np.cross(mid - top, targets[act, f] - top))
+        else:
+            axis = _knee_axes(top, mid, end, rot.rotate(wr[act, h], np.broadcast_to(hinge, (int(act.sum()), 3))))
+        r_hip, r_knee, short = analytic.two_bone(top, mid, end, targets[act, f], axis)
+        ok = short <= 1e-9
         unreached += int((~ok).sum())
         w_hip = rot.multiply(r_hip, wr[act, h])
         w_knee = rot.multiply(r_hip, rot.multiply(r_knee, wr[act, k]))
@@ -550,15 +718,3 @@ def _solve_legs(
             # Keep each quaternion in the captured one's hemisphere (same rotation, continuous signs).
             rots[act, j] = q * np.where(np.sum(q * moved.rotations[act, j], axis=-1) < 0, -1.0, 1.0)[:, None]
     return moved.replace(rotations=rots), unreached
-
-
-def _subtree_geoms(compiled: mjcf.CompiledModel, joint: int) -> np.ndarray:
-    """Ids of the character geoms on ``joint``'s body and its descendants (a foot and its toes)."""
-    skel = compiled.skeleton
-    bodies = {int(compiled.body_ids[j]) for j in [joint, *skel.descendants(joint)]}
-    return np.array([g for g in compiled.body_geom_ids if int(compiled.model.geom_bodyid[g]) in bodies], dtype=int)
-
-
-def _soles(compiled: mjcf.CompiledModel, pose: kinematics.Pose, geoms: list[np.ndarray]) -> np.ndarray:
-    """``(T, F)`` height of the lowest point of each foot's geoms (boxes and bone capsules)."""
-    return np.stack([ev.lowest_points(compiled, pose, g)[..., 2].min(axis=1) for g in geoms], axis=1)

@@ -4,12 +4,20 @@ Each verb lives in its own module under :mod:`mjmotion.commands` and exposes ``N
 ``HELP``, ``add_arguments(parser)`` and ``run(args) -> int``; this front end discovers them,
 so adding a verb touches no shared file. Errors a user can act on print one ``error:`` line
 and exit with status 2; ``--verbose`` adds the traceback for bug reports.
+
+Start-up is what a user feels first, so the front end imports every verb module (for the list
+of verbs) but calls ``add_arguments`` only for the verb being run, and a verb module imports
+nothing heavier than the standard library at its top: NumPy, SciPy, MuJoCo, CasADi,
+Matplotlib and Numba load inside ``run()`` (``tests/test_cli.py`` checks this for every
+verb module, new ones included). A new verb adds its name to :data:`VERB_ORDER` only to
+choose its place in ``--help``.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
 import traceback
@@ -17,12 +25,13 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from . import __version__
-from .errors import MjmotionError
+from .errors import MjmotionError, printable
+from .outputs import reset_claims
 
 #: Order of verbs in ``--help``; verbs not listed follow alphabetically.
 VERB_ORDER = (
     "info", "convert", "compile", "fk", "synth", "register", "blend", "stream",
-    "hit", "vary", "evaluate", "cleanup", "render", "demo",
+    "hit", "vary", "evaluate", "audit", "cleanup", "render", "demo", "studio",
 )  # fmt: skip
 
 
@@ -32,6 +41,17 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         sys.stderr.write(f"error: {_one_line(message)} (see '{self.prog} --help')\n")
         raise SystemExit(2)
+
+    def _get_value(self, action: argparse.Action, arg_string: str) -> object:
+        # An option domain (mjmotion.commands._options) says "VALUE: expected …": the line reads
+        # "--fps 1e308: expected …", like the checks made after parsing.
+        try:
+            return super()._get_value(action, arg_string)
+        except argparse.ArgumentError as e:
+            if not getattr(action.type, "option_domain", False):
+                raise
+            name = max(action.option_strings, key=len) if action.option_strings else action.metavar or action.dest
+            raise argparse.ArgumentError(None, f"{name} {e.message}") from None
 
 
 def _verbs() -> list[ModuleType]:
@@ -46,20 +66,38 @@ def _verbs() -> list[ModuleType]:
     return sorted(mods, key=lambda m: (rank.get(m.NAME, len(rank)), m.NAME))
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _chosen_verb(argv: Sequence[str], names: set[str]) -> str | None:
+    """The verb named in ``argv`` (its first word that is not an option), or ``None``."""
+    for word in argv:
+        if word == "--":
+            return None
+        if not word.startswith("-"):
+            return word if word in names else None
+    return None
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``mjmotion`` parser; with ``argv``, only the verb it names gets its options (and imports).
+
+    Without ``argv`` every verb's options are added (for documentation and tests).
+    """
     parser = _Parser(
         prog="mjmotion",
         description=(
             "Make new character motion out of motion capture and check it against physics.\n"
             "Clips are BVH files; lengths are metres in MuJoCo's Z-up world unless a verb says otherwise.\n"
-            "Run 'mjmotion VERB --help' for each verb's options and examples."
+            "Run 'mjmotion VERB --help' for each verb's options and examples. The methods, the papers they\n"
+            "come from (Macleod 2006, Sako 2008, Hicks 2010) and where we differ: docs/algorithms.md;\n"
+            "the metrics: docs/METRICS.md."
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"mjmotion {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="show the traceback of an error (for bug reports)")
     sub = parser.add_subparsers(dest="verb", metavar="VERB", parser_class=_Parser)
-    for mod in _verbs():
+    verbs = _verbs()
+    chosen = None if argv is None else _chosen_verb(argv, {m.NAME for m in verbs})
+    for mod in verbs:
         p = sub.add_parser(
             mod.NAME,
             help=mod.HELP,
@@ -67,25 +105,96 @@ def build_parser() -> argparse.ArgumentParser:
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )
         p.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS, help="show the traceback of an error")
-        mod.add_arguments(p)
+        if argv is None or mod.NAME == chosen:
+            mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
     return parser
 
 
 def _one_line(message: str) -> str:
-    """The message on one line (a file name or a verb's message may hold line breaks)."""
-    return message.replace("\r", "\\r").replace("\n", "\\n")
+    """The message on one printable line: a file name, a script's text or a verb's message may hold
+    line breaks or terminal escape sequences (they are shown escaped, as Python writes them)."""
+    return printable(message)
+
+
+#: Thread-count variables OpenBLAS reads; when none is set, the CLI runs BLAS on one thread.
+_BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    """Run the ``mjmotion`` command on ``argv`` (default ``sys.argv[1:]``); the exit status.
+
+    A reader that closes the pipe early (``mjmotion info X.bvh --json | head -1``) ends the command
+    quietly with status 141 (128 + SIGPIPE, as a tool killed by the signal reports).
+    """
+    try:
+        return _main(argv)
+    except BrokenPipeError:
+        if not _stdout_closed():
+            raise
+        _quiet_stdout()
+        return 141
+
+
+def _stdout_closed() -> bool:
+    """Whether standard output is a pipe whose reader has gone (a broken pipe to a helper
+    process such as ffmpeg is an error, not a reader that has read enough)."""
+    import select
+
+    try:
+        fd = sys.stdout.fileno()
+        poller = select.poll()
+        poller.register(fd, select.POLLOUT)
+        return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in poller.poll(0))
+    except (AttributeError, OSError, ValueError):  # (no poll on this platform, or stdout is not a file)
+        return True
+
+
+def _quiet_stdout() -> None:
+    """Point standard output at the null device, so that the interpreter's flush at exit does not
+    fail again on the closed pipe (Python's documentation, "Note on SIGPIPE")."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (AttributeError, OSError, ValueError):
+        pass
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    if not any(v in os.environ for v in _BLAS_THREAD_VARS):
+        # One BLAS thread unless the user says otherwise: OpenBLAS starting its pool costs ~60 ms
+        # of CPU at NumPy's import, and our products (600 × 210) are too small to gain from two
+        # threads on a shared 2-core machine; verbs that parallelise use processes (--jobs).
+        os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    reset_claims()  # outputs checked by an earlier command in this process are not this one's
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:  # a usage error (exit status 2, already reported) or --help (0)
+        return e.code if isinstance(e.code, int) else 2
     if not getattr(args, "verb", None):
         parser.print_help()
         return 2
+    try:
+        return _run(args)
+    finally:
+        reset_claims()  # a library write after this command is not bound by its outputs' --force
+
+
+def _run(args: argparse.Namespace) -> int:
     verbose = bool(getattr(args, "verbose", False))
     try:
-        return int(args._run(args) or 0)
+        status = int(args._run(args) or 0)
+        sys.stdout.flush()  # a reader gone before the last line is seen here, not at exit
+        return status
+    except BrokenPipeError:
+        if _stdout_closed():
+            raise  # main ends quietly
+        if verbose:
+            traceback.print_exc()
+        sys.stderr.write("error: broken pipe (a helper process ended early)\n")
+        return 2
     except MjmotionError as e:
         if verbose:
             traceback.print_exc()

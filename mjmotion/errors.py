@@ -38,3 +38,10 @@ def require_number(label: str, value: object, low: float = 0.0, strict: bool = T
         bound = f"in ({low:g}, {high:g}]" if high is not None else f"{'>' if strict else '≥'} {low:g}"
         shown = f"{value:g}" if isinstance(value, numbers.Real) and not isinstance(value, bool) else repr(value)
         raise MjmotionError(f"{label} {shown}: expected {what + ', ' if what else ''}a finite number {bound}")
+
+
+def printable(text: object) -> str:
+    """``text`` with every non-printable character (line breaks, terminal escapes, bidi controls)
+    escaped as Python writes it: safe to print whatever a file or a user's argument holds."""
+    s = str(text)
+    return s if s.isprintable() else "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in s)

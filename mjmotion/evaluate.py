@@ -1,41 +1,29 @@
-"""Physics-checked numbers for a clip: contacts, footskate, ground, limits, smoothness, hitting.
+"""Physics-checked numbers for a clip: contacts, footskate, ground, limits, pops, hitting.
 
 Every definition follows ``docs/METRICS.md``; every threshold is a parameter with the documented
-default, and a :class:`Report` carries the values it used. The world is MuJoCo's: Z up, metres,
-floor at z = 0.
+default (:class:`~mjmotion.thresholds.Params`), and a :class:`Report` carries the values it used.
+The world is MuJoCo's: Z up, metres. Ground metrics measure from one floor (:mod:`mjmotion.floor`):
+given, taken from the source clip(s) a result is judged against, or detected from the clip's own
+stance. Feet are calibrated sole points (:mod:`mjmotion.feet`).
 
-Reusable building blocks (other modules import these):
+Reusable building blocks (other modules import these; the feet and thresholds are re-exported
+from :mod:`mjmotion.feet` and :mod:`mjmotion.thresholds`):
 
-- :func:`foot_heights_speeds` ``(compiled, motion) -> FootTrack``: per foot (``"left"``,
-  ``"right"``) the foot points (ankle joint, toe joint, the 8 corners of each foot/toe box geom),
-  the foot *height* (lowest point above the floor) and the horizontal speed (m/s) of the lowest
-  point, all ``(T, F)``.
-- :func:`low_both` ``(track, h_c) -> (T, F) bool``: below ``h_c`` at t and t-1 (height alone).
-- :func:`contacts` ``(track, h_c=0.05, v_c=0.5) -> (T, F) bool``: METRICS "in contact".
-- :func:`skate_mm_per_s` ``(motion | track, h_c=0.05)``: mean horizontal speed (mm/s) of the
-  lowest foot point over height-contact frames (pooled over both feet).
-- :func:`skating_ratio` ``(motion | track, h_c=0.05, v=0.5, window=5)`` (GMD).
-- :func:`skate_sensitivity` ``(motion | track, h_cs=(0.03, 0.05, 0.08))``: the ``h_c`` table.
-- :func:`lowest_body_point` ``(compiled, pose) -> (T,)`` z of the lowest point of the body geoms;
-  :func:`ground_metrics` ``-> GroundMetrics`` (penetrate_mm, float_mm, phys_err_mm, floor offset).
-- :func:`planted_skate_mm_per_s` ``(motion | track, h_c, v_c)``: the same over full contact
-  frames (height and speed): the plant sliding that :mod:`mjmotion.cleanup` removes.
-- :func:`max_joint_speed_ratio` ``(result, sources)``, :func:`root_jump_m` ``(result, sources)``,
-  :func:`limit_violation_ratio` ``(compiled, motion)``, :func:`grip_error_m` ``(result, source,
-  first_hand, second_hand)``, :func:`leading_transient` ``(motion)`` (T-pose frames to skip).
-
-Note on ``skate_mm_per_s``: METRICS counts every frame a foot is within ``h_c`` of the floor
-(height alone). With the foot's sole box as one of its points, a walking swing foot passes
-within 5 cm of the floor for most of its swing, so real walks give ~1 m/s there;
-``planted_skate_mm_per_s`` (contact frames) gives the "tens of mm/s" METRICS expects of plants.
-- :func:`evaluate` ``(motion, props=(), ball=None, hit_frame=None) -> Report`` runs everything
-  (physics residuals from :mod:`mjmotion.physics`).
+- :func:`foot_heights_speeds` ``(compiled, motion, pose=None, floor=None, soles=None) -> FootTrack``
+- :func:`contacts` ``(track, h_c, v_c, hysteresis) -> (T, F) bool``: contact with hysteresis.
+- :func:`planted_skate_mm_per_s` ``(motion | track)``: the headline footskate, over contact frames.
+- :func:`skate_mm_per_s` ``(motion | track, h_c)``: the height-weighted variant.
+- :func:`skating_ratio` (GMD), :func:`skate_sensitivity` (the ``h_c`` table).
+- :func:`ground_metrics` ``(lowest_z, track) -> GroundMetrics`` (penetrate_mm, float_mm, phys_err_mm, floors).
+- :func:`worst_joint_speed_ratio` ``(result, sources)``, :func:`pop_frames` ``(result, reference)``,
+  :func:`max_joint_speed_ratio` (whole-body), :func:`root_jump_m`, :func:`limit_violation_ratio`,
+  :func:`grip_error_m`.
+- :func:`evaluate` ``(motion, props=(), ball=None, hit_frame=None, params, sources=(), floor=None) -> Report``
+  runs everything (physics residuals from :mod:`mjmotion.physics`).
 """
 
 from __future__ import annotations
 
-import math
-import numbers
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -43,204 +31,66 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from . import kinematics, mjcf
+from . import floor as floors
+from . import kinematics, mjcf, physics
 from . import rotations as rot
-from .errors import MjmotionError, require_number
-from .kinematics import Pose
+from .errors import MjmotionError
+from .feet import (
+    FootTrack,
+    box_corners,
+    calibrate_soles,
+    contacts,
+    flight_frames,
+    foot_heights_speeds,
+    foot_track,
+    geom_frames,
+    low_both,
+    lowest_body_point,
+    lowest_points,
+)
 from .mjcf import CompiledModel
 from .skeleton import Motion
+from .thresholds import DEFAULTS, FLOAT_TOL, H_C, H_C_SENSITIVITY, HYSTERESIS, SKATE_WINDOW, V_C, Params
 
-#: METRICS.md defaults.
-H_C = 0.05  # contact height, m
-V_C = 0.5  # contact horizontal speed, m/s (GMD: 2.5 cm/frame at 20 fps)
-SKATE_WINDOW = 5  # frames, GMD's averaging window for skating_ratio
-FLOAT_TOL = 0.005  # m, PhysDiff's float tolerance
-H_C_SENSITIVITY = (0.03, 0.05, 0.08)
-#: Central-difference stencil (s) for qvel/qacc; 1/30 s keeps 120 fps marker noise below g.
-FD_STEP = 1.0 / 30.0
-
-# The 8 corner sign patterns of a box, (8, 3).
-_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-
-
-# --------------------------------------------------------------------------- geometry
-
-
-def geom_frames(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-    """World pose of character geoms from the joints' world poses.
-
-    Returns ``pos: (T, G, 3)`` metres and ``mat: (T, G, 3, 3)`` (columns are the geom's axes).
-    Only geoms on skeleton bodies (not the ball or world geoms).
-    """
-    m = compiled.model
-    gids = np.asarray(geom_ids, dtype=int)
-    body_to_joint = {int(b): j for j, b in enumerate(compiled.body_ids)}
-    try:
-        joints = np.array([body_to_joint[int(m.geom_bodyid[g])] for g in gids], dtype=int)
-    except KeyError:
-        raise MjmotionError("geom_frames: a geom is not on a skeleton body") from None
-    bq = pose.joint_rotations[:, joints]  # (T, G, 4)
-    bp = pose.joint_positions[:, joints]
-    pos = bp + rot.rotate(bq, np.broadcast_to(m.geom_pos[gids], bq.shape[:-1] + (3,)))
-    wq = rot.multiply(bq, np.broadcast_to(m.geom_quat[gids], bq.shape))
-    return pos, rot.to_matrix(wq)
-
-
-def box_corners(pos: np.ndarray, mat: np.ndarray, half: np.ndarray) -> np.ndarray:
-    """``(T, G, 8, 3)`` world corners of boxes with centres ``pos (T, G, 3)``, axes ``mat (T, G, 3, 3)``
-    and half-sizes ``half (G, 3)``."""
-    local = _CORNERS[None, :, :] * half[:, None, :]  # (G, 8, 3)
-    return pos[:, :, None, :] + np.einsum("tgij,gkj->tgki", mat, local)
-
-
-def lowest_points(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int]) -> np.ndarray:
-    """``(T, G, 3)`` lowest world point of each geom (boxes, capsules, spheres; exact for a plane floor)."""
-    m = compiled.model
-    gids = np.asarray(geom_ids, dtype=int)
-    pos, mat = geom_frames(compiled, pose, gids)
-    size = m.geom_size[gids]
-    gtype = m.geom_type[gids]
-    out = np.empty_like(pos)
-    down = np.array([0.0, 0.0, -1.0])
-    box = gtype == mujoco.mjtGeom.mjGEOM_BOX
-    if box.any():
-        # The corner whose signs point each axis downwards: c - Σ sign(R[2,i]) h_i R[:, i].
-        r = mat[:, box]
-        s = -np.sign(r[:, :, 2, :])  # (T, B, 3)
-        s[s == 0] = 1.0
-        out[:, box] = pos[:, box] + np.einsum("tbij,tbj->tbi", r, s * size[box])
-    cap = gtype == mujoco.mjtGeom.mjGEOM_CAPSULE
-    if cap.any():
-        axis = mat[:, cap][..., 2] * size[cap, 1][None, :, None]
-        ends = np.stack([pos[:, cap] + axis, pos[:, cap] - axis], axis=2)  # (T, C, 2, 3)
-        k = np.argmin(ends[..., 2], axis=2)
-        low = np.take_along_axis(ends, k[:, :, None, None], axis=2)[:, :, 0]
-        out[:, cap] = low + down * size[cap, 0][None, :, None]
-    sph = gtype == mujoco.mjtGeom.mjGEOM_SPHERE
-    if sph.any():
-        out[:, sph] = pos[:, sph] + down * size[sph, 0][None, :, None]
-    other = ~(box | cap | sph)
-    if other.any():
-        raise MjmotionError(f"lowest_points: unsupported geom types {sorted(set(gtype[other].tolist()))}")
-    return out
-
-
-def lowest_body_point(compiled: CompiledModel, pose: Pose) -> np.ndarray:
-    """``(T,)`` height (m) of the lowest point of the character's geoms (capsules and foot boxes)."""
-    return lowest_points(compiled, pose, compiled.body_geom_ids)[..., 2].min(axis=1)
-
-
-# --------------------------------------------------------------------------- feet and contacts
-
-
-@dataclass(frozen=True, eq=False)
-class FootTrack:
-    """The feet of a clip, as METRICS.md defines them.
-
-    Attributes:
-        sides: ``(F,)`` foot names (``"left"``, ``"right"``).
-        fps: frames per second.
-        points: ``(T, F, P, 3)`` world foot points (ankle, toe, box corners), metres.
-        heights: ``(T, F)`` lowest foot point above the floor, metres.
-        lowest: ``(T, F, 3)`` the lowest foot point.
-        speeds: ``(T, F)`` horizontal speed of the lowest foot point (that material point's
-            central-difference velocity), m/s.
-    """
-
-    sides: tuple[str, ...]
-    fps: float
-    points: np.ndarray
-    heights: np.ndarray
-    lowest: np.ndarray
-    speeds: np.ndarray
-
-    @property
-    def n_frames(self) -> int:
-        return int(self.heights.shape[0])
-
-
-def foot_points(compiled: CompiledModel, pose: Pose) -> tuple[tuple[str, ...], np.ndarray]:
-    """Foot sides and ``(T, F, P, 3)`` points: ankle joint, toe joint (if any), 8 corners per foot geom."""
-    skel = compiled.skeleton
-    feet = skel.feet()
-    if not feet:
-        raise MjmotionError(f"{skel.names[0]}…: no feet found by name (need e.g. lfoot/LeftFoot/CC_Base_L_Foot)")
-    m = compiled.model
-    sides = tuple(s for s in ("left", "right") if s in feet)
-    per_side = []
-    for s in sides:
-        ankle, toe = feet[s]
-        pts = [pose.joint_positions[:, [ankle]]]
-        if toe is not None:
-            pts.append(pose.joint_positions[:, [toe]])
-        gids = np.asarray(compiled.foot_geoms.get(s, ()), dtype=int)
-        if gids.size:
-            pos, mat = geom_frames(compiled, pose, gids)
-            corners = box_corners(pos, mat, m.geom_size[gids])
-            pts.append(corners.reshape(corners.shape[0], -1, 3))
-        per_side.append(np.concatenate(pts, axis=1))
-    p = max(x.shape[1] for x in per_side)
-    # Pad with repeats of the ankle so feet stack (a missing toe or geom adds no new point).
-    stacked = [np.concatenate([x, np.repeat(x[:, :1], p - x.shape[1], axis=1)], axis=1) for x in per_side]
-    return sides, np.stack(stacked, axis=1)
-
-
-def foot_track(sides: tuple[str, ...], points: np.ndarray, fps: float) -> FootTrack:
-    """A :class:`FootTrack` from foot points ``(T, F, P, 3)`` (useful for synthetic tests)."""
-    if points.shape[0] < 2:
-        raise MjmotionError("a clip needs at least 2 frames for foot speeds")
-    z = points[..., 2]
-    k = np.argmin(z, axis=2)  # (T, F) lowest point index
-    heights = np.take_along_axis(z, k[..., None], axis=2)[..., 0]
-    lowest = np.take_along_axis(points, k[..., None, None], axis=2)[:, :, 0]
-    vel = np.gradient(points[..., :2], 1.0 / fps, axis=0)  # (T, F, P, 2), per second
-    v_low = np.take_along_axis(vel, k[..., None, None], axis=2)[:, :, 0]
-    return FootTrack(sides, float(fps), points, heights, lowest, np.linalg.norm(v_low, axis=-1))
-
-
-def foot_heights_speeds(compiled: CompiledModel | None, motion: Motion, pose: Pose | None = None) -> FootTrack:
-    """The :class:`FootTrack` of ``motion`` (``compiled`` defaults to its skeleton's model)."""
-    compiled = compiled if compiled is not None else mjcf.compile(motion.skeleton)
-    pose = pose if pose is not None else kinematics.forward(compiled, motion)
-    sides, pts = foot_points(compiled, pose)
-    return foot_track(sides, pts, motion.fps)
+__all__ = [
+    "FLOAT_TOL", "H_C", "H_C_SENSITIVITY", "HYSTERESIS", "SKATE_WINDOW", "V_C", "FootTrack", "GroundMetrics", "MjmotionError",
+    "Params", "Report", "box_corners", "contacts", "evaluate", "flight_frames", "foot_heights_speeds", "foot_track", "geom_frames",
+    "grip_error_m", "ground_metrics", "joint_angular_accelerations", "joint_angular_speeds", "limit_violation_ratio",
+    "low_both", "lowest_body_point", "lowest_points", "max_joint_speed_ratio", "planted_skate_mm_per_s", "pop_frames", "root_jump_m",
+    "skate_mm_per_s", "skate_sensitivity", "skating_ratio", "worst_joint_speed_ratio",
+]  # fmt: skip
 
 
 def _track(x: Motion | FootTrack) -> FootTrack:
     return x if isinstance(x, FootTrack) else foot_heights_speeds(None, x)
 
 
-def low_both(track: FootTrack, h_c: float = H_C) -> np.ndarray:
-    """``(T, F)``: foot height below ``h_c`` at t and at t-1 (frame 0 uses itself as t-1)."""
-    low = track.heights < h_c
-    prev = np.concatenate([low[:1], low[:-1]], axis=0)
-    return low & prev
+# --------------------------------------------------------------------------- footskate
 
 
-def contacts(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C) -> np.ndarray:
-    """``(T, F)`` contact labels: low at t and t-1 and horizontal speed below ``v_c`` (m/s)."""
+def planted_skate_mm_per_s(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C, hysteresis: float = HYSTERESIS) -> float:
+    """The headline footskate: mean horizontal speed (mm/s) of each foot's lowest sole point over
+    its contact frames (:func:`contacts`), pooled over feet; NaN with no contact frame."""
     tr = _track(track)
-    return low_both(tr, h_c) & (tr.speeds < v_c)
+    con = contacts(tr, h_c, v_c, hysteresis)
+    return float(1000.0 * tr.speeds[con].mean()) if con.any() else float("nan")
 
 
-def skate_mm_per_s(track: FootTrack | Motion, h_c: float = H_C, v_c: float | None = None) -> float:
-    """Mean horizontal speed (mm/s) of the lowest foot point over height-contact frames.
+def skate_weights(heights: np.ndarray, h_c: float = H_C) -> np.ndarray:
+    """Height weights ``w = 2 − 2^(h/h_c)`` clipped to [0, 1]: 1 on (or below) the floor, 0 at ``h_c``."""
+    return np.clip(2.0 - np.power(2.0, heights / h_c), 0.0, 1.0)
 
-    Pooled over feet and frames; NaN when no foot is ever low (nothing to measure). With
-    ``v_c`` (m/s) only frames that are also slower than ``v_c`` count (full METRICS contact):
-    :func:`planted_skate_mm_per_s`. ``v_c=None`` is METRICS' definition (height alone), which on
-    real walks also counts the swing foot passing within ``h_c`` of the floor.
-    """
+
+def skate_mm_per_s(track: FootTrack | Motion, h_c: float = H_C) -> float:
+    """Height-weighted footskate (mm/s), for comparison with published numbers: over every frame
+    and foot whose lowest sole point is below ``h_c``, the mean of its horizontal speed × the
+    weight :func:`skate_weights` (a swing foot passing high counts little, a planted one fully).
+    NaN when no foot is ever that low."""
     tr = _track(track)
-    low = low_both(tr, h_c) if v_c is None else contacts(tr, h_c, v_c)
+    low = tr.heights < h_c
     if not low.any():
         return float("nan")
-    return float(1000.0 * tr.speeds[low].mean())
-
-
-def planted_skate_mm_per_s(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C) -> float:
-    """Mean horizontal speed (mm/s) of the lowest foot point over contact frames (height and speed)."""
-    return skate_mm_per_s(track, h_c, v_c)
+    return float(1000.0 * (tr.speeds * skate_weights(tr.heights, h_c))[low].mean())
 
 
 def skating_ratio(track: FootTrack | Motion, h_c: float = H_C, v: float = V_C, window: int = SKATE_WINDOW) -> float:
@@ -254,23 +104,22 @@ def skating_ratio(track: FootTrack | Motion, h_c: float = H_C, v: float = V_C, w
     return float(skating.any(axis=1).mean())
 
 
-def skate_sensitivity(track: FootTrack | Motion, h_cs: Sequence[float] = H_C_SENSITIVITY, v_c: float = V_C) -> list[dict[str, float]]:
-    """Rows ``{h_c, skate_mm_per_s, skating_ratio, contact_fraction}`` for each ``h_c`` (UnderPressure)."""
+def skate_sensitivity(
+    track: FootTrack | Motion, h_cs: Sequence[float] = H_C_SENSITIVITY, v_c: float = V_C, hysteresis: float = HYSTERESIS
+) -> list[dict[str, float]]:
+    """Rows ``{h_c, planted_skate_mm_per_s, skate_mm_per_s, skating_ratio, contact_fraction}`` for
+    each contact height ``h_c`` (UnderPressure, 2022: contact labels from thresholds are fragile)."""
     tr = _track(track)
     return [
         {
             "h_c": float(h),
+            "planted_skate_mm_per_s": planted_skate_mm_per_s(tr, h, v_c, hysteresis),
             "skate_mm_per_s": skate_mm_per_s(tr, h),
             "skating_ratio": skating_ratio(tr, h, v_c),
-            "contact_fraction": float(contacts(tr, h, v_c).mean()),
+            "contact_fraction": float(contacts(tr, h, v_c, hysteresis).any(axis=1).mean()),
         }
         for h in h_cs
     ]
-
-
-def flight_frames(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C) -> np.ndarray:
-    """``(T,)`` frames where no foot is in contact."""
-    return ~contacts(track, h_c, v_c).any(axis=1)
 
 
 # --------------------------------------------------------------------------- ground
@@ -278,10 +127,10 @@ def flight_frames(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C)
 
 @dataclass(frozen=True)
 class GroundMetrics:
-    """PhysDiff ground metrics (per frame, averaged over frames) and the detected floor offset.
+    """PhysDiff ground metrics (per frame, averaged over frames), measured from ``floor_m``.
 
-    ``floor_offset_m`` is the median lowest body-geom height over stance frames (the lower foot
-    slower than ``v_c``): where this clip's floor really is. Reported, never applied.
+    ``floor_offset_m`` is the clip's own stance floor (:func:`mjmotion.floor.detect`), reported
+    whatever floor was used; ``floor_m`` the floor the metrics used.
     """
 
     penetrate_mm: float
@@ -291,6 +140,7 @@ class GroundMetrics:
     fps: float
     floor_offset_m: float
     max_penetrate_mm: float
+    floor_m: float = 0.0
 
 
 def ground_metrics(
@@ -299,25 +149,23 @@ def ground_metrics(
     h_c: float = H_C,
     v_c: float = V_C,
     float_tol: float = FLOAT_TOL,
+    hysteresis: float = HYSTERESIS,
 ) -> GroundMetrics:
-    """Ground metrics from the per-frame lowest body point ``lowest_z: (T,)`` and the feet.
+    """Ground metrics from ``lowest_z: (T,)``, the world height of the lowest body point per frame
+    (:func:`lowest_body_point`), and the feet (their floor is the floor used).
 
-    Skate displacement per frame: horizontal displacement (mm) of the height-contact feet between
+    Skate displacement per frame: horizontal displacement (mm) of the feet in contact between
     frames (speed / fps), averaged over the feet in contact, 0 when none; then over all frames.
     """
-    pen = np.maximum(0.0, -lowest_z)
-    flo = np.maximum(0.0, lowest_z - float_tol)
-    low = low_both(track, h_c)
+    z = np.asarray(lowest_z, dtype=float) - track.floor
+    pen = np.maximum(0.0, -z)
+    flo = np.maximum(0.0, z - float_tol)
+    con = contacts(track, h_c, v_c, hysteresis)
     disp = track.speeds / track.fps * 1000.0
-    n = low.sum(axis=1)
-    per_frame = np.where(n > 0, (disp * low).sum(axis=1) / np.maximum(n, 1), 0.0)
-    # Stance frames judged by speed alone (the lower foot is still), so a clip whose floor is off
-    # by more than h_c still finds it.
-    lower = np.argmin(track.heights, axis=1)
-    stance = np.take_along_axis(track.speeds, lower[:, None], axis=1)[:, 0] < v_c
-    offset = float(np.median(lowest_z[stance])) if stance.any() else float(np.percentile(lowest_z, 5))
+    n = con.sum(axis=1)
+    per_frame = np.where(n > 0, (disp * con).sum(axis=1) / np.maximum(n, 1), 0.0)
     p, f, s = float(pen.mean() * 1000), float(flo.mean() * 1000), float(per_frame.mean())
-    return GroundMetrics(p, f, s, p + f + s, float(track.fps), offset, float(pen.max() * 1000))
+    return GroundMetrics(p, f, s, p + f + s, float(track.fps), track.detected_floor(), float(pen.max() * 1000), float(track.floor))
 
 
 # --------------------------------------------------------------------------- smoothness and limits
@@ -330,24 +178,63 @@ def joint_angular_speeds(motion: Motion) -> np.ndarray:
     return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0])) * motion.fps
 
 
-def leading_transient(motion: Motion, max_frames: int = 10, factor: float = 4.0) -> int:
-    """Frames to skip at the start: a T-pose frame and the frames interpolating out of it (cgspeed
-    daz clips: frames 0-3). The last leading step whose max joint speed exceeds ``factor`` × the
-    clip's 99th-percentile step marks the end; 0 when nothing stands out."""
-    if motion.n_frames < 4 * max_frames:
-        return 0
-    peak = joint_angular_speeds(motion).max(axis=1)  # (T-1,)
-    ref = float(np.percentile(peak[max_frames:], 99))
-    big = np.flatnonzero(peak[:max_frames] > factor * max(ref, 1e-9))
-    return int(big[-1] + 1) if big.size else 0
+def joint_angular_accelerations(motion: Motion) -> np.ndarray:
+    """``(T, J)`` magnitude (rad/s²) of each joint's local angular acceleration: the change of the
+    angular velocity vector ``2·log(q_t⁻¹ q_{t+1})·fps`` between the steps either side of frame t
+    (0 at the first and last frame)."""
+    out = np.zeros((motion.n_frames, motion.skeleton.n_joints))
+    if motion.n_frames < 3:
+        return out
+    q = motion.rotations
+    omega = rot.log(rot.multiply(rot.conjugate(q[:-1]), q[1:])) * (2.0 * motion.fps)  # (T-1, J, 3)
+    out[1:-1] = np.linalg.norm(np.diff(omega, axis=0), axis=-1) * motion.fps
+    return out
 
 
 def _as_list(sources: Motion | Sequence[Motion]) -> list[Motion]:
     return [sources] if isinstance(sources, Motion) else list(sources)
 
 
+def _robust_peaks(values: Sequence[np.ndarray], percentile: float, floor: float) -> np.ndarray:
+    """``(J,)`` per joint: the largest over clips of the ``percentile``-th percentile over frames, at least ``floor``."""
+    return np.maximum(np.max([np.percentile(v, percentile, axis=0) for v in values], axis=0), floor)
+
+
+def worst_joint_speed_ratio(result: Motion, sources: Motion | Sequence[Motion], floor: float = 1.0) -> tuple[float, str]:
+    """Per-joint pops against the sources: the largest, over joints, of the joint's peak angular
+    speed in ``result`` over the same joint's peak in the ``sources`` (at least ``floor`` rad/s);
+    and that joint's name. 1 means no joint faster than in its sources.
+
+    Per joint, so a glitchy finger in a source cannot hide a popping knee (the whole-body
+    :func:`max_joint_speed_ratio` can). The peak is each joint's maximum, not a percentile: a
+    clip against itself then reads exactly 1 and a glitch the result inherits from its source
+    does not count (against its own 99th percentile every shared clip reads 3-40).
+    """
+    src = _as_list(sources)
+    for s in src:
+        result.skeleton.require_same_topology(s.skeleton, "the result and its source")
+    if result.n_frames < 2:
+        return float("nan"), ""
+    ref = np.maximum(np.max([joint_angular_speeds(s).max(axis=0) for s in src if s.n_frames > 1], axis=0), floor)
+    ratio = joint_angular_speeds(result).max(axis=0) / ref
+    j = int(np.argmax(ratio))
+    return float(ratio[j]), result.skeleton.names[j]
+
+
+def pop_frames(
+    result: Motion, reference: Motion | Sequence[Motion] | None = None, factor: float = 4.0, percentile: float = 99.0, floor: float = 60.0
+) -> np.ndarray:
+    """``(T,)`` bool: frames where some joint's angular acceleration (:func:`joint_angular_accelerations`)
+    exceeds ``factor`` × that joint's robust peak (``percentile``-th percentile over frames, at
+    least ``floor`` rad/s²) in ``reference`` (the sources; None: the clip itself)."""
+    acc = joint_angular_accelerations(result)
+    refs = [acc] if reference is None else [joint_angular_accelerations(m) for m in _as_list(reference)]
+    return np.asarray((acc > factor * _robust_peaks(refs, percentile, floor)).any(axis=1))
+
+
 def max_joint_speed_ratio(result: Motion, sources: Motion | Sequence[Motion]) -> float:
-    """Max joint angular speed of ``result`` over the max in ``sources`` (1 = no faster than its sources)."""
+    """Whole-body: max joint angular speed of ``result`` over the max in ``sources`` (kept for
+    comparison; blind to a knee popping under a glitchy finger: :func:`worst_joint_speed_ratio`)."""
     src = max(float(joint_angular_speeds(s).max()) for s in _as_list(sources))
     return float(joint_angular_speeds(result).max() / max(src, 1e-12))
 
@@ -382,8 +269,8 @@ def grip_error_m(result: Motion, source: Motion, first_hand: str | int, second_h
 def limit_violation_ratio(compiled: CompiledModel, motion: Motion) -> tuple[float, int]:
     """Fraction of frames where a joint leaves its declared range, and the number of limited joints.
 
-    Ball joints: rotation angle beyond ``range[1]``; slide/hinge: outside ``[range[0], range[1]]``.
-    A model that declares no limits gives ``(0.0, 0)``.
+    Ball joints: rotation angle beyond ``range[1]`` (:mod:`mjmotion.limits` declares one on every
+    ball joint); slide/hinge: outside ``[range[0], range[1]]``. A model without limits gives ``(0.0, 0)``.
     """
     m = compiled.model
     q = kinematics.qpos(compiled, motion)
@@ -408,32 +295,9 @@ def limit_violation_ratio(compiled: CompiledModel, motion: Motion) -> tuple[floa
 
 
 @dataclass(frozen=True)
-class Params:
-    """The thresholds a report used (METRICS.md defaults)."""
-
-    h_c: float = H_C
-    v_c: float = V_C
-    skate_window: int = SKATE_WINDOW
-    float_tol: float = FLOAT_TOL
-    mu: float = 1.0
-    cop_margin: float = 0.02
-    flight_force_ratio: float = 0.2
-    fd_step: float = FD_STEP
-    h_c_sensitivity: tuple[float, ...] = H_C_SENSITIVITY
-
-    def __post_init__(self) -> None:
-        positive = ("h_c", "v_c", "float_tol", "mu", "fd_step")
-        for name in (*positive, "cop_margin", "flight_force_ratio"):
-            require_number(f"Params.{name} =", getattr(self, name), strict=name in positive)
-        if isinstance(self.skate_window, bool) or not isinstance(self.skate_window, numbers.Integral) or self.skate_window < 1:
-            raise MjmotionError(f"Params.skate_window = {self.skate_window!r}: expected a whole number of frames ≥ 1")
-        if not all(isinstance(h, numbers.Real) and math.isfinite(h) and h > 0 for h in self.h_c_sensitivity):
-            raise MjmotionError(f"Params.h_c_sensitivity = {self.h_c_sensitivity!r}: expected finite contact heights > 0")
-
-
-@dataclass(frozen=True)
 class Report:
-    """Every metric of one clip (see METRICS.md); ``None`` where it does not apply."""
+    """Every metric of one clip (``docs/METRICS.md`` says what each means); ``None``/NaN where it
+    does not apply (the per-joint ratios need sources)."""
 
     name: str
     n_frames: int
@@ -457,6 +321,16 @@ class Report:
     limited_joints: int
     max_joint_speed_rad_s: float
     max_root_step_m: float
+    floor_m: float
+    floor_from: str
+    ground_residual_mean: float
+    pop_frames: int
+    sources: int
+    worst_joint_speed_ratio: float | None
+    worst_joint: str | None
+    max_joint_speed_ratio: float | None
+    root_jump_m: float | None
+    soles_calibrated: bool
     hit: dict[str, Any] | None = field(default=None)
 
     def to_dict(self) -> dict[str, Any]:
@@ -464,27 +338,59 @@ class Report:
         d["sensitivity"] = [dict(r) for r in self.sensitivity]
         return d
 
+    def __repr__(self) -> str:
+        """The clip and its headline metrics (:meth:`to_dict` has every one)."""
+        from .summary import fields
+
+        return fields(
+            "Report",
+            repr(self.name),
+            frames=self.n_frames,
+            fps=self.fps,
+            planted_skate_mm_per_s=self.planted_skate_mm_per_s,
+            penetrate_mm=self.penetrate_mm,
+            float_mm=self.float_mm,
+            physics_violation_ratio=self.physics_violation_ratio,
+            pop_frames=self.pop_frames,
+        )
+
+    def to_markdown(self) -> str:
+        """The report as a two-column Markdown table: :meth:`row`'s values, rounded for reading."""
+        from .summary import markdown_table
+
+        return markdown_table(self.row(), header=("metric", self.name or "value"))
+
+    def notes(self) -> list[str]:
+        """Lines worth telling the user (a detected floor far from z = 0)."""
+        note = floors.Floor(self.floor_m, self.floor_from).note(self.name)
+        return [note] if note else []
+
     def row(self) -> dict[str, Any]:
         """The flat, table-friendly summary (one value per column)."""
         r: dict[str, Any] = {
             "clip": self.name,
             "frames": self.n_frames,
             "fps": round(self.fps, 2),
-            "skate_mm_s": self.skate_mm_per_s,
             "planted_mm_s": self.planted_skate_mm_per_s,
+            "skate_mm_s": self.skate_mm_per_s,
             "skating_ratio": self.skating_ratio,
             "contact_frac": self.contact_fraction,
             "flight": self.flight_fraction,
             "penetrate_mm": self.penetrate_mm,
             "float_mm": self.float_mm,
             "phys_err_mm": self.phys_err_mm,
-            "floor_m": self.floor_offset_m,
+            "floor_m": self.floor_m,
+            "floor_from": self.floor_from,
             "flight_resid": self.flight_residual,
             "phys_viol": self.physics_violation_ratio,
             "limit_viol": self.limit_violation_ratio,
+            "pops": self.pop_frames,
         }
+        if self.sources:
+            r["worst_speed_ratio"] = self.worst_joint_speed_ratio
+            r["worst_joint"] = self.worst_joint
         for s in self.sensitivity:
-            r[f"skate@{s['h_c']:.2f}"] = s["skate_mm_per_s"]
+            r[f"planted@{s['h_c']:.2f}"] = s["planted_skate_mm_per_s"]
         if self.hit:
             for k in ("hit_error_m", "contact", "impact_speed", "launch_azimuth_deg", "launch_elevation_deg", "launch_speed"):
                 if k in self.hit:
@@ -492,44 +398,75 @@ class Report:
         return r
 
 
+def _check_sources(motion: Motion, sources: Sequence[Motion]) -> None:
+    for i, s in enumerate(sources):
+        label = f"source {i + 1} ({s.name or 'unnamed'})"
+        if not motion.skeleton.same_topology(s.skeleton):
+            raise MjmotionError(f"{label}: another skeleton than {motion.name or 'the result'}'s; a source must share the result's skeleton")
+        if abs(s.fps - motion.fps) > 1e-6 * motion.fps:
+            raise MjmotionError(f"{label}: {s.fps:g} fps, the result {motion.fps:g} fps; resample one (mjmotion convert --fps)")
+        if s is motion:
+            raise MjmotionError(f"{label} is the result itself; judge a result against the clip(s) it was made from")
+
+
 def evaluate(
     motion: Motion,
     props: Sequence[mjcf.Prop] = (),
     ball: mjcf.Ball | None = None,
     hit_frame: int | None = None,
-    params: Params = Params(),
+    params: Params = DEFAULTS,
     launch: bool = True,
     ball_velocity: Sequence[float] = (0.0, 0.0, 0.0),
+    sources: Sequence[Motion] = (),
+    floor: float | None = None,
 ) -> Report:
-    """All metrics of ``motion``. With ``ball`` and ``hit_frame``: the hitting metrics too
-    (effector: the first prop's sweet spot, else the foot or hand geom nearest the ball)."""
-    from . import physics
+    """All metrics of ``motion``.
 
+    ``sources``: the clip(s) it was made from (same skeleton and frame rate): they give the floor
+    (unless ``floor`` is given) and the feet's calibration, and the per-joint speed and pop
+    references. ``floor``: the floor height (m). With ``ball`` and ``hit_frame``: the hitting metrics
+    too (effector: the first prop's sweet spot, else the foot or hand geom nearest the ball).
+    """
+    sources = list(sources)
+    _check_sources(motion, sources)
     compiled = mjcf.compile(motion.skeleton, tuple(props))
     pose = kinematics.forward(compiled, motion)
-    track = foot_heights_speeds(compiled, motion, pose)
-    lz = lowest_body_point(compiled, pose)
-    g = ground_metrics(lz, track, params.h_c, params.v_c, params.float_tol)
-    res = physics.residuals(compiled, motion, track, params)  # res.flight: no foot in contact (h_c, v_c)
+    src_poses = [(kinematics.forward(compiled, s), s.fps) for s in sources]
+    soles = calibrate_soles(motion.skeleton, src_poses if sources else [(pose, motion.fps)])
+    own = foot_heights_speeds(compiled, motion, pose, floor=0.0, soles=soles, speed_window=params.speed_window)
+    src_floors = [
+        foot_heights_speeds(compiled, s, p, floor=0.0, soles=soles, speed_window=params.speed_window).detected_floor()
+        for s, (p, _) in zip(sources, src_poses)
+    ]
+    fl = floors.resolve(floor, src_floors, own.detected_floor())
+    track = own.at_floor(fl.height)
+    lz = lowest_body_point(compiled, pose, track.heights.min(axis=1) + fl.height)
+    g = ground_metrics(lz, track, params.h_c, params.v_c, params.float_tol, params.hysteresis)
+    res = physics.residuals(compiled, motion, track, params, ground=lz - fl.height, pose=pose)
     lim, nlim = limit_violation_ratio(compiled, motion)
     speeds = joint_angular_speeds(motion) if motion.n_frames > 1 else np.zeros((1, 1))
     steps = np.linalg.norm(np.diff(motion.root_positions, axis=0), axis=1) if motion.n_frames > 1 else np.zeros(1)
+    pops = pop_frames(motion, sources or None, params.pop_factor, params.peak_percentile, params.accel_floor)
+    worst, joint = (None, None)
+    if sources:
+        worst, joint = worst_joint_speed_ratio(motion, sources, params.speed_floor)
     hit = None
     if ball is not None:
         if hit_frame is None:
             raise MjmotionError("a ball needs a hit frame (--frame H)")
         hit = physics.hit_metrics(motion, ball, hit_frame, props=tuple(props), launch=launch, ball_velocity=ball_velocity)
+    con = contacts(track, params.h_c, params.v_c, params.hysteresis)
     return Report(
         name=motion.name,
         n_frames=motion.n_frames,
         fps=float(motion.fps),
         params=params,
         skate_mm_per_s=skate_mm_per_s(track, params.h_c),
-        planted_skate_mm_per_s=planted_skate_mm_per_s(track, params.h_c, params.v_c),
+        planted_skate_mm_per_s=planted_skate_mm_per_s(track, params.h_c, params.v_c, params.hysteresis),
         skating_ratio=skating_ratio(track, params.h_c, params.v_c, params.skate_window),
-        contact_fraction=float((~res.flight).mean()),
-        flight_fraction=float(res.flight.mean()),
-        sensitivity=tuple(skate_sensitivity(track, params.h_c_sensitivity, params.v_c)),
+        contact_fraction=float(con.any(axis=1).mean()),
+        flight_fraction=float((~con.any(axis=1)).mean()),
+        sensitivity=tuple(skate_sensitivity(track, params.h_c_sensitivity, params.v_c, params.hysteresis)),
         penetrate_mm=g.penetrate_mm,
         float_mm=g.float_mm,
         phys_err_mm=g.phys_err_mm,
@@ -542,5 +479,15 @@ def evaluate(
         limited_joints=nlim,
         max_joint_speed_rad_s=float(speeds.max()),
         max_root_step_m=float(steps.max()),
+        floor_m=fl.height,
+        floor_from=fl.from_,
+        ground_residual_mean=float(np.mean(res.residual)),
+        pop_frames=int(pops.sum()),
+        sources=len(sources),
+        worst_joint_speed_ratio=worst,
+        worst_joint=joint,
+        max_joint_speed_ratio=max_joint_speed_ratio(motion, sources) if sources else None,
+        root_jump_m=root_jump_m(motion, sources) if sources else None,
+        soles_calibrated=soles.calibrated,
         hit=hit,
     )

@@ -58,7 +58,7 @@ SHORT_ROOM = 0.1
 FRACTION_RATE = 10.0
 #: No lead-chain joint turns faster than this many times its own peak speed in the source: where
 #: the importance blend would make one, its deviation ramps in and out at that pace instead
-#: (:func:`ik.reach.rate_limit`; the hit frame stays exact).
+#: (:func:`mjmotion.ik.reach.rate_limit`; the hit frame stays exact).
 JOINT_SPEED_BOUND = 2.0
 #: A paced frame keeps the second hand on the branch of the frame before within this grip error (m).
 PACED_GRIP = 2e-3
@@ -250,7 +250,7 @@ def _downswing(effector: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray
     Speeds are central differences smoothed over ~25 ms.
     """
     vel = np.gradient(effector, axis=0) * fps
-    width = max(1, round(0.025 * fps))
+    width = max(1, min(round(0.025 * fps), (len(effector) - 1) // 2))  # no longer than the clip (np.convolve 'same')
     kernel = np.ones(2 * width + 1) / (2 * width + 1)
     vel = np.column_stack([np.convolve(vel[:, i], kernel, mode="same") for i in range(3)])
     speed = np.linalg.norm(vel, axis=1)
@@ -558,6 +558,19 @@ class Adaptation:
     grip_error: np.ndarray
     problem: HitProblem
 
+    def __repr__(self) -> str:
+        """The adapted clip and its headline numbers (:attr:`report` has them all)."""
+        from .summary import fields
+
+        keep = ("solver", "hit_frame", "reachable", "hit_error_m", "grip_error_m", "style_rmse")
+        return fields("Adaptation", repr(self.motion.name), **{k: self.report[k] for k in keep if k in self.report})
+
+    def to_markdown(self) -> str:
+        """The report as a two-column Markdown table, rounded for reading."""
+        from .summary import markdown_table
+
+        return markdown_table(self.report, header=("hit point", self.motion.name or "value"))
+
 
 def source_kept(adaptation: Adaptation) -> tuple[bool, bool]:
     """``(first_last_equal, untouched_equal)``: the first and last frames are the source's; the root
@@ -609,7 +622,7 @@ def _margin(problem: HitProblem, t: int, sol: FrameSolution) -> float:
 
 
 def _fraction(problem: HitProblem, ik: TwoHandIK, t: int, goal: np.ndarray, oracle: TwoHandIK | None = None) -> float:
-    """The largest fraction of frame ``t``'s offset toward ``goal`` the chains reach (:func:`ik.reach.nearest_reachable`).
+    """The largest fraction of frame ``t``'s offset toward ``goal`` the chains reach (:func:`mjmotion.ik.reach.nearest_reachable`).
 
     ``oracle``: a faster IK (DLS) that finds the fraction first; ``ik`` then checks it and, if it
     cannot reach that far, searches below it.
@@ -635,7 +648,7 @@ def _scaled_goals(problem: HitProblem, fraction: np.ndarray | float) -> np.ndarr
 
 def stop_short(problem: HitProblem, ik: TwoHandIK, oracle: TwoHandIK | None = None) -> HitProblem:
     """The problem with its target moved back along the offset to the nearest point the chains can
-    reach at the hit frame (the grip kept, the club off the floor; :func:`ik.reach.nearest_reachable`),
+    reach at the hit frame (the grip kept, the club off the floor; :func:`mjmotion.ik.reach.nearest_reachable`),
     or ``problem`` itself when the target can be reached."""
     h = problem.hit
     s = _fraction(problem, ik, h, problem.goals[h], oracle)
@@ -648,11 +661,11 @@ def stop_short(problem: HitProblem, ik: TwoHandIK, oracle: TwoHandIK | None = No
 
 
 def _solve_frames(problem: HitProblem, ik: TwoHandIK, oracle: TwoHandIK | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Per-frame solve of every frame the blend touches (:class:`ik.twohand.TwoHandIK`).
+    """Per-frame solve of every frame the blend touches (:class:`mjmotion.ik.twohand.TwoHandIK`).
 
     A frame whose goal cannot be reached gets the largest fraction of its offset that can be
     (:func:`_fraction`, found with ``oracle`` first when given), the fractions are made gradual
-    (:func:`ik.reach.envelope`, ``FRACTION_RATE``) and the frames they shorten are solved again
+    (:func:`mjmotion.ik.reach.envelope`, ``FRACTION_RATE``) and the frames they shorten are solved again
     (twice at most). Returns both chains' ``δ``, the fractions ``(T,)`` and the frames solved.
     """
     t_n = problem.source.n_frames
@@ -798,7 +811,7 @@ def adapt(
 
 def _pace(problem: HitProblem, ik: TwoHandIK, d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """Both chains' ``δ`` with no chain joint turning faster than ``JOINT_SPEED_BOUND`` × its own
-    peak in the source (:func:`ik.reach.paced_walk`): from the hit outward, a frame whose solution would
+    peak in the source (:func:`mjmotion.ik.reach.paced_walk`): from the hit outward, a frame whose solution would
     be too fast moves the lead only part of the way there and puts the second hand back on the grip
     for that pose. Returns them and the number of frames slowed."""
     src, lead, second = problem.source, problem.lead, problem.second

@@ -58,8 +58,8 @@ def qpos(compiled: CompiledModel, motion: Motion, ball_position: np.ndarray | No
         a = compiled.qpos_adr[j]
         q[:, a : a + 4] = motion.rotations[:, j]
     if motion.translations is not None:
-        for j in np.flatnonzero(compiled.slide_adr >= 0):
-            a = compiled.slide_adr[j]
+        for j in np.flatnonzero(compiled.slide_adr >= 0).tolist():
+            a = int(compiled.slide_adr[j])
             q[:, a : a + 3] = motion.translations[:, j] - skel.offsets[j]
     if compiled.ball is not None:
         a = compiled.ball_qpos_adr

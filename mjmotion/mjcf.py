@@ -15,6 +15,7 @@ each other. The world has a checker floor (z = 0), lights and a camera tracking 
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass, field
 from xml.etree import ElementTree
@@ -22,7 +23,9 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
+from . import limits
 from . import rotations as rot
+from .caps import MAX_MODEL_JOINTS
 from .errors import MjmotionError
 from .skeleton import Skeleton
 
@@ -32,6 +35,13 @@ BALL = "ball"
 TRACK_CAMERA = "track"
 #: Body mass index used to give the character a realistic mass for its size (kg / m²).
 BODY_MASS_INDEX = 21.5
+#: Ankle joint centre above the sole in stance, × stature: measured on the shared rigs whose feet have
+#: toe joints (ASF 0.047, iClone 0.049, cgspeed 3dsMax 0.049; median ankle height over stance frames
+#: above the detected floor). A toe-less foot whose End Site is shallower (cgspeed daz: 3.7 cm below
+#: the ankle, at the ball of the foot) gets its sole this deep, so it stands on the floor.
+ANKLE_HEIGHT = 0.048
+#: Heel behind the ankle, × stature (foot length 0.152 × stature, the ankle about a fifth of it from the heel).
+HEEL_BACK = 0.03
 #: Deepest joint chain ``compile`` accepts. MuJoCo's compile time grows with the cube of the chain
 #: depth (measured: 200 deep 0.16 s, 400 deep 1.2 s, 1,000 deep 21 s), a human skeleton is < 40 deep.
 MAX_DEPTH = 256
@@ -156,6 +166,7 @@ class CompiledModel:
             st = sites.get(el.get("name", ""))
             if st is not None:
                 _set_vec(el, "pos", st.pos, default=(0.0, 0.0, 0.0))
+        _skins_at_full_precision(root, self.spec)
         ElementTree.indent(root, "  ")
         return ElementTree.tostring(root, encoding="unicode") + "\n"
 
@@ -163,6 +174,25 @@ class CompiledModel:
         from .outputs import write_text_atomic
 
         write_text_atomic(path, self.to_xml())
+
+
+def _skins_at_full_precision(root: ElementTree.Element, spec: mujoco.MjSpec) -> None:
+    """Skin vertices and bind frames as MuJoCo stores them (float32, 9 digits), not the writer's 6."""
+    skins = {s.name: s for s in spec.skins}
+    for el in root.iter("skin"):
+        s = skins.get(el.get("name", ""))
+        if s is None:
+            continue
+        el.set("vertex", _floats32(s.vert))
+        for bone, pos, quat, w in zip(el.iter("bone"), np.reshape(s.bindpos, (-1, 3)), np.reshape(s.bindquat, (-1, 4)), s.vertweight):
+            bone.set("bindpos", " ".join(repr(float(x)) for x in pos))
+            bone.set("bindquat", " ".join(repr(float(x)) for x in quat))
+            bone.set("vertweight", _floats32(w))
+
+
+def _floats32(values: object) -> str:
+    """The shortest text that reads back as the same float32 values."""
+    return " ".join(np.format_float_positional(x, unique=True, trim="-") for x in np.asarray(values, dtype=np.float32))
 
 
 def _set_vec(el: ElementTree.Element, attr: str, value: np.ndarray, default: tuple[float, ...]) -> None:
@@ -264,12 +294,15 @@ def segments(skeleton: Skeleton) -> list[str]:
                 if k <= 0:
                     break
                 label[k] = seg
-    out = []
+    out: list[str] = []
     for j in range(skeleton.n_joints):
-        if label[j] is None:
+        lab = label[j]
+        if lab is None:
             p = int(skeleton.parents[j])
-            label[j] = label[p] if p >= 0 and label[p] in _LIMB else "trunk"
-        out.append(label[j])  # type: ignore[arg-type]
+            above = label[p] if p >= 0 else None
+            lab = above if above is not None and above in _LIMB else "trunk"
+            label[j] = lab
+        out.append(lab)
     return out
 
 
@@ -277,12 +310,19 @@ def _mass_class(segment: str) -> str:
     return {"neck": "head", "girdle": "trunk"}.get(segment, segment)
 
 
+def _mat_quat(m: np.ndarray) -> np.ndarray:
+    """The unit quaternion (w ≥ 0) of a rotation matrix ``(3, 3)``, by MuJoCo (SciPy's import costs ~0.3 s)."""
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(m, dtype=float).ravel())
+    return rot.positive_w(q)
+
+
 def _look_quat(forward: np.ndarray) -> np.ndarray:
     """Orientation of a camera looking along ``forward`` with the world's +z up (cameras look along -z)."""
     z = -forward / np.linalg.norm(forward)
     x = np.cross([0.0, 0.0, 1.0], z)
     x /= np.linalg.norm(x)
-    return rot.from_matrix(np.column_stack([x, np.cross(z, x), z]))
+    return _mat_quat(np.column_stack([x, np.cross(z, x), z]))
 
 
 def compile(
@@ -290,14 +330,18 @@ def compile(
     props: tuple[Prop, ...] | list[Prop] = (),
     ball: Ball | None = None,
     total_mass: float | None = None,
+    actuators: bool = False,
 ) -> CompiledModel:
     """Build and compile the MuJoCo model of ``skeleton`` with optional props and a ball.
+
+    The initial pose (``qpos0``) is the rest pose standing on the floor: its lowest geom at z = 0.
 
     Args:
         skeleton: the character.
         props: sticks attached to joints (see :class:`Prop`).
         ball: a free ball, or ``None``.
         total_mass: the character's mass in kg; default ``BODY_MASS_INDEX × height²``.
+        actuators: add a position servo per joint degree of freedom (see :func:`add_actuators`).
     """
     depth = np.zeros(skeleton.n_joints, dtype=int)
     for j in range(1, skeleton.n_joints):
@@ -307,6 +351,11 @@ def compile(
             f"skeleton is {depth.max() + 1} joints deep (joint {skeleton.names[int(depth.argmax())]!r}); "
             f"MuJoCo models are limited to {MAX_DEPTH} nested bodies here (compile time grows with the "
             "cube of the depth) — is this a character skeleton?"
+        )
+    if skeleton.n_joints > MAX_MODEL_JOINTS:
+        raise MjmotionError(
+            f"skeleton has {skeleton.n_joints} joints; MuJoCo models are limited to {MAX_MODEL_JOINTS} joints here "
+            "(compile time grows faster than the joint count) — is this a character skeleton?"
         )
     reserved = {FLOOR, BALL} | {p.name for p in props}
     clash = reserved.intersection(skeleton.names)
@@ -325,6 +374,9 @@ def compile(
     foot_boxes = _foot_boxes(skeleton, feet)
     ankles = {a for a, _ in feet.values()}
     segment_of = segments(skeleton)
+    # Joint ranges (mjmotion/limits.py): the largest rotation from rest, in the compiler's angle unit.
+    ranges = limits.joint_limits(skeleton)
+    to_unit = np.degrees if spec.compiler.degree else (lambda x: x)
     volumes: dict[str, float] = {}
     class_geoms: dict[str, list[mujoco.MjsGeom]] = {}
     for j, name in enumerate(skeleton.names):
@@ -343,7 +395,9 @@ def compile(
             if skeleton.has_positions(j):
                 for axis, label in zip(np.eye(3), "xyz"):
                     body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, name=f"{name}/slide_{label}", axis=axis.tolist())
-            body.add_joint(type=mujoco.mjtJoint.mjJNT_BALL, name=name)
+            body.add_joint(
+                type=mujoco.mjtJoint.mjJNT_BALL, name=name, limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=[0.0, float(to_unit(ranges[j]))]
+            )
         tips = [(skeleton.offsets[c], None) for c in skeleton.children(j)]
         ends = np.flatnonzero(skeleton.end_parents == j)
         for k, e in enumerate(ends):
@@ -432,12 +486,14 @@ def compile(
     # is spread over the rest): mass distribution drives the inverse-dynamics residuals.
     present = {c: SEGMENT_MASS[c] * (1 if c in ("head", "trunk") else 2) for c in class_geoms}
     scale = 1.0 / sum(present.values()) if present else 0.0
-    for c, geoms in class_geoms.items():
-        density = mass * present[c] * scale / volumes[c]
+    for cls, geoms in class_geoms.items():
+        density = mass * present[cls] * scale / volumes[cls]
         for g in geoms:
             g.density = density
     model = spec.compile()
-    return _index(skeleton, spec, model, tuple(site_names), tuple(props), ball, foot_geoms)
+    _stand(spec, model, bodies[0], skeleton)
+    compiled = _index(skeleton, spec, model, tuple(site_names), tuple(props), ball, foot_geoms)
+    return add_actuators(compiled) if actuators else compiled
 
 
 def add_world(spec: mujoco.MjSpec) -> None:
@@ -506,12 +562,16 @@ def _foot_boxes(skeleton: Skeleton, feet: dict[str, tuple[int, int | None]]) -> 
         fwd /= flen
         side_axis = np.cross(up, fwd)
         frame = np.column_stack([fwd, side_axis, up])
-        quat = rot.from_matrix(frame)
+        quat = _mat_quat(frame)
         sole = min(float(np.dot(p - a, up)) for p in pts_arr)
+        heel = 0.25 * flen
+        if toe is None and -sole < ANKLE_HEIGHT * height:
+            # A foot chain that stops at the ball of the foot: the sole and heel from foot proportions.
+            sole, heel = -ANKLE_HEIGHT * height, max(heel, HEEL_BACK * height)
         top = min(0.0, sole + 0.09 * height / 1.75)
         half_w = 0.045 * height / 1.75
         if toe is None:
-            lo, hi = -0.25 * flen, flen
+            lo, hi = -heel, flen
             center = a + fwd * (lo + hi) / 2 + up * (sole + top) / 2
             half = np.array([(hi - lo) / 2, half_w, max((top - sole) / 2, 0.01)])
             out.setdefault(ankle, {})[f"foot/{side}"] = (center - a, quat, half)
@@ -580,3 +640,207 @@ def _index(
         ball_qpos_adr=ball_adr,
         foot_geoms=geoms,
     )
+
+
+# --- a model a MuJoCo user can open: standing, a keyframe, servos, a skin ---------------------
+#: Natural frequency (Hz) and damping ratio of the joint servos :func:`add_actuators` adds.
+SERVO_HZ = 25.0
+SERVO_DAMPING = 1.0
+#: Armature of every actuated degree of freedom, kg·m² per kg of body mass for a 1.75 m character.
+SERVO_ARMATURE = 2e-4
+
+
+def lowest_point(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray | list[int]) -> float:
+    """The lowest world z of ``geoms`` at ``data``'s kinematics (capsules, boxes, spheres, cylinders,
+    ellipsoids exactly; other types by their bounding sphere)."""
+    low = np.inf
+    g_type = mujoco.mjtGeom
+    for g in geoms:
+        z, m22 = float(data.geom_xpos[g, 2]), data.geom_xmat[g].reshape(3, 3)[2]
+        size, kind = model.geom_size[g], int(model.geom_type[g])
+        if kind == g_type.mjGEOM_CAPSULE:
+            reach = abs(m22[2]) * size[1] + size[0]
+        elif kind == g_type.mjGEOM_BOX:
+            reach = float(np.abs(m22) @ size)
+        elif kind == g_type.mjGEOM_SPHERE:
+            reach = size[0]
+        elif kind == g_type.mjGEOM_CYLINDER:
+            reach = abs(m22[2]) * size[1] + size[0] * np.sqrt(max(0.0, 1.0 - m22[2] ** 2))
+        elif kind == g_type.mjGEOM_ELLIPSOID:
+            reach = float(np.linalg.norm(m22 * size))
+        else:
+            reach = float(model.geom_rbound[g])
+        low = min(low, z - reach)
+    return float(low)
+
+
+def character_geoms(model: mujoco.MjModel, root_body: int) -> np.ndarray:
+    """Ids of the geoms on the skeleton's own bodies under ``root_body`` (props and their bodies excluded)."""
+    body = model.geom_bodyid
+    return np.flatnonzero((model.body_rootid[body] == root_body) & (model.body_jntnum[body] > 0))
+
+
+def _stand(spec: mujoco.MjSpec, model: mujoco.MjModel, root: mujoco.MjsBody, skeleton: Skeleton) -> None:
+    """Lift the rest pose (``qpos0``) so its lowest geom touches the floor.
+
+    The free joint's ``qpos0`` is the root body's position, so the spec's root moves up; the
+    compiled model's copies (``body_pos``, ``qpos0``, ``qpos_spring``) are set to what compiling
+    again would give, which saves a second compile on every call.
+    """
+    d = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, d)
+    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, skeleton.names[0])
+    geoms = character_geoms(model, bid)
+    if len(geoms) == 0:
+        return
+    lift = -lowest_point(model, d, geoms)
+    root.pos = [0.0, 0.0, lift]
+    adr = int(model.jnt_qposadr[model.body_jntadr[bid]])
+    model.body_pos[bid] = root.pos
+    model.qpos0[adr + 2] = lift
+    model.qpos_spring[adr + 2] = lift
+
+
+def _recompiled(compiled: CompiledModel, spec: mujoco.MjSpec) -> CompiledModel:
+    """``compiled`` with ``spec`` (an edited copy of its spec) compiled in; the input is untouched."""
+    return dataclasses.replace(compiled, spec=spec, model=spec.compile())
+
+
+def add_actuators(
+    compiled: CompiledModel,
+    neutral: np.ndarray | None = None,
+    hz: float = SERVO_HZ,
+    damping: float = SERVO_DAMPING,
+    armature: float = SERVO_ARMATURE,
+) -> CompiledModel:
+    """A position servo per joint degree of freedom (the free root stays unactuated).
+
+    A ball joint gets three position actuators on a ``site`` transmission with a ``refsite``:
+    MuJoCo's actuator length is then the rotation vector (axis × angle) of the child's frame
+    relative to a reference frame fixed in the parent, so the three are a servo on the joint's
+    rotation away from a neutral pose (``neutral[j]``, its local rotation), with no gimbal lock and
+    the ball-joint model (and ``qpos``) the rest of the lab uses. A rotation vector wraps at 180°:
+    a ``joint`` transmission measures from the joint's zero, and rigs whose captured poses sit
+    ~180° from their rest frames (iClone's thighs, eyes and teeth) would flip; measured from a
+    standing neutral pose (the skin's bind pose) they stay far from it. Slide joints get one
+    ``joint`` servo each. A pose's controls are its actuator lengths (:func:`add_keyframe` sets them).
+
+    Gains scale with the inertia each joint moves: ``kp = I ω²``, ``kv = 2 ζ I ω``, ``I`` the
+    joint-space mass matrix diagonal in the rest pose (the segment and everything distal to it, plus
+    an armature of ``armature × body mass × (stature / 1.75 m)²`` that keeps fingers and helper
+    bones from being so light that contacts make them unstable), so every joint has the natural
+    frequency ``hz`` and damping ratio ``damping``. The integrator becomes ``implicitfast``, which
+    treats the servos' damping implicitly.
+
+    Args:
+        neutral: ``(J, 4)`` local rotations the servos measure from; default the rest pose.
+    """
+    skel, spec = compiled.skeleton, compiled.spec.copy()
+    neutral = np.tile(rot.IDENTITY, (skel.n_joints, 1)) if neutral is None else rot.normalize(neutral)
+    total = float(compiled.model.body_mass[compiled.body_ids].sum())
+    rotor = armature * total * (float(np.clip(skel.stature(), 0.3, 3.0)) / 1.75) ** 2
+    for joint in spec.joints:
+        if joint.type != mujoco.mjtJoint.mjJNT_FREE:
+            joint.armature = rotor
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    mass = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, mass)
+    omega = 2.0 * np.pi * hz
+
+    def servo(label: str, inertia: float, **transmission: object) -> None:
+        act = spec.add_actuator(name=label, **transmission)
+        act.set_to_position(kp=inertia * omega**2, kv=2.0 * damping * inertia * omega)
+
+    for j, name in enumerate(skel.names):
+        if j == 0:
+            continue
+        child, parent = spec.body(name), spec.body(skel.names[int(skel.parents[j])])
+        child.add_site(name=f"{name}/servo", group=5)
+        parent.add_site(name=f"{name}/servo_ref", pos=skel.offsets[j].tolist(), quat=neutral[j].tolist(), group=5)
+        for k in range(3):
+            gear = [0.0, 0.0, 0.0, *np.eye(3)[k]]
+            inertia = float(mass[compiled.dof_adr[j] + k, compiled.dof_adr[j] + k])
+            servo(f"{name}/{'xyz'[k]}", inertia, target=f"{name}/servo", refsite=f"{name}/servo_ref", trntype=mujoco.mjtTrn.mjTRN_SITE, gear=gear)
+        if compiled.slide_adr[j] >= 0:
+            for label in "xyz":
+                jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"{name}/slide_{label}")
+                dof = int(m.jnt_dofadr[jid])
+                servo(f"{name}/slide_{label}", float(mass[dof, dof]), target=f"{name}/slide_{label}", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    return _recompiled(compiled, spec)
+
+
+def add_keyframe(compiled: CompiledModel, qpos: np.ndarray, name: str = "start") -> CompiledModel:
+    """The pose ``qpos: (nq,)`` as a keyframe, moved up or down so its lowest character geom is on
+    the floor; with servos, its controls hold that pose (``mj_resetDataKeyframe`` loads both)."""
+    m = compiled.model
+    q = np.array(qpos, dtype=float)
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    mujoco.mj_kinematics(m, d)
+    q[2] -= lowest_point(m, d, character_geoms(m, int(compiled.body_ids[0])))
+    spec = compiled.spec.copy()
+    key = spec.add_key(name=name, qpos=q.tolist())
+    if m.nu:
+        d.qpos[:] = q
+        mujoco.mj_forward(m, d)
+        key.ctrl = d.actuator_length.tolist()
+    return _recompiled(compiled, spec)
+
+
+def add_skin(
+    spec: mujoco.MjSpec,
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    bodies: list[str] | tuple[str, ...],
+    bind_positions: np.ndarray,
+    bind_rotations: np.ndarray,
+    bones: np.ndarray,
+    weights: np.ndarray,
+    name: str = "skin",
+    rgba: tuple[float, float, float, float] = (0.75, 0.6, 0.5, 1.0),
+    inflate: float = 0.0,
+) -> mujoco.MjsSkin:
+    """Add a MuJoCo skin (drawn, not simulated) to ``spec``.
+
+    Args:
+        vertices: ``(V, 3)`` bind-pose positions; faces: ``(F, 3)`` counter-clockwise from outside.
+        bodies: ``(N,)`` names of the bodies the skin follows.
+        bind_positions, bind_rotations: ``(N, 3)``, ``(N, 4)`` those bodies' frames in the bind pose.
+        bones, weights: ``(V, K)`` index into ``bodies`` (``-1`` unused) and weight of each influence.
+    """
+    skin = spec.add_skin(name=name)
+    skin.vert = np.asarray(vertices, dtype=float).ravel().tolist()
+    skin.face = np.asarray(faces, dtype=int).ravel().tolist()
+    skin.rgba = list(rgba)
+    skin.inflate = inflate
+    ids: list[list[int]] = [[] for _ in bodies]
+    ws: list[list[float]] = [[] for _ in bodies]
+    for v, k in zip(*np.nonzero(np.asarray(bones) >= 0)):
+        b = int(bones[v, k])
+        ids[b].append(int(v))
+        ws[b].append(float(weights[v, k]))
+    keep = [b for b in range(len(bodies)) if ids[b]]
+    skin.bodyname = [bodies[b] for b in keep]
+    skin.bindpos = np.asarray(bind_positions, dtype=float)[keep].ravel().tolist()
+    skin.bindquat = np.asarray(bind_rotations, dtype=float)[keep].ravel().tolist()
+    skin.vertid = [ids[b] for b in keep]
+    skin.vertweight = [ws[b] for b in keep]
+    return skin
+
+
+def with_skin(compiled: CompiledModel, hide_group: int | None = None, **skin: object) -> CompiledModel:
+    """``compiled`` with a skin added (the keyword arguments of :func:`add_skin`) and recompiled.
+
+    ``hide_group``: move the character's own geoms (still its collision and mass) to this geom group.
+    """
+    spec = compiled.spec.copy()
+    if hide_group is not None:
+        mine = set(character_geoms(compiled.model, int(compiled.body_ids[0])).tolist())
+        for g in spec.geoms:
+            if g.id in mine:
+                g.group = hide_group
+    add_skin(spec, **skin)  # type: ignore[arg-type]
+    return _recompiled(compiled, spec)

@@ -1,14 +1,68 @@
-"""Writing results safely: atomically, never over an input, never over a file without ``force``."""
+"""Writing results safely: never over an input, never over a file without ``force``, never half-written.
+
+Two steps, for every file a verb writes:
+
+1. :func:`check_output` before any work: refuses an output that names an input, a folder
+   (``out.bvh/``), a directory, a FIFO, a device or a socket, an existing file or symbolic link
+   (dangling too) without ``force``, and a folder that does not exist. It records the decision
+   for the path (a *claim*: replace or not).
+2. :func:`atomic_path` (and the ``write_*`` helpers on it) at the end: the result goes to a
+   temporary file beside the output, is flushed to the disk (``fsync``: a full disk shows here,
+   not later), and is *published*: without ``force`` by a rename that fails if the output exists
+   (``renameat2(RENAME_NOREPLACE)``, else a hard link, else an exclusive create), so a file that
+   appeared at the output while the command ran — another run writing the same output — is
+   never replaced; with ``force`` by ``os.replace``, and only over a regular file or a symbolic
+   link (the link itself, never what it points to).
+
+A path no :func:`check_output` claimed (library code writing results) is published with
+replacement, as ``os.replace`` would, but never over a directory, FIFO, device or socket.
+"""
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import errno
+import functools
 import os
+import shutil
+import stat
 import tempfile
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from .errors import MjmotionError, OutputExistsError
+from .inputs import kind_of
+
+#: Claims of :func:`check_output`: absolute path → replace allowed (``force``). Kept until
+#: :func:`reset_claims` (the CLI resets them per command): a stale claim can only refuse a
+#: replacement, never allow one.
+_CLAIMS: dict[str, bool] = {}
+
+
+def _key(path: str | os.PathLike[str]) -> str:
+    return os.path.abspath(os.fspath(path))
+
+
+def reset_claims() -> None:
+    """Forget every claim (the CLI does this before each command)."""
+    _CLAIMS.clear()
+
+
+def _lstat(path: Path) -> os.stat_result | None:
+    try:
+        return os.lstat(path)
+    except FileNotFoundError:
+        return None
+    except NotADirectoryError:  # a path through a regular file: the folder check below says so
+        return None
+
+
+def _is_dir(path: Path) -> bool:
+    try:
+        return stat.S_ISDIR(os.stat(path).st_mode)
+    except OSError:
+        return False
 
 
 def check_output(
@@ -18,32 +72,136 @@ def check_output(
 ) -> Path:
     """Validate an output path before any work is done; returns it as a ``Path``.
 
-    Refuses an output that names one of ``inputs`` (even through a link), an existing file
-    without ``force``, a directory, or a folder that does not exist.
+    Refuses an output that names one of ``inputs`` (even through a link), a path ending in a
+    separator, a directory, a FIFO, device or socket (``--force`` or not), an existing file or
+    symbolic link without ``force``, or a folder that does not exist. Records whether the
+    output may be replaced, for :func:`atomic_path`.
     """
-    out = Path(path)
+    raw = os.fspath(path)
+    if not raw or raw.endswith(("/", os.sep)) or os.path.basename(raw) in (".", ".."):
+        raise OutputExistsError(f"{raw or repr(raw)}: names a folder; expected a file path (no trailing '/')")
+    out = Path(raw)
     for src in inputs:
         try:
             if out.exists() and os.path.samefile(out, src):
                 raise OutputExistsError(f"{out}: is an input of this command; choose another output path")
         except FileNotFoundError:
             pass
-        if out.resolve() == Path(src).resolve():
+        if os.path.realpath(out) == os.path.realpath(src):  # (realpath, unlike resolve, takes a symlink loop)
             raise OutputExistsError(f"{out}: is an input of this command; choose another output path")
-    if out.is_dir():
-        raise OutputExistsError(f"{out}: is a directory; expected a file path")
-    if out.exists() and not force:
-        raise OutputExistsError(f"{out}: already exists; pass --force to replace it")
+    st = _lstat(out)
+    if st is not None:
+        if _is_dir(out):
+            raise OutputExistsError(f"{out}: is a directory; expected a file path")
+        _check_replaceable(out, st)
+        if not force:
+            link = " (a symbolic link)" if stat.S_ISLNK(st.st_mode) else ""
+            raise OutputExistsError(f"{out}: already exists{link}; pass --force to replace it")
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
         raise MjmotionError(f"{out}: folder {parent} does not exist")
+    _CLAIMS[_key(out)] = bool(force)
     return out
 
 
-@contextlib.contextmanager
-def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; rename it onto ``path`` only if the block succeeds."""
+def _check_replaceable(out: Path, st: os.stat_result) -> None:
+    """Refuse an existing output that is not a regular file or a symbolic link (``/dev/null``, a FIFO)."""
+    if stat.S_ISLNK(st.st_mode) or stat.S_ISREG(st.st_mode):
+        return
+    raise OutputExistsError(f"{out}: {kind_of(st.st_mode)}; an output must be a new file (--force replaces only a regular file)")
+
+
+# --- publishing ------------------------------------------------------------------------------
+_RENAME_NOREPLACE = 1
+_AT_FDCWD = -100
+
+
+@functools.lru_cache(maxsize=1)
+def _renameat2() -> Callable[..., int] | None:
+    """glibc's ``renameat2`` (Linux 3.15+, glibc 2.28+), or ``None``."""
+    try:
+        fn = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return None
+    fn.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint)
+    fn.restype = ctypes.c_int
+    return fn
+
+
+def rename_noreplace(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> None:
+    """Move ``src`` to ``dst`` atomically; ``FileExistsError`` if ``dst`` exists (a dangling link too).
+
+    ``renameat2(RENAME_NOREPLACE)`` where the system and filesystem have it; else a hard link
+    (which fails if ``dst`` exists) and unlinking ``src``; else (filesystems without hard links)
+    an exclusive create of ``dst`` and a rename over it. A folder without ``renameat2``: a rename
+    if ``dst`` does not exist.
+    """
+    s, d = os.fsencode(src), os.fsencode(dst)
+    fn = _renameat2()
+    if fn is not None:
+        if fn(_AT_FDCWD, s, _AT_FDCWD, d, _RENAME_NOREPLACE) == 0:
+            return
+        err = ctypes.get_errno()
+        if err not in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP, errno.EOPNOTSUPP):
+            raise OSError(err, os.strerror(err), os.fsdecode(d))
+    if os.path.isdir(s):  # no hard links of folders: a rename, which replaces only an empty folder
+        if os.path.lexists(d):
+            raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), os.fsdecode(d))
+        os.rename(s, d)
+        return
+    try:
+        os.link(s, d, follow_symlinks=False)
+    except FileExistsError:
+        raise
+    except OSError as e:
+        if e.errno not in (errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EMLINK, errno.EXDEV, errno.ENOSYS):
+            raise
+        fd = os.open(d, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)  # FileExistsError if it appeared
+        os.close(fd)
+        os.replace(s, d)
+        return
+    os.unlink(s)
+
+
+def publish(tmp: str | os.PathLike[str], path: str | os.PathLike[str], replace: bool) -> None:
+    """Move the finished ``tmp`` onto ``path``: with ``replace`` over a regular file or link only,
+    without it never over anything (:class:`OutputExistsError` if ``path`` appeared meanwhile)."""
     out = Path(path)
+    if replace:
+        st = _lstat(out)
+        if st is not None:
+            if _is_dir(out):
+                raise OutputExistsError(f"{out}: is a directory; expected a file path")
+            _check_replaceable(out, st)
+        os.replace(tmp, out)
+        return
+    try:
+        rename_noreplace(tmp, out)
+    except FileExistsError:
+        raise OutputExistsError(
+            f"{out}: appeared while this command ran (another run writing it?); not replaced — pass --force to replace it"
+        ) from None
+
+
+def _fsync(path: str | os.PathLike[str]) -> None:
+    """Flush a written file to the disk: a full disk (delayed allocation) fails here, not after 'wrote'."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str], replace: bool | None = None) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; publish it onto ``path`` only if the block succeeds.
+
+    ``replace``: whether an existing output may be replaced; ``None`` takes the claim of
+    :func:`check_output` for this path (``--force``), or ``True`` for a path nobody claimed.
+    """
+    out = Path(path)
+    if replace is None:
+        replace = _CLAIMS.get(_key(out), True)
     parent = out.parent if str(out.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=out.suffix or ".tmp", dir=parent)
     os.close(fd)
@@ -53,7 +211,8 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     os.chmod(tmp, 0o666 & ~umask)
     try:
         yield Path(tmp)
-        os.replace(tmp, out)
+        _fsync(tmp)
+        publish(tmp, out, replace)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
@@ -71,6 +230,27 @@ def write_bytes_atomic(path: str | os.PathLike[str], data: bytes) -> None:
 
 
 def write_with(path: str | os.PathLike[str], writer: Callable[[Path], None]) -> None:
-    """Call ``writer(tmp_path)`` and move the result onto ``path`` atomically."""
+    """Call ``writer(tmp_path)`` and publish the result onto ``path`` (see :func:`atomic_path`)."""
     with atomic_path(path) as tmp:
         writer(tmp)
+
+
+@contextlib.contextmanager
+def staged_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a new temporary folder beside ``path``; on success it is renamed to ``path`` (which
+    must not exist then), on failure removed: a folder of results appears whole or not at all."""
+    out = Path(path)
+    parent = out.parent if str(out.parent) else Path(".")
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    try:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o777 & ~umask)
+        yield tmp
+        try:
+            rename_noreplace(tmp, out)
+        except FileExistsError:
+            raise OutputExistsError(f"{out}: appeared while this command ran; not replaced") from None
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

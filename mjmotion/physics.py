@@ -1,26 +1,30 @@
-"""Physics checks with MuJoCo: inverse-dynamics residuals, effector–ball contact, ball launch.
+"""The physics judge with MuJoCo: inverse-dynamics residuals, effector–ball contact, ball launch.
 
-Residuals (METRICS.md "Physics residual"): ``qpos`` from the motion, ``qvel``/``qacc`` by central
-finite differences on the configuration manifold (quaternion joints differentiated in their local
-frame, as ``mj_differentiatePos`` does), ``mj_inverse`` with contacts disabled. The free root's
-generalised force ``qfrc_inverse[:6]`` is the external wrench the character needs: force (world)
-and torque about the root origin (root frame).
+Residuals (``docs/METRICS.md`` "Physics residual"): ``qpos`` from the motion, low-pass filtered
+(:func:`mjmotion.filters.lowpass`, ``Params.cutoff_hz``), ``qvel``/``qacc`` by central finite
+differences on the configuration manifold (quaternion joints differentiated in their local frame,
+as ``mj_differentiatePos`` does), ``mj_inverse`` with contacts and joint limits disabled. The free
+root's generalised force ``qfrc_inverse[:6]`` is the external wrench the character needs: force
+(world) and torque about the root origin. Whether the ground can supply it is a small
+optimisation per frame, solved for all frames at once (:func:`ground_reaction_residual`).
 
-- :func:`finite_differences` ``(compiled, q, fps) -> (qvel, qacc)``
+- :func:`finite_differences` ``(model, q, fps) -> (qvel, qacc)``; :func:`smooth_qpos`
 - :func:`inverse_wrench` ``(compiled, motion) -> (force (T,3), torque_world (T,3))``
-- :func:`residuals` ``(compiled, motion, track, params) -> Residuals`` (root_force_ratio per
-  frame, flight_residual, ground-reaction feasibility, physics_violation_ratio)
+- :func:`ground_reaction_residual` ``(force, torque, origin, points, active, mass, mu, lever)``
+- :func:`residuals` ``(compiled, motion, track, params) -> Residuals``
 - :func:`centre_of_pressure` ``(force, torque, origin) -> (T, 2)`` on the floor plane
 - :func:`hit_metrics` ``(motion, ball, hit_frame, props)``: hit_error_m, contact, impact_speed, launch
 - :func:`simulate_launch` ``(...) -> Launch``: the ball-launch simulation (effector driven
   kinematically by a mocap body welded to a heavy dynamic body, ball free)
 - :func:`launch_predictability` ``(...)``: seed 003 §2.3.2 / Figure 2.6, launch direction over
-  a grid of hit points and its Spearman rank correlation with the hit point.
+  a grid of hit points and its Spearman rank correlation with the hit point (the grid of adapted
+  shots themselves is an operation: :mod:`mjmotion.launchgrid`).
 """
 
 from __future__ import annotations
 
 import copy
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -28,11 +32,14 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from . import kinematics, mjcf
+from . import feet, kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
+from .feet import FootTrack
+from .filters import lowpass, lowpass_quaternions
 from .mjcf import Ball, CompiledModel, Prop
 from .skeleton import Motion
+from .thresholds import Params
 
 GRAVITY = 9.81
 
@@ -45,20 +52,37 @@ def _joint_layout(model: mujoco.MjModel) -> list[tuple[int, int, int]]:
     return [(int(model.jnt_type[j]), int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j])) for j in range(model.njnt)]
 
 
+def _layout_indices(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Index arrays of the joints' coordinates: quaternions ``(Q, 4)`` of ``qpos`` with their
+    angular ``qvel`` dofs ``(Q, 3)``, and linear ``qpos`` coordinates ``(L,)`` with their dofs ``(L,)``."""
+    quat_q, quat_v, lin_q, lin_v = [], [], [], []
+    for t, a, d in _joint_layout(model):
+        if t == mujoco.mjtJoint.mjJNT_FREE:
+            lin_q += [a, a + 1, a + 2]
+            lin_v += [d, d + 1, d + 2]
+            quat_q.append(range(a + 3, a + 7))
+            quat_v.append(range(d + 3, d + 6))
+        elif t == mujoco.mjtJoint.mjJNT_BALL:
+            quat_q.append(range(a, a + 4))
+            quat_v.append(range(d, d + 3))
+        else:
+            lin_q.append(a)
+            lin_v.append(d)
+    as_2d = lambda rows, k: np.array([list(r) for r in rows], dtype=int).reshape(-1, k)
+    return as_2d(quat_q, 4), as_2d(quat_v, 3), np.array(lin_q, dtype=int), np.array(lin_v, dtype=int)
+
+
 def difference(model: mujoco.MjModel, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
-    """``(..., nv)`` velocity taking ``q0`` to ``q1`` in unit time (``mj_differentiatePos``, batched).
+    """``(..., nv)`` velocity taking ``q0`` to ``q1`` in unit time (``mj_differentiatePos``, batched
+    over frames and joints).
 
     Free joints: world linear part, local angular part; ball joints: local rotation vector.
     """
+    quat_q, quat_v, lin_q, lin_v = _layout_indices(model)
     out = np.zeros(q0.shape[:-1] + (model.nv,))
-    for t, a, d in _joint_layout(model):
-        if t == mujoco.mjtJoint.mjJNT_FREE:
-            out[..., d : d + 3] = q1[..., a : a + 3] - q0[..., a : a + 3]
-            out[..., d + 3 : d + 6] = rot.log(rot.multiply(rot.conjugate(q0[..., a + 3 : a + 7]), q1[..., a + 3 : a + 7]))
-        elif t == mujoco.mjtJoint.mjJNT_BALL:
-            out[..., d : d + 3] = rot.log(rot.multiply(rot.conjugate(q0[..., a : a + 4]), q1[..., a : a + 4]))
-        else:
-            out[..., d] = q1[..., a] - q0[..., a]
+    out[..., lin_v] = q1[..., lin_q] - q0[..., lin_q]
+    if len(quat_q):
+        out[..., quat_v] = rot.log(rot.multiply(rot.conjugate(q0[..., quat_q]), q1[..., quat_q]))
     return out
 
 
@@ -74,8 +98,8 @@ def finite_differences(model: mujoco.MjModel, q: np.ndarray, fps: float, step: i
     if k < 1 or n < 2 * k + 1:
         raise MjmotionError(f"inverse dynamics needs at least {2 * max(k, 1) + 1} frames (finite-difference stencil {k})")
     h = k / fps
-    vf = difference(model, q[k:-k], q[2 * k :]) / h  # forward half-step velocities, t in [k, n-k)
-    vb = difference(model, q[: n - 2 * k], q[k:-k]) / h
+    v = difference(model, q[:-k], q[k:]) / h  # half-step velocities from t to t + k
+    vf, vb = v[k:], v[:-k]  # forward and backward of t in [k, n-k)
     qvel = np.empty((n, model.nv))
     qacc = np.empty((n, model.nv))
     qvel[k:-k] = 0.5 * (vf + vb)
@@ -87,7 +111,8 @@ def finite_differences(model: mujoco.MjModel, q: np.ndarray, fps: float, step: i
 
 def _no_contact_model(model: mujoco.MjModel) -> mujoco.MjModel:
     m = copy.copy(model)
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    # Contacts and joint limits off: the residual is the wrench the motion needs, not constraint forces.
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT) | int(mujoco.mjtDisableBit.mjDSBL_LIMIT)
     return m
 
 
@@ -98,16 +123,38 @@ def fd_frames(fps: float, fd_step: float, n_frames: int | None = None) -> int:
     return k if n_frames is None else max(1, min(k, (n_frames - 1) // 2))
 
 
-def inverse_wrench(compiled: CompiledModel, motion: Motion, fd_step: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """External wrench the motion needs, from ``mj_inverse`` with contacts disabled.
+def smooth_qpos(model: mujoco.MjModel, q: np.ndarray, fps: float, cutoff_hz: float | None) -> np.ndarray:
+    """``q: (T, nq)`` low-pass filtered joint by joint: positions directly, quaternions with
+    continuous signs and renormalised (:func:`mjmotion.filters.lowpass_quaternions`)."""
+    if cutoff_hz is None:
+        return q
+    out = q.copy()
+    quats = []
+    for t, a, _ in _joint_layout(model):
+        if t == mujoco.mjtJoint.mjJNT_FREE:
+            out[:, a : a + 3] = lowpass(q[:, a : a + 3], fps, cutoff_hz)
+            quats.append(a + 3)
+        elif t == mujoco.mjtJoint.mjJNT_BALL:
+            quats.append(a)
+        else:
+            out[:, a] = lowpass(q[:, a], fps, cutoff_hz)
+    if quats:
+        idx = np.array(quats)[:, None] + np.arange(4)  # (Q, 4)
+        out[:, idx] = lowpass_quaternions(q[:, idx], fps, cutoff_hz)
+    return out
 
-    ``fd_step``: finite-difference stencil in seconds (rounded to whole frames, at least one).
+
+def inverse_wrench(compiled: CompiledModel, motion: Motion, fd_step: float = 0.0, cutoff_hz: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """External wrench the motion needs, from ``mj_inverse`` with contacts and limits disabled.
+
+    ``cutoff_hz``: low-pass filter ``qpos`` first (None: as captured); ``fd_step``:
+    finite-difference stencil in seconds (rounded to whole frames, at least one).
 
     Returns ``force: (T, 3)`` newtons (world) and ``torque: (T, 3)`` N·m about the root origin,
     world frame.
     """
     m = _no_contact_model(compiled.model)
-    q = kinematics.qpos(compiled, motion)
+    q = smooth_qpos(m, kinematics.qpos(compiled, motion), motion.fps, cutoff_hz)
     qvel, qacc = finite_differences(m, q, motion.fps, fd_frames(motion.fps, fd_step, motion.n_frames))
     d = mujoco.MjData(m)
     frc = np.empty((q.shape[0], 6))
@@ -118,8 +165,83 @@ def inverse_wrench(compiled: CompiledModel, motion: Motion, fd_step: float = 0.0
         mujoco.mj_inverse(m, d)
         frc[t] = d.qfrc_inverse[:6]
     # Free joint: the rotational dofs are in the root's frame; rotate the torque to the world.
-    torque = rot.rotate(motion.rotations[:, 0], frc[:, 3:6])
+    torque = rot.rotate(q[:, 3:7], frc[:, 3:6])
     return frc[:, :3], torque
+
+
+def _character_bodies(compiled: CompiledModel) -> np.ndarray:
+    """Ids of the character's bodies (skeleton and props; not the world or the ball), parents first."""
+    m = compiled.model
+    root = int(compiled.body_ids[0])
+    return np.array([b for b in range(1, m.nbody) if int(m.body_rootid[b]) == root], dtype=int)
+
+
+def body_frames(compiled: CompiledModel, pose: kinematics.Pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World frames of the character's bodies: ``ids (B,)``, positions ``(T, B, 3)`` and
+    quaternions ``(T, B, 4)``. Skeleton bodies from ``pose``; bodies without joints (props) from
+    their parent's frame and their fixed offset."""
+    m = compiled.model
+    ids = _character_bodies(compiled)
+    t_count = pose.joint_positions.shape[0]
+    joint_of = {int(b): j for j, b in enumerate(compiled.body_ids)}
+    pos = np.empty((t_count, len(ids), 3))
+    quat = np.empty((t_count, len(ids), 4))
+    col = {int(b): i for i, b in enumerate(ids)}
+    cols = np.array([i for i, b in enumerate(ids) if int(b) in joint_of], dtype=int)
+    pos[:, cols] = pose.joint_positions[:, [joint_of[int(ids[i])] for i in cols]]
+    quat[:, cols] = pose.joint_rotations[:, [joint_of[int(ids[i])] for i in cols]]
+    for i, b in enumerate(ids):
+        if int(b) not in joint_of:  # a prop: its parent's frame and its fixed offset
+            k = col[int(m.body_parentid[b])]
+            quat[:, i] = rot.multiply(quat[:, k], np.broadcast_to(m.body_quat[b], (t_count, 4)))
+            pos[:, i] = pos[:, k] + rot.rotate(quat[:, k], np.broadcast_to(m.body_pos[b], (t_count, 3)))
+    return ids, pos, quat
+
+
+def _central(x: np.ndarray, fps: float, order: int) -> np.ndarray:
+    """First (``order=1``) or second central difference over frames, the end frames copying their neighbour."""
+    out = np.empty_like(x)
+    if order == 1:
+        out[1:-1] = (x[2:] - x[:-2]) * (0.5 * fps)
+    else:
+        out[1:-1] = (x[2:] - 2.0 * x[1:-1] + x[:-2]) * fps**2
+    out[0], out[-1] = out[1], out[-2]
+    return out
+
+
+def whole_body_wrench(compiled: CompiledModel, pose: kinematics.Pose, fps: float, cutoff_hz: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The external wrench a motion needs, from Newton–Euler over all bodies at once.
+
+    Force ``Σ m_b (a_b − g)`` and torque about the root joint ``Σ (c_b − o) × m_b (a_b − g) + Σ dH_b/dt``
+    (``c_b`` a body's centre of mass, ``H_b = I_b ω_b`` its spin angular momentum, world frame):
+    the free root's rows of ``mj_inverse`` (:func:`inverse_wrench`) without its per-frame
+    mass matrix, vectorised over frames. Body centres and orientations are low-pass filtered at
+    ``cutoff_hz`` before the central differences. Returns ``force, torque: (T, 3)`` (N, N·m, world).
+    """
+    m = compiled.model
+    if pose.joint_positions.shape[0] < 3:
+        raise MjmotionError("inverse dynamics needs at least 3 frames (finite-difference stencil 1)")
+    ids, pos, quat = body_frames(compiled, pose)
+    # Zero-length bones carry a token 0.1 g (mjcf): leave them out of the sums.
+    heavy = m.body_mass[ids] > 1e-3
+    ids, pos, quat = ids[heavy], pos[:, heavy], quat[:, heavy]
+    mass = m.body_mass[ids]  # (B,)
+    com = pos + rot.rotate(quat, np.broadcast_to(m.body_ipos[ids], pos.shape))
+    frame = rot.multiply(quat, np.broadcast_to(m.body_iquat[ids], quat.shape))  # principal axes, world
+    com = lowpass(com, fps, cutoff_hz)
+    frame = lowpass_quaternions(frame, fps, cutoff_hz)
+    acc = _central(com, fps, 2) - np.array([0.0, 0.0, -GRAVITY])
+    frame_c = rot.make_continuous(frame)
+    omega = np.zeros_like(com)
+    # World angular velocity of each body: log(q_{t+1} q_{t-1}⁻¹) / (2 dt), ends copied.
+    omega[1:-1] = rot.log(rot.multiply(frame_c[2:], rot.conjugate(frame_c[:-2]))) * (0.5 * fps)
+    omega[0], omega[-1] = omega[1], omega[-2]
+    local = rot.rotate(rot.conjugate(frame), omega) * m.body_inertia[ids]  # I ω in principal axes
+    spin = rot.rotate(frame, local)  # (T, B, 3)
+    force = np.einsum("b,tbi->ti", mass, acc)
+    origin = pose.joint_positions[:, 0]
+    torque = np.einsum("b,tbi->ti", mass, np.cross(com - origin[:, None, :], acc)) + _central(spin, fps, 1).sum(axis=1)
+    return force, torque
 
 
 def total_mass(compiled: CompiledModel) -> float:
@@ -141,94 +263,201 @@ def centre_of_pressure(force: np.ndarray, torque: np.ndarray, origin: np.ndarray
     return np.stack([px, py], axis=1)
 
 
-def distance_to_hull(p: np.ndarray, pts: np.ndarray) -> float:
-    """Distance (m) from the 2D point ``p`` to the convex hull of ``pts: (n, 2)`` (0 inside)."""
-    from scipy.spatial import ConvexHull, QhullError
+#: Friction pyramid edges: unit force directions inside the cone of friction ``mu`` (4 edges).
+_EDGES = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
 
-    edges: np.ndarray
-    try:
-        hull = ConvexHull(pts)
-        if np.all(hull.equations[:, :2] @ p + hull.equations[:, 2] <= 1e-12):
-            return 0.0
-        v = pts[hull.vertices]
-        edges = np.stack([v, np.roll(v, -1, axis=0)], axis=1)
-    except (QhullError, ValueError):
-        # Fewer than 3 points or all on a line: the hull is a segment (or a point).
-        i, j = np.triu_indices(len(pts), k=0)
-        edges = np.stack([pts[i], pts[j]], axis=1)
-    a, b = edges[:, 0], edges[:, 1]
-    ab = b - a
-    s = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18), 0.0, 1.0)
-    return float(np.min(np.linalg.norm(a + s[:, None] * ab - p, axis=1)))
+
+def parallel_support_bound(
+    force: np.ndarray,
+    torque: np.ndarray,
+    origin: np.ndarray,
+    points: np.ndarray,
+    active: np.ndarray,
+    weight: float,
+    mu: float = 1.0,
+    lever: float = 1.0,
+) -> np.ndarray:
+    """An upper bound of :func:`ground_reaction_residual` from one direct construction, ``(T,)``
+    (``inf`` where it does not apply).
+
+    Where the needed force lies in the friction pyramid (``|F_x| + |F_y| ≤ mu F_z``) and its
+    centre of pressure inside a triangle of active points, forces parallel to ``F`` at the
+    triangle's corners, weighted by the centre's barycentric coordinates, supply the force and
+    (for coplanar points) the horizontal torques exactly; what they leave over — mostly the
+    vertical "free moment" — bounds the optimum from above. Vectorised over frames and triangles.
+    """
+    t_count, n_pts = active.shape
+    out = np.full(t_count, np.inf)
+    ok = (np.abs(force[:, 0]) + np.abs(force[:, 1]) <= mu * force[:, 2]) & (force[:, 2] > 0) & (active.sum(axis=1) >= 3)
+    if not ok.any() or n_pts < 3:
+        return out
+    idx = np.flatnonzero(ok)
+    pts, act = points[idx], active[idx]
+    height = np.sum(pts[..., 2] * act, axis=1) / act.sum(axis=1)  # (U,) the support plane
+    f, tq, o = force[idx], torque[idx], origin[idx]
+    h = o[:, 2] - height
+    cop = np.stack([o[:, 0] - (tq[:, 1] + h * f[:, 0]) / f[:, 2], o[:, 1] + (tq[:, 0] - h * f[:, 1]) / f[:, 2]], axis=1)  # (U, 2)
+    tri = np.array(list(itertools.combinations(range(n_pts), 3)))  # (K, 3)
+    p = pts[:, tri, :2]  # (U, K, 3, 2)
+    usable = act[:, tri].all(axis=2)  # (U, K)
+    e1, e2 = p[:, :, 1] - p[:, :, 0], p[:, :, 2] - p[:, :, 0]
+    rel = cop[:, None, :] - p[:, :, 0]
+    det = e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]
+    good = usable & (np.abs(det) > 1e-8)
+    sdet = np.where(good, det, 1.0)
+    b1 = (rel[..., 0] * e2[..., 1] - rel[..., 1] * e2[..., 0]) / sdet
+    b2 = (e1[..., 0] * rel[..., 1] - e1[..., 1] * rel[..., 0]) / sdet
+    inside = good & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1)
+    has = inside.any(axis=1)
+    k = np.argmax(inside, axis=1)
+    rows = np.arange(len(idx))
+    bary = np.stack([1 - b1[rows, k] - b2[rows, k], b1[rows, k], b2[rows, k]], axis=1)  # (U, 3)
+    corners = pts[rows[:, None], tri[k]]  # (U, 3, 3)
+    c = np.einsum("uk,uki->ui", bary, corners)
+    left = np.cross(c - o, f) - tq
+    out[idx[has]] = np.linalg.norm(left[has], axis=1) / lever / weight
+    return out
+
+
+def ground_reaction_residual(
+    force: np.ndarray,
+    torque: np.ndarray,
+    origin: np.ndarray,
+    points: np.ndarray,
+    active: np.ndarray,
+    weight: float,
+    mu: float = 1.0,
+    lever: float = 1.0,
+    tol: float | None = None,
+) -> np.ndarray:
+    """How much of the needed wrench the ground cannot supply, per frame, as a fraction of ``weight``.
+
+    Per frame t: contact forces ``f_i`` at the ``active`` points ``points[t, i]``, each inside a
+    friction pyramid of coefficient ``mu`` (a non-negative combination of its 4 edge directions),
+    should produce the needed wrench — ``force[t]`` and ``torque[t]`` about ``origin[t]``. The
+    forces minimising ``‖(r_F, r_τ / lever)‖`` (``r`` the wrench left over; ``lever`` turns a
+    torque into a force, e.g. half the stature) solve a non-negative least-squares problem
+    (Lawson–Hanson, ``scipy.optimize.nnls``: exact, at most 6 forces active); the residual is that
+    norm over ``weight``, ``(T,)``. A frame with no active point returns the whole wrench (flight:
+    gravity alone must explain the motion).
+
+    With ``tol``, frames that :func:`parallel_support_bound` already proves within ``tol`` keep
+    that upper bound instead of the exact optimum (the pass/fail decision at ``tol`` is exact
+    either way; most supported frames of captured motion are decided so, without a solve).
+
+    ``force, torque, origin: (T, 3)``; ``points: (T, N, 3)``; ``active: (T, N)`` bool.
+    """
+    from scipy.optimize import nnls
+
+    t_count, n_pts = active.shape
+    d = np.concatenate([mu * _EDGES, np.ones((4, 1))], axis=1)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)  # (4, 3)
+    w = np.concatenate([force, torque / lever], axis=1) / weight  # (T, 6)
+    out = np.linalg.norm(w, axis=1)
+    solve = active.any(axis=1)
+    if tol is not None:
+        bound = parallel_support_bound(force, torque, origin, points, active, weight, mu, lever)
+        done = solve & (bound <= tol)
+        out[done] = bound[done]
+        solve &= ~done
+    rows = np.flatnonzero(solve)
+    if len(rows):
+        # Generators of the frames to solve, built at once: (R, N, 4, 6) force and torque/lever columns.
+        arm = points[rows] - origin[rows, None, :]
+        tq = np.cross(arm[:, :, None, :], d[None, None, :, :]) / lever
+        gen = np.concatenate([np.broadcast_to(d, tq.shape), tq], axis=-1) / weight
+        for i, t in enumerate(rows):
+            out[t] = nnls(gen[i, active[t]].reshape(-1, 6).T, w[t])[1]
+    return out
 
 
 @dataclass(frozen=True, eq=False)
 class Residuals:
-    """Inverse-dynamics checks of a clip.
+    """Inverse-dynamics checks of a clip (``docs/METRICS.md`` "Physics residual").
 
     Attributes:
         root_force_ratio: ``(T,)`` |external force| / (m g).
         flight: ``(T,)`` bool, no foot in contact.
-        normal_ok, cone_ok, cop_ok: ``(T,)`` bool ground-reaction checks (True in flight frames).
-        cop: ``(T, 2)`` centre of pressure on the floor, metres.
-        violation: ``(T,)`` bool frames failing a check.
+        residual: ``(T,)`` ground-reaction residual (:func:`ground_reaction_residual`), fraction of m g.
+        penetrating: ``(T,)`` bool, the body deeper below the floor than ``Params.penetration_tol``.
+        support: ``(T,)`` bool, some sole point can push on the floor (else the residual is the whole wrench).
+        violation: ``(T,)`` bool frames failing: ``residual > Params.residual_tol`` or penetrating.
         flight_residual: mean ``root_force_ratio`` over flight frames whose finite-difference
-            stencil is all in flight (NaN without such frames).
+            neighbourhood is all in flight (NaN without such frames).
         physics_violation_ratio: fraction of violating frames.
         mass: kg.
     """
 
     root_force_ratio: np.ndarray
     flight: np.ndarray
-    normal_ok: np.ndarray
-    cone_ok: np.ndarray
-    cop_ok: np.ndarray
-    cop: np.ndarray
+    residual: np.ndarray
+    penetrating: np.ndarray
+    support: np.ndarray
     violation: np.ndarray
     flight_residual: float
     physics_violation_ratio: float
     mass: float
 
 
-def residuals(compiled: CompiledModel, motion: Motion, track: Any = None, params: Any = None) -> Residuals:
-    """METRICS.md physics residual of ``motion`` (``track``: its :class:`~mjmotion.evaluate.FootTrack`;
-    ``params``: :class:`~mjmotion.evaluate.Params`)."""
-    from . import evaluate as ev
+def residuals(
+    compiled: CompiledModel,
+    motion: Motion,
+    track: FootTrack | None = None,
+    params: Params | None = None,
+    ground: np.ndarray | None = None,
+    pose: kinematics.Pose | None = None,
+) -> Residuals:
+    """``docs/METRICS.md`` physics residual of ``motion``.
 
-    params = params if params is not None else ev.Params()
-    track = track if track is not None else ev.foot_heights_speeds(compiled, motion)
-    force, torque = inverse_wrench(compiled, motion, params.fd_step)
+    ``track``: its :class:`~mjmotion.feet.FootTrack` (default: calibrated on the clip, floor
+    detected); ``params``: :class:`~mjmotion.thresholds.Params`; ``ground: (T,)`` the lowest
+    body point above the floor (default: from ``track``); ``pose``: the motion's forward kinematics.
+    The needed wrench is :func:`whole_body_wrench` (the root rows of ``mj_inverse``, vectorised).
+    """
+    params = params if params is not None else Params()
+    pose = pose if pose is not None else kinematics.forward(compiled, motion)
+    if track is None or ground is None:
+        track = track if track is not None else feet.foot_heights_speeds(compiled, motion, pose, speed_window=params.speed_window)
+        if ground is None:
+            ground = feet.lowest_body_point(compiled, pose, track.heights.min(axis=1) + track.floor) - track.floor
+    force, torque = whole_body_wrench(compiled, pose, motion.fps, params.cutoff_hz)
     mass = total_mass(compiled)
-    ratio = np.linalg.norm(force, axis=1) / (mass * GRAVITY)
-    con = ev.contacts(track, params.h_c, params.v_c)  # (T, F)
-    flight = ~con.any(axis=1)
-    normal_ok = flight | (force[:, 2] >= 0.0)
-    cone_ok = flight | (np.linalg.norm(force[:, :2], axis=1) <= params.mu * np.maximum(force[:, 2], 0.0))
-    cop = centre_of_pressure(force, torque, motion.root_positions)
-    cop_ok = np.ones(motion.n_frames, dtype=bool)
-    low_pts = track.points[..., 2] < params.h_c  # (T, F, P)
-    for t in np.flatnonzero(~flight):
-        mask = low_pts[t] & con[t][:, None]
-        pts = track.points[t][mask][:, :2]
-        if not np.all(np.isfinite(cop[t])) or len(pts) == 0:
-            cop_ok[t] = False
-            continue
-        cop_ok[t] = distance_to_hull(cop[t], pts) <= params.cop_margin
-    violation = np.where(flight, ratio > params.flight_force_ratio, ~(normal_ok & cone_ok & cop_ok))
-    # flight_residual uses flight frames whose whole difference stencil is airborne: a stencil
-    # straddling take-off or landing measures the ground push, not the flight (one more frame each
-    # side: a contact label looks one frame back).
-    k = fd_frames(motion.fps, params.fd_step, motion.n_frames)
+    weight = mass * GRAVITY
+    ratio = np.linalg.norm(force, axis=1) / weight
+    con = feet.contacts(track, params.h_c, params.v_c, params.hysteresis)  # (T, F)
+    flight = np.asarray(~con.any(axis=1))
+    # Support: sole points touching the floor (within support_height), and those of feet in
+    # contact within h_c. A foot sliding on the floor still pushes (a retargeted run's stance
+    # foot often slides faster than v_c).
+    h = track.points[..., 2] - track.floor  # (T, F, P)
+    support = (h < params.support_height) | ((h < params.h_c) & con[:, :, None])
+    t_count = motion.n_frames
+    lever = 0.5 * max(float(motion.skeleton.stature()), 0.3)
+    residual = ground_reaction_residual(
+        force,
+        torque,
+        pose.joint_positions[:, 0],
+        track.points.reshape(t_count, -1, 3),
+        support.reshape(t_count, -1),
+        weight,
+        params.mu,
+        lever,
+        params.residual_tol,
+    )
+    penetrating = ground < -params.penetration_tol
+    violation = (residual > params.residual_tol) | penetrating
+    # flight_residual uses flight frames away from take-off and landing (there the filter and the
+    # difference stencil still see the ground's push) and from the clip's ends: 2 frames and 50 ms.
     from scipy.ndimage import minimum_filter1d
 
-    clean = minimum_filter1d(flight.astype(np.uint8), size=2 * k + 3, mode="nearest").astype(bool)
+    k = 2 + round(0.05 * motion.fps)
+    clean = minimum_filter1d(flight.astype(np.uint8), size=2 * k + 1, mode="constant", cval=0).astype(bool)
     return Residuals(
         root_force_ratio=ratio,
         flight=flight,
-        normal_ok=normal_ok,
-        cone_ok=cone_ok,
-        cop_ok=cop_ok,
-        cop=cop,
+        residual=residual,
+        penetrating=penetrating,
+        support=support.any(axis=(1, 2)),
         violation=violation,
         flight_residual=float(ratio[clean].mean()) if clean.any() else float("nan"),
         physics_violation_ratio=float(violation.mean()),
@@ -522,132 +751,4 @@ def launch_predictability(
         rho_azimuth=_spearman(lateral, az_unwrapped),
         rho_elevation=_spearman(centred[:, 2], el),
         slope_deg_per_m=float(np.polyfit(lateral, az_unwrapped, 1)[0]) if np.ptp(lateral) > 1e-12 else float("nan"),
-    )
-
-
-def arm_chain(skeleton: Any, joint: int, min_bone: float = 0.08) -> tuple[int, int, int]:
-    """``(shoulder, elbow, wrist)`` above ``joint``: the first two long bones up the chain
-    (bones shorter than ``min_bone`` × stature, like a hand or a clavicle stub, are skipped)."""
-    short = min_bone * skeleton.stature()
-
-    def up_to_long(j: int) -> int:
-        while j > 0 and np.linalg.norm(skeleton.offsets[j]) < short:
-            j = int(skeleton.parents[j])
-        return j
-
-    wrist = up_to_long(joint)
-    elbow = up_to_long(int(skeleton.parents[wrist]))
-    shoulder = int(skeleton.parents[elbow])
-    if wrist <= 0 or elbow <= 0 or shoulder < 0:
-        raise MjmotionError(f"{skeleton.names[joint]!r}: no shoulder-elbow-wrist chain above it")
-    return shoulder, elbow, wrist
-
-
-def reach_hit_point(
-    motion: Motion,
-    prop: Prop,
-    hit_frame: int,
-    target: Sequence[float],
-    falloff: float = 0.25,
-    wrist: str = "locked",
-    pose: kinematics.Pose | None = None,
-) -> Motion:
-    """The shot adapted so ``prop``'s sweet spot meets ``target`` at ``hit_frame`` (seed 003 §2.2).
-
-    The arm (shoulder, elbow, wrist) is solved with analytic two-bone IK, the offset blended in and
-    out with a smoothstep over ``falloff`` seconds each side of the hit. ``wrist="locked"`` keeps
-    the wrist's local rotation from the source (seed 003 §2.3.3: the club turns with the forearm);
-    ``wrist="world"`` keeps the club's world orientation (the wrist absorbs the change).
-    ``pose``: ``motion``'s forward kinematics with ``prop`` (computed when not given; a grid of
-    targets on one shot passes it once).
-    """
-    from .cleanup import two_bone_ik
-
-    if wrist not in ("locked", "world"):
-        raise MjmotionError(f"wrist={wrist!r}: expected 'locked' or 'world'")
-    skel = motion.skeleton
-    sh, el, wr = arm_chain(skel, skel.index(prop.joint))
-    n = max(1, round(falloff * motion.fps))
-    t = np.arange(motion.n_frames)
-    x = np.clip(1.0 - np.abs(t - hit_frame) / (n + 1), 0.0, 1.0)
-    weight = x * x * (3 - 2 * x)
-    act = weight > 0
-    pose = pose if pose is not None else kinematics.forward(mjcf.compile(skel, (prop,)), motion)
-    delta = np.asarray(target, dtype=float) - pose.site(prop.site)[hit_frame]
-    jp, jr = pose.joint_positions, pose.joint_rotations
-    if wrist == "locked":
-        # Forearm and club are one rigid link from the elbow to the sweet spot: solve that chain.
-        end = pose.site(prop.site)[act]
-    else:
-        end = jp[act, wr]
-    r_sh, r_el, _ = two_bone_ik(jp[act, sh], jp[act, el], end, end + weight[act, None] * delta)
-    w_sh = rot.multiply(r_sh, jr[act, sh])
-    w_el = rot.multiply(r_sh, rot.multiply(r_el, jr[act, el]))
-    rots = motion.rotations.copy()
-    rots[act, sh] = rot.multiply(rot.conjugate(jr[act, int(skel.parents[sh])]), w_sh)
-    rots[act, el] = rot.multiply(rot.conjugate(w_sh), w_el)
-    if wrist == "world":
-        rots[act, wr] = rot.multiply(rot.conjugate(w_el), jr[act, wr])
-    return motion.replace(rotations=rot.normalize(rots))
-
-
-def effector_path(compiled: CompiledModel, motion: Motion, geom: int, hit_frame: int, window: int = 3) -> tuple[np.ndarray, np.ndarray, int]:
-    """World poses ``(pos (n, 3), quat (n, 4))`` of ``geom`` over ``hit_frame ± window`` and the hit's index."""
-    m = compiled.model
-    q = kinematics.qpos(compiled, motion)
-    lo, hi = max(0, hit_frame - window), min(motion.n_frames, hit_frame + window + 1)
-    d = mujoco.MjData(m)
-    pos = np.empty((hi - lo, 3))
-    mats = np.empty((hi - lo, 3, 3))
-    for i, f in enumerate(range(lo, hi)):
-        d.qpos[:] = q[f]
-        mujoco.mj_kinematics(m, d)
-        pos[i] = d.geom_xpos[geom]
-        mats[i] = d.geom_xmat[geom].reshape(3, 3)
-    return pos, rot.make_continuous(rot.from_matrix(mats)), hit_frame - lo
-
-
-def grid_offsets(motion: Motion, prop: Prop, hit_frame: int, n: int = 3, step: float = 0.05) -> np.ndarray:
-    """``(n², 3)`` offsets on an ``n × n`` grid (spacing ``step`` m) across the sweet spot's path at
-    the hit: one axis horizontal and perpendicular to its velocity, the other vertical."""
-    compiled = mjcf.compile(motion.skeleton, (prop,))
-    spot = kinematics.forward(compiled, motion).site(prop.site)
-    v = np.gradient(spot, axis=0)[hit_frame]
-    lat = np.cross([0.0, 0.0, 1.0], v)
-    lat = lat / np.linalg.norm(lat) if np.linalg.norm(lat) > 1e-12 else np.array([0.0, 1.0, 0.0])
-    ticks = (np.arange(n) - (n - 1) / 2) * step
-    return np.array([a * lat + b * np.array([0.0, 0.0, 1.0]) for b in ticks for a in ticks])
-
-
-def hit_grid(
-    motion: Motion,
-    prop: Prop,
-    hit_frame: int,
-    offsets: np.ndarray,
-    wrist: str = "locked",
-    ball_radius: float = 0.0214,
-    ball_mass: float = 0.046,
-    ball_velocity: Sequence[float] = (0.0, 0.0, 0.0),
-    restitution: float = 0.8,
-    falloff: float = 0.25,
-) -> Predictability:
-    """Seed 003 Figure 2.6: adapt the shot to hit points at the source hit point + ``offsets (N, 3)``
-    (:func:`reach_hit_point`), launch the ball from each (club and golf ball by default) and
-    rank-correlate launch direction with the hit point."""
-    compiled = mjcf.compile(motion.skeleton, (prop,))
-    geom = mujoco.mj_name2id(compiled.model, mujoco.mjtObj.mjOBJ_GEOM, prop.name)
-    # One model and one FK of the source shot serve every grid point.
-    pose = kinematics.forward(compiled, motion)
-    base = pose.site(prop.site)[hit_frame]
-    points = base + np.asarray(offsets, dtype=float)
-    paths = []
-    h = 0
-    for p in points:
-        adapted = reach_hit_point(motion, prop, hit_frame, p, falloff, wrist, pose)
-        pos, quat, h = effector_path(compiled, adapted, geom, hit_frame)
-        paths.append((pos, quat))
-    size = compiled.model.geom_size[geom].tolist()
-    # The ball sits one radius off the club's axis, in front of the face along the club's motion.
-    return launch_predictability(
-        int(compiled.model.geom_type[geom]), size, paths, motion.fps, h, points, ball_radius, ball_mass, ball_velocity, restitution
     )

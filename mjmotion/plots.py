@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -22,14 +23,16 @@ PATH_COLOR = "#ffffff"
 CURVE_COLOR = "#ff3030"
 
 
-def _figure(figsize: tuple[float, float], ncols: int = 1, nrows: int = 1, **kw):
+def _figure(
+    figsize: tuple[float, float], ncols: int = 1, nrows: int = 1, layout: Literal["constrained", "compressed", "tight"] | None = "constrained", **kw
+):
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure
 
     # A bare Figure (no pyplot): no global state, safe in threads and scripts.
-    fig = Figure(figsize=figsize, layout="constrained")
+    fig = Figure(figsize=figsize, layout=layout)
     axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
     return fig, axes
 
@@ -426,4 +429,86 @@ def prop_frames(
     panels[0, 0].legend(fontsize=8, loc="best")
     if title:
         fig.suptitle(title)
+    return _save(fig, out, dpi)
+
+
+def skinning_artefacts(
+    series: Mapping[str, Mapping[str, np.ndarray]],
+    views: Mapping[str, np.ndarray],
+    faces: np.ndarray,
+    centre: np.ndarray,
+    reach: float,
+    out: str | os.PathLike[str],
+    *,
+    dpi: int = 100,
+) -> Path:
+    """Skinning artefacts: kept area and volume against angle, and the skin at the joint.
+
+    Args:
+        series: ``{"twist": {...}, "bend": {...}}``, each with ``angles`` ``(A,)`` and
+            ``lbs_area``, ``dqs_area``, ``lbs_volume``, ``dqs_volume`` ``(A,)`` in % of the bind pose.
+        views: ``{label: (V, 3) vertices}`` of one pose to draw near the joint (e.g. LBS and DQS at 180°).
+        faces: ``(F, 3)`` of the mesh; centre: ``(3,)`` the joint; reach: metres drawn around it.
+    """
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    fig, axes = _figure((11.0, 7.5), ncols=2, nrows=2)
+    for ax, kind in zip(axes[0], ("twist", "bend")):
+        s = series[kind]
+        angles = _array(f"{kind} angles", s["angles"], 1)
+        for k, (key, label, style) in enumerate(
+            (("lbs_area", "LBS area", "-"), ("dqs_area", "DQS area", "-"), ("lbs_volume", "LBS volume", "--"), ("dqs_volume", "DQS volume", "--"))
+        ):
+            ax.plot(angles, np.asarray(s[key], dtype=float), style, color=COLORS[k % 2], marker="o", ms=3, label=label)  # NaN: not measured
+        ax.axhline(90.0, color="#999999", lw=0.8, ls=":")
+        ax.set_xlabel(f"elbow {kind}, degrees")
+        ax.set_ylabel("% of the bind pose")
+        ax.set_title(f"forearm {kind}: cross-section area and volume at the elbow")
+        ax.legend(loc="lower left", fontsize=8)
+    for i, (label, verts) in enumerate(views.items()):
+        ax = axes[1, i]
+        ax.remove()
+        ax = fig.add_subplot(2, 2, 3 + i, projection="3d")
+        v = _array(label, verts, 2, 3)
+        near = np.all(np.abs(v[faces] - centre).max(axis=2) < reach, axis=1)
+        tri = v[faces[near]]
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        shade = 0.35 + 0.65 * np.clip((n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)) @ np.array([0.3, -0.5, 0.8]), 0, 1)
+        ax.add_collection3d(Poly3DCollection(tri, facecolors=np.outer(shade, [0.30, 0.55, 0.85]), edgecolor="none"))
+        for k, lim in enumerate((ax.set_xlim, ax.set_ylim, ax.set_zlim)):
+            lim(centre[k] - 0.55 * reach, centre[k] + 0.55 * reach)
+        ax.set_box_aspect((1, 1, 1))
+        ax.view_init(elev=20, azim=-60)
+        ax.set_title(f"{label}, 180° twist: the skin at the elbow")
+        ax.set_axis_off()
+    return _save(fig, out, dpi)
+
+
+def histograms(values: Mapping[str, Sequence[float]], out: str | os.PathLike[str], *, title: str = "", bins: int = 30, dpi: int = 100) -> Path:
+    """One small histogram per named series (finite values only; a series with none is skipped), on a grid."""
+    series = {k: a[np.isfinite(a)] for k, v in values.items() if (a := np.asarray(v, dtype=float)).size}
+    series = {k: a for k, a in series.items() if a.size}
+    if not series:
+        raise MjmotionError(f"{out}: no finite values to draw")
+    ncols = min(4, len(series))
+    nrows = -(-len(series) // ncols)
+    # A fixed layout: the constrained one takes a second more on a grid of thirty panels.
+    fig, axes = _figure((3.2 * ncols, 2.3 * nrows + 0.4), ncols=ncols, nrows=nrows, layout=None)
+    fig.subplots_adjust(left=0.05, right=0.98, bottom=0.04, top=1 - 0.5 / (2.3 * nrows + 0.4), hspace=0.55, wspace=0.3)
+    for ax, (name, a) in zip(axes.flat, series.items()):
+        counts, edges = np.histogram(a, bins=bins)
+        ax.stairs(counts, edges, fill=True, color=COLORS[0])  # one artist per panel (ax.hist makes one per bar)
+        # Fixed ticks (the range, the tallest bin) and a title at a fixed height: Matplotlib's tick locators
+        # and its title placement, which measures every tick label, took two thirds of the drawing.
+        top = int(counts.max())
+        ax.set_xlim(edges[0], edges[-1])
+        ax.set_ylim(0, 1.08 * top)
+        ax.set_xticks([edges[0], edges[-1]], [f"{edges[0]:.4g}", f"{edges[-1]:.4g}"])
+        ax.set_yticks([0, top])
+        ax.set_title(name, fontsize=8, y=1.0, pad=3)
+        ax.tick_params(labelsize=7)
+    for ax in list(axes.flat)[len(series) :]:
+        ax.set_visible(False)
+    if title:
+        fig.suptitle(title, fontsize=10)
     return _save(fig, out, dpi)

@@ -45,6 +45,9 @@ PALETTE: tuple[tuple[float, float, float], ...] = (
     (0.40, 0.80, 0.80),  # teal
 )
 BALL_RGBA = (0.85, 0.10, 0.10, 1.0)
+#: Contact shadows: opacity of a shadow touching the floor, and the height (m) from which none is drawn.
+CONTACT_SHADOW_ALPHA = 0.5
+CONTACT_SHADOW_HEIGHT = 0.6
 #: Backends tried, in order, when ``MUJOCO_GL`` is unset or not an offscreen one.
 OFFSCREEN_BACKENDS = ("egl", "osmesa")
 
@@ -59,6 +62,8 @@ class Actor:
         color: RGB 0–1 of its bones (feet a darker shade); ``None`` = next in :data:`PALETTE`.
         props: sticks it holds (built for ``motion.skeleton``, see :func:`mjmotion.mjcf.default_prop`).
         trail: a site or joint name whose recent path is drawn as a fading ghost trail, or ``None``.
+        skin: draw the character as a skinned surface (:mod:`mjmotion.skin`, deformed by MuJoCo's
+            vertex blending) instead of its capsules; props are drawn either way.
     """
 
     motion: Motion
@@ -66,6 +71,7 @@ class Actor:
     color: tuple[float, float, float] | None = None
     props: tuple[mjcf.Prop, ...] = ()
     trail: str | None = None
+    skin: bool = False
 
 
 @dataclass(frozen=True)
@@ -206,6 +212,7 @@ def build_scene(
     ball: mjcf.Ball | None = None,
     spacing: float = 1.2,
     view: View = View(),
+    floor: float | None = 0.0,
 ) -> Scene:
     """Put ``actors`` side by side in one model and pose them for every video frame.
 
@@ -217,6 +224,10 @@ def build_scene(
         spacing: metres between neighbouring characters, across the first clip's travel
             direction; 0 overlays them.
         view: camera settings.
+        floor: the floor height (m, world z) of the clips, drawn at the checker floor (default
+            z = 0, as captured); None: the first clip's stance floor, as ``mjmotion evaluate``
+            detects it (docs/METRICS.md). Every character moves by the same amount, so one
+            floating over another's floor still shows.
     """
     if not actors:
         raise MjmotionError("render: no characters to render")
@@ -224,6 +235,13 @@ def build_scene(
         raise MjmotionError(f"render: fps must be a positive number, got {fps}")
     if not (np.isfinite(spacing) and spacing >= 0):
         raise MjmotionError(f"render: spacing must be a non-negative number of metres, got {spacing}")
+    if floor is None:
+        from .feet import foot_heights_speeds
+
+        first = actors[0].motion
+        floor = foot_heights_speeds(None, first).floor if first.skeleton.feet() and first.n_frames > 1 else 0.0
+    if not np.isfinite(floor):
+        raise MjmotionError(f"render: floor must be a finite height in metres, got {floor}")
     motions = [a.motion.resample(fps) for a in actors]
     n = len(actors)
     forward, lateral = travel_axes(motions[0])
@@ -249,11 +267,13 @@ def build_scene(
         compiled.append(c)
         child = c.spec.copy()  # attach moves elements; keep the compiled model's spec intact
         _paint(child, actor.color or PALETTE[i % len(PALETTE)], {p.name for p in actor.props})
+        if actor.skin:
+            _skin_instead_of_capsules(spec, child, c, actor, PALETTE[i % len(PALETTE)], _prefix(i))
         spec.worldbody.add_frame().attach_body(child.worldbody.first_body(), prefix=_prefix(i))
     ball_offsets = offsets if spacing > 0 else offsets[:1]
     if ball is not None:
         for k in range(len(ball_offsets)):
-            body = spec.worldbody.add_body(name=f"ball{k}", pos=list(np.add(ball.position, ball_offsets[k])))
+            body = spec.worldbody.add_body(name=f"ball{k}", pos=list(np.add(ball.position, ball_offsets[k]) - [0.0, 0.0, floor]))
             body.add_geom(
                 name=f"ball{k}",
                 type=mujoco.mjtGeom.mjGEOM_SPHERE,
@@ -270,7 +290,7 @@ def build_scene(
     root_tracks: list[np.ndarray] = []
     for i, (c, m) in enumerate(zip(compiled, motions)):
         qi = kinematics.qpos(c, m)
-        qi[:, 0:3] += offsets[i]  # the root's free joint is world position
+        qi[:, 0:3] += offsets[i] - [0.0, 0.0, floor]  # the root's free joint is world position; the floor at z = 0
         idx = _qpos_map(c.model, model, _prefix(i))
         hold = np.minimum(np.arange(t), m.n_frames - 1)
         q[:, idx] = qi[hold]
@@ -320,6 +340,21 @@ def _paint(spec: mujoco.MjSpec, color: Sequence[float], prop_names: set[str]) ->
             continue
         shade = 0.8 if g.name.startswith(("foot/", "toe/")) else 1.0
         g.rgba = [*(rgb * shade), 1.0]
+
+
+def _skin_instead_of_capsules(
+    spec: mujoco.MjSpec, child: mujoco.MjSpec, compiled: mjcf.CompiledModel, actor: Actor, default: Sequence[float], prefix: str
+) -> None:
+    """Hide ``child``'s body geoms and give ``spec`` the character's skin, bound to the prefixed bodies."""
+    from . import skin
+
+    s = skin.build(compiled, reference=actor.motion)
+    props = {p.name for p in actor.props}
+    for g in child.geoms:
+        if g.name not in props:
+            g.group = skin.HIDDEN_GROUP
+    rgb = np.clip(np.asarray(actor.color or default, dtype=float), 0.0, 1.0)
+    mjcf.add_skin(spec, **skin.skin_arguments(s, prefix=prefix, name=f"{prefix}skin", rgba=(*rgb, 1.0)))  # type: ignore[arg-type]
 
 
 def _qpos_map(child: mujoco.MjModel, combined: mujoco.MjModel, prefix: str) -> np.ndarray:
@@ -428,7 +463,12 @@ class Renderer:
         scene: what to draw.
         width, height: image size, pixels.
         labels: draw each character's label above its head.
-        shadows, reflections: MuJoCo's shadow and floor-reflection passes.
+        contact_shadows: a soft shadow on the floor under every body part, fading with its
+            height (light from straight above): shows where the feet meet the floor at almost
+            no cost. ``None`` (default): drawn unless ``shadows`` is on.
+        shadows, reflections: MuJoCo's shadow-mapped key light and the floor reflection; in
+            software GL (Mesa llvmpipe) each about doubles a frame's time
+            (``benchmarks/bench_render.py``).
         samples: multisampling (MSAA) samples; 0 is fastest in software GL.
         shadow_size: shadow map size, pixels.
         trail_seconds: length of the effector ghost trails.
@@ -441,8 +481,9 @@ class Renderer:
         height: int = 540,
         *,
         labels: bool = True,
-        shadows: bool = True,
-        reflections: bool = True,
+        contact_shadows: bool | None = None,
+        shadows: bool = False,
+        reflections: bool = False,
         samples: int = 0,
         shadow_size: int = 1024,
         trail_seconds: float = 0.6,
@@ -464,7 +505,10 @@ class Renderer:
         self._mjr = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
         n_trail = sum(1 for p in scene.trail_points if p is not None) * (self.trail_frames + 1)
-        self._scn = mujoco.MjvScene(model, maxgeom=model.ngeom + n_trail + 100)
+        #: geoms that cast a contact shadow: every character's and prop's (not the floor's)
+        contact = not shadows if contact_shadows is None else contact_shadows
+        self._casters = np.flatnonzero(model.geom_bodyid > 0) if contact else np.zeros(0, dtype=int)
+        self._scn = mujoco.MjvScene(model, maxgeom=model.ngeom + n_trail + len(self._casters) + 100)
         self._scn.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
         self._scn.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = reflections
         #: MuJoCo's visibility options (``geomgroup``, ``sitegroup``, ``flags``), applied to every frame.
@@ -507,6 +551,7 @@ class Renderer:
         cam.lookat[:] = s.lookat[i]
         cam.azimuth, cam.elevation, cam.distance = s.azimuth, s.elevation, s.distance
         mujoco.mjv_updateScene(s.model, d, self.option, None, cam, mujoco.mjtCatBit.mjCAT_ALL, self._scn)
+        self._add_contact_shadows(d)
         self._add_trails(i)
         self._gl.make_current()
         mujoco.mjr_render(self._rect, self._scn, self._mjr)
@@ -536,6 +581,49 @@ class Renderer:
             width=self.width,
             height=self.height,
         )
+
+    def _add_contact_shadows(self, d: mujoco.MjData) -> None:
+        """A flat, translucent ellipse on the floor under each caster geom (added to the MjvScene).
+
+        Each geom is taken as the ellipsoid through its extent (capsules: radius and half-length
+        plus radius); its vertical projection is the ellipse, darker the nearer the geom's lowest
+        point is to the floor (none from :data:`CONTACT_SHADOW_HEIGHT` up).
+        """
+        g = self._casters
+        if len(g) == 0:
+            return
+        model = self.scene.model
+        size = model.geom_size[g]
+        kind = model.geom_type[g]
+        semi = size.copy()  # semi-axes along the geom's own x, y, z
+        cap = (kind == mujoco.mjtGeom.mjGEOM_CAPSULE) | (kind == mujoco.mjtGeom.mjGEOM_CYLINDER)
+        semi[cap] = np.column_stack([size[cap, 0], size[cap, 0], size[cap, 1] + size[cap, 0]])
+        sph = kind == mujoco.mjtGeom.mjGEOM_SPHERE
+        semi[sph] = size[sph, :1]
+        axes = d.geom_xmat[g].reshape(-1, 3, 3) * semi[:, None, :]  # (G, 3, 3) columns: semi-axes in the world
+        shape = axes @ axes.transpose(0, 2, 1)  # the ellipsoid's shape matrix; its xy block is the shadow's
+        a, b, c = shape[:, 0, 0], shape[:, 0, 1], shape[:, 1, 1]
+        half, diff = 0.5 * (a + c), np.hypot(0.5 * (a - c), b)
+        major, minor = np.sqrt(half + diff), np.sqrt(np.maximum(half - diff, 0.0))
+        yaw = 0.5 * np.arctan2(2 * b, a - c)
+        low = d.geom_xpos[g, 2] - np.sqrt(shape[:, 2, 2])
+        alpha = CONTACT_SHADOW_ALPHA * np.clip(1.0 - low / CONTACT_SHADOW_HEIGHT, 0.0, 1.0)
+        scn = self._scn
+        for k in np.flatnonzero((alpha > 0.01) & (major > 1e-4)):
+            if scn.ngeom >= scn.maxgeom:
+                return
+            cz, sz = np.cos(yaw[k]), np.sin(yaw[k])
+            geom = scn.geoms[scn.ngeom]
+            mujoco.mjv_initGeom(
+                geom,
+                mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+                np.array([major[k], max(minor[k], 0.2 * major[k]), 5e-4]),
+                np.array([d.geom_xpos[g[k], 0], d.geom_xpos[g[k], 1], 2e-3]),
+                np.array([cz, -sz, 0.0, sz, cz, 0.0, 0.0, 0.0, 1.0]),
+                np.array([0.0, 0.0, 0.0, alpha[k]], dtype=np.float32),
+            )
+            geom.category = mujoco.mjtCatBit.mjCAT_DECOR
+            scn.ngeom += 1
 
     def _add_trails(self, i: int) -> None:
         """Fading spheres at the effector's last ``trail_frames`` positions (added to the MjvScene)."""
@@ -617,11 +705,49 @@ def write_video(
     if suffix == ".mp4" and (width % 2 or height % 2):
         raise MjmotionError(f"{out}: MP4 (yuv420p) needs an even width and height, got {width}x{height}")
     with atomic_path(out) as tmp:
-        if suffix == ".mp4":
-            _write_mp4(frames, tmp, fps, size, progress)
-        else:
-            _write_gif(frames, tmp, fps, progress)
+        try:
+            if suffix == ".mp4":
+                _write_mp4(frames, tmp, fps, size, progress)
+            else:
+                _write_gif(frames, tmp, fps, progress)
+        except MjmotionError as e:  # name the output, not its temporary file
+            raise MjmotionError(f"{out}: {str(e).replace(f'{tmp}: ', '')}") from None
+        check_video_file(tmp, suffix, shown=out)  # a full disk truncates quietly: never "wrote" a broken video
     return out
+
+
+def check_video_file(path: str | os.PathLike[str], suffix: str, shown: str | os.PathLike[str] | None = None) -> None:
+    """Refuse a video file that is not complete: an MP4 whose top-level boxes do not add up to
+    the file (or lack ``ftyp``, ``mdat`` or ``moov``, which ffmpeg writes last), a GIF without
+    its header or trailer byte."""
+    name = shown or path
+    data_size = os.path.getsize(path)
+    with open(path, "rb") as fh:
+        if suffix == ".gif":
+            head = fh.read(6)
+            fh.seek(max(0, data_size - 1))
+            if head not in (b"GIF87a", b"GIF89a") or fh.read(1) != b";":
+                raise MjmotionError(f"{name}: the GIF written is incomplete ({data_size} bytes; a full disk?)")
+            return
+        kinds, pos = set(), 0
+        while pos < data_size:
+            fh.seek(pos)
+            head = fh.read(16)
+            if len(head) < 8:
+                break
+            size, kind = int.from_bytes(head[:4], "big"), head[4:8]
+            if size == 1 and len(head) == 16:
+                size = int.from_bytes(head[8:16], "big")
+            elif size == 0:
+                size = data_size - pos
+            if size < 8:
+                break
+            kinds.add(kind)
+            pos += size
+    if pos != data_size or not {b"ftyp", b"mdat", b"moov"} <= kinds:
+        raise MjmotionError(
+            f"{name}: the MP4 written is incomplete ({data_size} bytes, boxes {sorted(k.decode('latin-1') for k in kinds)}; a full disk?)"
+        )
 
 
 def _write_mp4(frames: Iterable[np.ndarray], path: Path, fps: float, size: tuple[int, int], progress) -> None:
@@ -641,7 +767,10 @@ def _write_mp4(frames: Iterable[np.ndarray], path: Path, fps: float, size: tuple
     writer.send(None)
     try:
         for img in frames:
-            writer.send(np.ascontiguousarray(img))
+            try:
+                writer.send(np.ascontiguousarray(img))
+            except OSError as e:  # ffmpeg stopped (a full disk, a write error): its message, on one line
+                raise MjmotionError(f"the video encoder (ffmpeg) failed: {str(e).splitlines()[0]}") from None
             if progress:
                 progress(1)
     finally:

@@ -7,15 +7,20 @@ functions here are the only places that reorder. Every function broadcasts over 
 from __future__ import annotations
 
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+if TYPE_CHECKING:  # SciPy's import costs ~0.3 s: loaded by the functions that use it
+    from scipy.spatial.transform import Rotation
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 
 def to_scipy(q: np.ndarray) -> Rotation:
     """``q: (..., 4)`` wxyz → a flat SciPy ``Rotation`` of ``prod(...)`` rotations."""
+    from scipy.spatial.transform import Rotation
+
     q = np.asarray(q, dtype=float).reshape(-1, 4)
     return Rotation.from_quat(q[:, [1, 2, 3, 0]])
 
@@ -66,13 +71,22 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)``."""
-    q = np.asarray(q, dtype=float)
-    return to_scipy(q).as_matrix().reshape(*q.shape[:-1], 3, 3)
+    """Rotation matrices ``(..., 3, 3)`` of quaternions ``(..., 4)`` (normalised first, as SciPy does)."""
+    w, x, y, z = np.moveaxis(normalize(q), -1, 0)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
+        ],
+        axis=-2,
+    )
 
 
 def from_matrix(m: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``(..., 4)`` (w ≥ 0) of rotation matrices ``(..., 3, 3)``."""
+    """Unit quaternions ``(..., 4)`` (w ≥ 0) of rotation matrices ``(..., 3, 3)`` (SciPy's, loaded here)."""
+    from scipy.spatial.transform import Rotation
+
     m = np.asarray(m, dtype=float)
     q = from_scipy(Rotation.from_matrix(m.reshape(-1, 3, 3)), m.shape[:-2])
     return positive_w(q)

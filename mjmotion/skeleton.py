@@ -1,6 +1,6 @@
 """The data model: :class:`Skeleton` and :class:`Motion`.
 
-Conventions (``shared/docs/DESIGN.md``): metres, seconds, MuJoCo's Z-up world, unit
+Conventions (the README's "Conventions"): metres, seconds, MuJoCo's Z-up world, unit
 quaternions ``(w, x, y, z)``. The axis change and unit scale from the file happen once, at
 the BVH boundary, and are remembered here (``Skeleton.scale``, ``Skeleton.up``) so that a
 written BVH is back in the file's own units and axes.
@@ -11,10 +11,12 @@ from __future__ import annotations
 import dataclasses
 import re
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from . import rotations as rot
+from .caps import MAX_FPS, MIN_FPS, check_motion_size
 from .errors import MjmotionError, SkeletonMismatchError
 
 #: Known metres-per-unit scales, detected from a skeleton's rest extent (see ``detect_scale``).
@@ -84,6 +86,10 @@ class Skeleton:
         if len(set(self.names)) != n:
             dup = sorted({x for x in self.names if self.names.count(x) > 1})
             raise MjmotionError(f"duplicate joint names: {', '.join(dup)}")
+
+    def __repr__(self) -> str:
+        """``Skeleton(31 joints, root 'root', 7 End Sites, 0.01 m per file unit, up y)``: no arrays."""
+        return f"Skeleton({self.n_joints} joints, root {self.names[0]!r}, {len(self.end_parents)} End Sites, {self.scale:.6g} m per file unit, up {self.up})"
 
     # --- structure -------------------------------------------------------------------------
     @property
@@ -331,6 +337,12 @@ class Motion:
         if not (np.isfinite(self.fps) and self.fps > 0):
             raise MjmotionError(f"fps must be a positive number, got {self.fps}")
 
+    def __repr__(self) -> str:
+        """``Motion('walk', 22 joints, 241 frames at 60 fps, 4 s)``: what the clip is, not its arrays."""
+        from .summary import clip
+
+        return clip("Motion", self.name, self.skeleton.n_joints, self.n_frames, self.fps)
+
     @property
     def n_frames(self) -> int:
         return int(self.rotations.shape[0])
@@ -354,7 +366,7 @@ class Motion:
         out[:, 0] = self.root_positions
         return out
 
-    def replace(self, **changes: object) -> Motion:
+    def replace(self, **changes: Any) -> Motion:
         """A copy with some fields changed (the input is never mutated)."""
         return dataclasses.replace(self, **changes)
 
@@ -391,10 +403,24 @@ class Motion:
         return root, q, tr
 
     def resample(self, fps: float) -> Motion:
-        """The same motion at another frame rate (slerp of rotations, linear positions)."""
-        if not (np.isfinite(fps) and fps > 0):
-            raise MjmotionError(f"fps must be a positive number, got {fps}")
-        n = int(np.floor(self.duration * fps + 1e-9)) + 1
-        frames = np.arange(n) * (self.fps / fps)
+        """The same motion at another frame rate (slerp of rotations, linear positions).
+
+        Frame ``k`` is at ``k / fps`` seconds, up to the clip's last frame: the output is less than
+        one output frame shorter than the clip, and a duration a hair short of a whole number of
+        output frames — within 1e-4 of it, relative, the precision of a frame time written with
+        six digits — counts as that number (its last frame the clip's last pose). So a file's
+        rounded frame time keeps every frame at its own rate: 16_16's 0.00833333 s reads as
+        120.00005 fps and its 510 frames resample to 510 at 120 fps, where flooring the duration
+        dropped the last.
+        """
+        if not (MIN_FPS <= fps <= MAX_FPS):  # (NaN fails too)
+            raise MjmotionError(f"fps {fps:g}: expected a frame rate from {MIN_FPS:g} to {MAX_FPS:g} frames per second")
+        x = self.duration * fps  # output frame steps the clip spans
+        steps = int(np.floor(x))
+        if x - steps > 1.0 - 1e-4 * max(x, 1.0):
+            steps += 1
+        # Checked before anything is allocated: --fps 1e9 on a 2 s clip would ask for 2e9 frames.
+        check_motion_size(steps + 1, self.skeleton.n_joints, f"resampling a {self.duration:.4g} s clip to {fps:g} fps")
+        frames = np.minimum(np.arange(steps + 1) * (self.fps / fps), self.n_frames - 1)
         root, q, tr = self.sample(frames)
         return self.replace(root_positions=root, rotations=q, translations=tr, fps=float(fps))

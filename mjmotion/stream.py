@@ -31,11 +31,19 @@ A script (JSON) names the clips and the commands::
 seconds. ``play`` fades the named clip in over ``blend`` seconds, plays it once and fades back
 to the locomotion over its last ``blend`` seconds; ``{"time": t, "return": true, "blend": b}``
 returns earlier.
+
+Transition timing follows seed 000 §3.3. A ``blend`` is seconds of the reference clip (the first
+locomotion clip): a fade lasts ``blend · fps · r`` output frames, ``r`` the locomotion's pace
+relative to the reference at the current weights (reference frames per output frame over the
+registration: 1 for the reference alone, more for a run, whose matched spans are shorter), so a
+fade from or back to a run is longer. Over a fade the played clip covers its ``blend · fps``-frame
+window: each output frame it advances ``a + (1 − a) · blend · fps / fade`` frames, ``a`` its
+current weight (the seed's linear blend of the clip's own rate and the window's), so it starts at
+the locomotion's pace and ends at its own. :attr:`MotionStream.transitions` reports every fade.
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, overload
@@ -43,6 +51,7 @@ from typing import Literal, overload
 import numpy as np
 
 from . import registration as reg
+from . import script as script_schema
 from .blend import Track, WeightCurve, bezier_ease, check_weights, compose
 from .errors import MjmotionError
 from .skeleton import Motion
@@ -72,6 +81,44 @@ class Script:
     loop_blend: float = 0.4
 
 
+@dataclass(frozen=True)
+class Transition:
+    """One played clip's transitions (output frames; seconds are frames / fps).
+
+    Attributes:
+        clip: the played clip's name.
+        start: output frame its fade-in starts (the play command).
+        fade_in: output frames of the fade-in; ``nominal_fade_in`` = ``blend · fps``.
+        rate_in: the locomotion's pace there (reference frames per output frame).
+        fade_out_start: output frame its fade back to the locomotion starts.
+        fade_out, nominal_fade_out, rate_out: the same for the fade-out.
+        end: output frame the fade-out ends (the clip's weight is 0 from there).
+        clip_frames: frames of the clip played (its last frame is ``clip.n_frames − 1``).
+    """
+
+    clip: str
+    start: int
+    fade_in: int
+    nominal_fade_in: int
+    rate_in: float
+    fade_out_start: int
+    fade_out: int
+    nominal_fade_out: int
+    rate_out: float
+    end: int
+    clip_frames: float
+
+    def to_json(self, fps: float) -> dict:
+        """Frames and seconds of every field (``mjmotion stream --json``)."""
+        out: dict = {"clip": self.clip}
+        for key in ("start", "fade_in", "nominal_fade_in", "fade_out_start", "fade_out", "nominal_fade_out", "end"):
+            frames = getattr(self, key)
+            out[f"{key}_frames"] = frames
+            out[f"{key}_s"] = frames / fps
+        out.update(rate_in=self.rate_in, rate_out=self.rate_out, clip_frames=self.clip_frames)
+        return out
+
+
 #: Memory a stream may use to compose its output. Composing holds, for every source track (each
 #: locomotion clip per loop playhead, each played clip), about this many bytes per output frame and
 #: joint (sampled and previous-frame quaternions, their stack and the weighted mean: measured on
@@ -99,6 +146,7 @@ def parse_script(data: dict, base: Path, load) -> Script:
 
     Every mistake is an :class:`MjmotionError` naming the field.
     """
+    data = script_schema.validate(data)  # types, ranges, lengths and keys (mjmotion.script)
     if not isinstance(data, dict):
         raise MjmotionError("script: expected a JSON object with clips, locomotion, commands, duration")
     for key in ("clips", "locomotion", "commands", "duration"):
@@ -172,18 +220,16 @@ def parse_script(data: dict, base: Path, load) -> Script:
 
 
 def load_script(path: str, load) -> Script:
-    """Read a stream script; ``load(path, frames_text)`` reads a clip (the CLI passes its loader)."""
+    """Read a stream script; ``load(path, frames_text)`` reads a clip (the CLI passes its loader).
+
+    The file is read and checked by :func:`mjmotion.script.load` (a regular file, safe JSON, the schema)."""
+    data = script_schema.load(path)
     try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise MjmotionError(f"{path}: no such script") from None
-    except UnicodeDecodeError as e:
-        raise MjmotionError(f"{path}: not a text file (invalid UTF-8 at byte {e.start}); expected a JSON stream script") from None
-    except json.JSONDecodeError as e:
-        raise MjmotionError(f"{path}:{e.lineno}: not valid JSON ({e.msg})") from None
-    except RecursionError:
-        raise MjmotionError(f"{path}: JSON nested too deeply; expected a stream script") from None
-    return parse_script(data, Path(path).resolve().parent, load)
+        return parse_script(data, Path(path).resolve().parent, load)
+    except MjmotionError as e:
+        if str(e).startswith("script"):  # the script's own fields (not a clip's error): name the file
+            raise MjmotionError(f"{path}: {e}") from None
+        raise
 
 
 class _Cursor:
@@ -202,19 +248,28 @@ class MotionStream:
     Attributes:
         script: the parsed script.
         registration: the locomotion set's n-way :class:`mjmotion.registration.Registration`.
+        transitions: one :class:`Transition` per played clip, filled by :meth:`tracks`.
     """
 
-    def __init__(self, script: Script):
+    def __init__(self, script: Script, joint_weights: dict[str, float] | None = None):
+        """``joint_weights``: joint name → weight of the registration distance (seed 000 §3.1)."""
         self.script = script
         loco = [script.clips[n] for n in script.locomotion]
         positions = [reg.positions_of(m) for m in loco]
-        self.registration = reg.register_many(loco, reference=0, positions=positions)
+        self.registration = reg.register_many(loco, reference=0, positions=positions, weights=joint_weights)
         r = self.registration
         self._ref = r.times[:, r.reference]
         self._seg = np.diff(r.times, axis=0)  # (M-1, n) frames of each clip per segment
         # self-distances of the reference clip, for loop points (seed 000 loops its clips)
-        w = reg.joint_weights(loco[0].skeleton)
+        w = reg.joint_weights(loco[0].skeleton, joint_weights)
         self._self_cost = reg.distance_grid(positions[r.reference], positions[r.reference], w).cost
+        self.transitions: list[Transition] = []
+
+    def rate(self, w: np.ndarray) -> float:
+        """The locomotion's pace at clip weights ``w``: reference frames per output frame over the
+        whole registration (:func:`mjmotion.blend.segment_frames`); 1 with the reference alone."""
+        frames = np.sum(1.0 / np.sum(np.asarray(w) / self._seg, axis=1))
+        return float((self._ref[-1] - self._ref[0]) / frames)
 
     def _advance(self, tau: float, w: np.ndarray) -> float:
         """``τ`` one output frame later at clip weights ``w`` (exact per segment, as
@@ -260,7 +315,7 @@ class MotionStream:
         times = np.arange(n_out) / fps
         keys = tuple((c.time, c.ramp, c.weights) for c in s.commands if c.kind == "weights" and c.weights is not None)
         loc_w = WeightCurve(keys)(times)  # (N, n_loc)
-        action_w, action_tracks = self._actions(n_out)
+        action_w, action_tracks = self._actions(n_out, loc_w)
         fade_n = max(1, int(round(s.loop_blend * fps)))
         cursors = [_Cursor(float(self._ref[0]), n_out)]
         done: list[_Cursor] = []
@@ -318,12 +373,23 @@ class MotionStream:
             f"{MEMORY_LIMIT_BYTES / 2**30:g} GiB limit; use a shorter duration or longer locomotion clips"
         )
 
-    def _actions(self, n_out: int) -> tuple[np.ndarray, list[Track]]:
-        """Weight ``(N,)`` of the action layer and one track per played clip."""
+    def _fade(self, nominal: int, w: np.ndarray) -> tuple[float, int]:
+        """The locomotion's pace at clip weights ``w`` and the output frames of a fade of
+        ``nominal`` reference frames (seed 000 §3.3: longer from or back to a faster motion)."""
+        r = self.rate(w)
+        return r, max(1, int(round(nominal * r)))
+
+    def _actions(self, n_out: int, loc_w: np.ndarray) -> tuple[np.ndarray, list[Track]]:
+        """Weight ``(N,)`` of the action layer and one track per played clip; fills :attr:`transitions`.
+
+        ``loc_w: (N, n_loc)`` the locomotion weights, whose pace sets each fade's length (module
+        docstring, seed 000 §3.3).
+        """
         s = self.script
         fps = s.fps
         layer = np.zeros(n_out)
         tracks = []
+        self.transitions = []
         cmds = list(s.commands)
         n = np.arange(n_out)
         for k, c in enumerate(cmds):
@@ -333,27 +399,43 @@ class MotionStream:
             n0 = int(round(c.time * fps))
             if n0 >= n_out:
                 continue
-            n_blend = max(1, int(round(c.blend * fps)))
-            end = n0 + clip.n_frames - 1  # last frame of the clip
-            out_start, n_blend_out = end - n_blend, n_blend
-            for later in cmds[k + 1 :]:
-                if later.kind in ("return", "play"):  # the next return (or action) ends this one
+            last = clip.n_frames - 1
+
+            nominal_in = max(1, int(round(c.blend * fps)))
+            rate_in, fade_in = self._fade(nominal_in, loc_w[min(n0, n_out - 1)])
+            ramp_in = np.where(n < n0, 0.0, bezier_ease((n - n0) / fade_in))
+            ratio = np.where((n > n0) & (n <= n0 + fade_in), nominal_in / fade_in, 1.0)
+            # the clip's clock without a fade-out: its own rate blended with the window's
+            clock = np.cumsum(np.where(n > n0, ramp_in + (1.0 - ramp_in) * ratio, 0.0))
+            # the fade back starts where the rest of the clip is what the fade-out covers ...
+            nominal_out = nominal_in
+            rate_out, fade_out = self._fade(nominal_out, loc_w[min(int(np.searchsorted(clock, last - nominal_out)), n_out - 1)])
+            a_out = 1.0 - bezier_ease(np.arange(1, fade_out + 1) / fade_out)
+            covered = float(np.sum(a_out + (1.0 - a_out) * nominal_out / fade_out))
+            out_start = int(np.searchsorted(clock, last - covered))
+            for later in cmds[k + 1 :]:  # ... or at the next return (or action), if that is earlier
+                if later.kind in ("return", "play"):
                     n_ret = int(round(later.time * fps))
                     if n_ret < out_start:
-                        out_start, n_blend_out = n_ret, max(1, int(round(later.blend * fps)))
+                        nominal_out, out_start = max(1, int(round(later.blend * fps))), n_ret
+                        rate_out, fade_out = self._fade(nominal_out, loc_w[min(n_ret, n_out - 1)])
                     break
             if out_start <= n0:
                 raise MjmotionError(
                     f"script: play {c.clip!r} at {c.time:g} s would fade out before it starts (clip {clip.n_frames / fps:.2f} s, "
                     f"blend {c.blend:g} s); use a longer clip, a shorter blend or a later return"
                 )
-            ramp_in = bezier_ease((n - n0) / n_blend)
-            ramp_out = 1.0 - bezier_ease((n - out_start) / n_blend_out)
+            ramp_out = 1.0 - bezier_ease((n - out_start) / fade_out)
             wk = np.where(n < n0, 0.0, np.minimum(ramp_in, ramp_out))
+            ratio = np.where((n > out_start) & (n <= out_start + fade_out), nominal_out / fade_out, ratio)
+            step = np.where((n > n0) & (n <= out_start + fade_out), wk + (1.0 - wk) * ratio, 0.0)
+            t = np.minimum(np.cumsum(step), last)  # a fade-out rounded past the clip's end holds its last frame
             layer = np.maximum(layer, wk)
-            t = np.clip(n - n0, 0, clip.n_frames - 1).astype(float)
-            steps = np.where((n > n0) & (n - n0 <= clip.n_frames - 1), 1.0, 0.0)
-            tracks.append(Track(clip, t, steps, wk))
+            tracks.append(Track(clip, t, np.r_[0.0, np.diff(t)], wk))
+            end = min(out_start + fade_out, n_out - 1)
+            self.transitions.append(
+                Transition(c.clip, n0, fade_in, nominal_in, rate_in, out_start, fade_out, nominal_out, rate_out, end, float(t[end]))
+            )
         # several actions: their own weights share the action layer
         if tracks:
             total = np.sum([tr.weights for tr in tracks], axis=0)

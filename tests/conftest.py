@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
+import threading
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -112,3 +116,33 @@ def shared_clip(rel: str, start: int = 0) -> Motion:
     from mjmotion import bvh
 
     return bvh.read(require_data() / rel)[start:]
+
+
+@contextlib.contextmanager
+def within(seconds: int, what: str) -> Iterator[None]:
+    """Fail (not hang) if the block runs longer than ``seconds`` (SIGALRM: the main thread only)."""
+
+    def alarm(signum, frame):
+        raise AssertionError(f"{what} took more than {seconds} s: a hang")
+
+    old = signal.signal(signal.SIGALRM, alarm)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def error_without_blocking(fifo: Path, read: Callable[[Path], object], error: type[BaseException]) -> BaseException:
+    """The ``error`` that ``read(fifo)`` raises; fails (after unblocking it) if opening the FIFO blocks."""
+    result: list[BaseException] = []
+    reader = threading.Thread(target=lambda: result.append(pytest.raises(error, read, fifo).value))
+    reader.start()
+    reader.join(timeout=10)
+    if reader.is_alive():  # unblock the reader before failing, or the test run would hang
+        with open(fifo, "wb"):
+            pass
+        reader.join()
+        pytest.fail(f"reading the FIFO {fifo} blocked")
+    return result[0]

@@ -10,7 +10,6 @@ from __future__ import annotations
 import importlib.util
 import os
 import sys
-import threading
 import time
 import tracemalloc
 from pathlib import Path
@@ -236,42 +235,106 @@ def test_reader_never_modifies_its_input(tmp_path):
         assert path.read_bytes() == c.data
 
 
-# --- pipes and devices ---------------------------------------------------------------------------
-@pytest.mark.parametrize("device", ["/dev/zero", "/dev/urandom"])
-def test_endless_devices_are_refused_not_read_forever(device):
+# --- pipes, devices and other files that are not regular (issue 17) ----------------------------
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/urandom", "/dev/null"])
+def test_devices_are_refused_before_they_are_read(device):
     if not os.path.exists(device):
         pytest.skip(f"no {device}")
     t0 = time.perf_counter()
-    with pytest.raises(BvhError, match="binary data"):
+    with pytest.raises(BvhError, match="is a character device; expected a .bvh file") as info:
         bvh.read(device)
+    assert info.value.path == device and info.value.line is None
     assert time.perf_counter() - t0 < 10
 
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes")
-def test_a_named_pipe_is_read_and_capped(tmp_path, base):
+def test_a_named_pipe_without_a_writer_is_refused_not_waited_on(tmp_path):
     fifo = tmp_path / "clip.bvh"
-    data = (BAD / "base.bvh").read_bytes()
-    for limit, ok in ((None, True), (100, False)):
-        os.mkfifo(fifo)
-        writer = threading.Thread(target=_feed, args=(fifo, data))
-        writer.start()
-        try:
-            if ok:
-                assert np.array_equal(bvh.read(fifo).rotations, base.rotations)
-            else:
-                with pytest.raises(BvhError, match="more than 100 bytes from a pipe"):
-                    bvh.read(fifo, max_bytes=limit)
-        finally:
-            writer.join(timeout=10)
-            fifo.unlink()
+    os.mkfifo(fifo)
+    from conftest import error_without_blocking
+
+    assert "is a named pipe (FIFO)" in str(error_without_blocking(fifo, bvh.read, BvhError))
 
 
-def _feed(fifo: Path, data: bytes) -> None:
+def test_a_sparse_two_gigabyte_file_is_refused_from_its_size(tmp_path):
+    big = tmp_path / "sparse.bvh"
+    with open(big, "wb") as fh:
+        fh.truncate(2 << 30)  # sparse: no data blocks
+    tracemalloc.start()
     try:
-        with open(fifo, "wb") as fh:
-            fh.write(data)
-    except BrokenPipeError:  # the reader stopped early (the capped case)
-        pass
+        with pytest.raises(BvhError, match=r"file is 2147483648 bytes, larger than the limit of 268435456 bytes"):
+            bvh.read(big)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 1 << 20, f"{peak} bytes allocated: the file was read"
+
+
+def test_a_symlink_loop_is_a_bvh_error(tmp_path):
+    a, b = tmp_path / "a.bvh", tmp_path / "b.bvh"
+    a.symlink_to(b)
+    b.symlink_to(a)
+    with pytest.raises(BvhError, match="too many levels of symbolic links") as info:
+        bvh.read(a)
+    assert info.value.path == str(a)
+
+
+def test_a_symlink_to_a_clip_is_read(tmp_path, base):
+    link = tmp_path / "link.bvh"
+    link.symlink_to(BAD / "base.bvh")
+    assert np.array_equal(bvh.read(link).rotations, base.rotations)
+
+
+# --- extreme but valid text (issue 17) ---------------------------------------------------------
+def test_the_widest_skeleton_is_refused_at_its_line_in_seconds():
+    from mjmotion.caps import MAX_JOINTS
+
+    data = corpus.wide_hierarchy(MAX_JOINTS + 1)
+    t0 = time.perf_counter()
+    with pytest.raises(BvhError, match=f"more than {MAX_JOINTS} joints") as info:
+        bvh.parse(data, "wide.bvh")
+    assert info.value.line == 6 + 9 * (MAX_JOINTS - 1)  # the JOINT line of joint 10,001
+    assert time.perf_counter() - t0 < 10
+
+
+def test_a_skeleton_wider_than_a_model_loads_but_does_not_compile():
+    from mjmotion.caps import MAX_MODEL_JOINTS
+
+    m = bvh.parse(corpus.wide_hierarchy(MAX_MODEL_JOINTS + 1), "wide.bvh")
+    assert m.skeleton.n_joints == MAX_MODEL_JOINTS + 1
+    t0 = time.perf_counter()
+    with pytest.raises(MjmotionError, match=f"{MAX_MODEL_JOINTS + 1} joints; MuJoCo models are limited to {MAX_MODEL_JOINTS}"):
+        mjcf.compile(m.skeleton)
+    assert time.perf_counter() - t0 < 1
+
+
+def test_the_writer_indentation_stops_growing():
+    """A 10,000-deep chain used to be written with 50 M tabs (depth squared): now linear in the joints."""
+    m = bvh.parse(corpus.deep_hierarchy(10_000), "deep.bvh")
+    text = bvh.format_motion(m)
+    assert max(len(line) - len(line.lstrip("\t")) for line in text.splitlines()) == 33  # 32 levels + a joint's body
+    assert len(text) < 200 * m.skeleton.n_joints + 100 * m.skeleton.n_channels
+    again = bvh.parse(text, "again.bvh")
+    assert np.array_equal(again.skeleton.parents, m.skeleton.parents)
+
+
+def test_a_motion_that_overflows_in_file_units_is_not_written(base, tmp_path):
+    """Finite in metres, infinite in the file's units: refused, nothing written."""
+    tiny = base.replace(skeleton=base.skeleton.replace_scale(1e-310))  # metres per file unit
+    with pytest.raises(MjmotionError, match="not finite in the file's units"):
+        bvh.write(tiny, tmp_path / "out.bvh")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("units", [1e3, 1e-3])
+def test_positions_are_checked_in_metres_after_the_unit_conversion(units):
+    """1e7 file units: 10,000 km in kilometres (refused), 10 km in millimetres (loaded)."""
+    data = corpus.BASE.replace("1.0 90.5 -2.0", "1e7 90.5 -2.0")
+    if units == 1e3:
+        with pytest.raises(BvhError, match="beyond the ±100000 m"):
+            bvh.parse(data, "far.bvh", scale=units)
+    else:
+        assert bvh.parse(data, "far.bvh", scale=units).root_positions[0, 1] == pytest.approx(1e4)
 
 
 @pytest.mark.parametrize(

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 from conftest import clip_params, random_motion, random_skeleton, require_data
 from reference_fk import file_to_world, reference_fk
 
-from mjmotion import bvh, kinematics, mjcf
+from mjmotion import bvh, compiled, kinematics, mjcf
 from mjmotion import rotations as rot
 from mjmotion.errors import BvhError
 
@@ -209,6 +211,7 @@ def test_compiled_reader_gives_the_numpy_readers_floats_on_every_shared_clip(pat
     n_channels = sum(len(n.channels or ()) for n in nodes if not n.is_end)
     expect = bvh._parse_values(lines, first, n_channels, frames, str(path))
     monkeypatch.setattr(bvh, "FAST_MIN_BYTES", 0)
+    monkeypatch.setattr(compiled, "COLD_START_S", 0.0)  # the compiled path even where it does not pay
     seen = {}
     real = bvh._to_motion
 
@@ -263,12 +266,16 @@ def test_compiled_path_reads_or_refuses_exactly_as_the_numpy_path(edit, as_bytes
     m = random_motion(rng, random_skeleton(rng, 7, inner_positions=True), 12)
     text = bvh.format_motion(m)
     scale = m.skeleton.scale  # random skeletons are too small for unit detection
+    if edit == "tiny-and-huge":
+        scale *= 1e-25  # positions of 1e25 file units stay within caps.MAX_COORD_M metres
     head, body = text.split("Frame Time:", 1)
     ft_line, values = body.split("\n", 1)
     rows = [line.split() for line in values.splitlines() if line.strip()]
     data = MOTION_EDITS[edit](head + "Frame Time:" + ft_line + "\n", rows)
     if as_bytes:
         data = data.encode("utf-8")
+
+    monkeypatch.setattr(compiled, "COLD_START_S", 0.0)  # the compiled path even where it does not pay
 
     def run(min_bytes):
         monkeypatch.setattr(bvh, "FAST_MIN_BYTES", min_bytes)
@@ -338,7 +345,24 @@ def test_compiled_rotations_equal_rotations_euler_to_quat():
         assert np.allclose(np.abs(np.sum(q * ref, -1)), 1.0)
 
 
+def test_the_compiled_path_is_taken_only_where_it_pays(monkeypatch):
+    """Fresh process (kernels not loaded): NumPy unless its predicted time exceeds the kernels'
+    first call on a machine; kernels loaded: every section from FAST_MIN_BYTES."""
+    monkeypatch.delitem(sys.modules, "mjmotion._fast", raising=False)
+    cold = int(compiled.COLD_START_S / bvh.NUMPY_SECONDS_PER_BYTE)
+    assert not bvh._compiled_pays(bvh.FAST_MIN_BYTES) and not bvh._compiled_pays(3_400_000)
+    assert bvh._compiled_pays(cold + 1) and not bvh._compiled_pays(cold - 1)
+    from mjmotion import _fast
+
+    monkeypatch.setitem(sys.modules, "mjmotion._fast", _fast)
+    values, deferred = np.empty((1, 1)), np.empty((1, 4), dtype=np.int64)
+    assert _fast.parse_values(np.frombuffer(b"1.5\n", np.uint8), 0, values, deferred) == 0 and values[0, 0] == 1.5
+    _fast.euler_quats(values, np.full((1, 3), -1, np.int64), np.full((1, 3), -1, np.int64), np.arange(3), np.empty((1, 1, 4)))
+    assert bvh._compiled_pays(bvh.FAST_MIN_BYTES) and not bvh._compiled_pays(bvh.FAST_MIN_BYTES - 1)
+
+
 def test_large_files_take_the_compiled_path_and_small_ones_do_not(monkeypatch):
+    monkeypatch.setattr(compiled, "COLD_START_S", 0.0)
     rng = np.random.default_rng(11)
     m = random_motion(rng, random_skeleton(rng, 4), 3)
     assert m.skeleton.scale == 1.0

@@ -33,7 +33,7 @@ def test_info_table_is_readable(walk, capsys):
 
 def test_fk_npz_matches_kinematics(walk, tmp_path):
     out = tmp_path / "fk.npz"
-    assert main(["fk", str(walk), "-o", str(out)]) == 0
+    assert main(["fk", str(walk), "-o", str(out), "--keep-start"]) == 0  # every frame of the file
     z = np.load(out)
     m = bvh.read(walk)
     assert list(z["joint_names"]) == list(m.skeleton.names)
@@ -92,3 +92,55 @@ def test_bad_frames_and_missing_file_are_one_line_errors(walk, tmp_path, capsys)
     assert main(["info", str(tmp_path / "missing.bvh")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and "missing.bvh" in err and "Traceback" not in err
+
+
+#: Libraries a verb loads only when it runs (each costs 0.1–0.5 s of start-up).
+HEAVY = ("mujoco", "scipy", "casadi", "matplotlib", "numba")
+
+
+def _loaded_after(code: str) -> dict:
+    """Run ``code`` in a fresh interpreter; it sets ``out`` (a dict) from ``heavy()``, printed as JSON."""
+    import subprocess
+    import sys
+
+    prelude = f"import json, sys\nHEAVY = {HEAVY!r}\nheavy = lambda: sorted({{m.split('.')[0] for m in sys.modules}} & set(HEAVY))\nout = {{}}\n"
+    proc = subprocess.run([sys.executable, "-c", prelude + code + "\nprint(json.dumps(out))"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_listing_the_verbs_and_their_options_loads_no_heavy_library():
+    """Every verb module (new ones too) imports light; ``--help`` and the full parser stay light."""
+    out = _loaded_after(
+        "import contextlib, importlib, io, pkgutil\n"
+        "from mjmotion import cli, commands\n"
+        "for info in pkgutil.iter_modules(commands.__path__):\n"
+        "    importlib.import_module(f'mjmotion.commands.{info.name}')\n"
+        "    out[f'import mjmotion.commands.{info.name}'] = heavy()\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    try:\n"
+        "        cli.main(['--help'])\n"
+        "    except SystemExit:\n"
+        "        pass\n"
+        "out['mjmotion --help'] = heavy()\n"
+        "cli.build_parser()\n"
+        "out['every verb add_arguments'] = heavy()\n"
+    )
+    assert len(out) >= 3 + 14, out  # every verb module was imported
+    assert {k: v for k, v in out.items() if v} == {}, "move these imports into the verb's run()"
+
+
+def test_info_loads_only_numpy_even_for_the_largest_clip(mocap):
+    """``info`` reads with NumPy alone: no MuJoCo, SciPy, CasADi, Matplotlib, nor Numba for a 3.4 MB clip."""
+    small, large = mocap / "cmu_cgspeed_daz" / "09_01.bvh", mocap / "cmu_iclone_ccrig" / "002_07.bvh"
+    out = _loaded_after(
+        "import contextlib, io\n"
+        "from mjmotion.cli import main\n"
+        f"for f in ({str(small)!r}, {str(large)!r}):\n"
+        "    with contextlib.redirect_stdout(io.StringIO()):\n"
+        "        assert main(['info', f]) == 0\n"
+        "    out[f] = heavy()\n"
+        "out['numpy'] = 'numpy' in sys.modules\n"
+    )
+    assert out.pop("numpy") is True
+    assert out == {str(small): [], str(large): []}

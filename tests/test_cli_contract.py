@@ -60,6 +60,7 @@ class Verb:
     inputless: bool = False  # reads no file (synth): the input cases do not apply
     runs: bool = True  # False: never run it for real (demo: minutes); only refusals are tested
     verbose_bad: tuple[str, ...] = ()  # for inputless verbs: arguments that raise an MjmotionError
+    folder: bool = False  # reads a folder and writes one (audit): a bad file is a row, not the exit status; tests/test_audit.py checks it
 
 
 VERBS: dict[str, Verb] = {
@@ -113,6 +114,8 @@ VERBS: dict[str, Verb] = {
         bad=(("--frames", "500:600"), ("--h-c", "-1"), ("--ball", "0.5", "0", "0.03", "--frame", "99999")),
         humanoid=True,
     ),
+    # serving runs until Ctrl-C: the contract is checked on --check (read and validate the clips, exit)
+    "studio": Verb(lambda i, o: [i, "--check"], bad=(("--port", "70000"), ("--data", "/no/such/mocap"))),
     "blend": Verb(
         lambda i, o: [i, i, "--weights", "0.5,0.5", "-o", o],
         ".bvh",
@@ -122,11 +125,11 @@ VERBS: dict[str, Verb] = {
     "register": Verb(
         lambda i, o: [i, i, "--json", o],
         ".json",
-        bad=(("--window", "4"), ("--window", "0"), ("--frames", "500:600"), ("--slope-limit", "-1"), ("--fps", "-1")),
+        bad=(("--window", "4"), ("--window", "0"), ("--frames", "500:600"), ("--slope-limit", "-1"), ("--fps", "-1"), ("--time-limit", "0")),
         humanoid=True,
         extra_outputs=lambda d: ["--plot", str(d / "grid.png")],
     ),
-    "stream": Verb(lambda i, o: [i, "-o", o], ".bvh", humanoid=True, script=True),
+    "stream": Verb(lambda i, o: [i, "-o", o], ".bvh", humanoid=True, script=True, extra_outputs=lambda d: ["--json", str(d / "report.json")]),
     "hit": Verb(
         # A 5 mm move: reachable within the short clip's own joint ranges (an unreachable one exits 2 by design).
         lambda i, o: [i, "--effector", "right_foot", "--offset", "0", "0", "0.005", "-o", o],
@@ -142,6 +145,7 @@ VERBS: dict[str, Verb] = {
         inputless=True,
         extra_outputs=lambda d: ["--truth", str(d / "truth.json")],
     ),
+    "audit": Verb(lambda i, o: [i, "-o", o], folder=True, bad=(("--timeout", "0"), ("--workers", "0"), ("--connect-timeout", "nan"))),
     "demo": Verb(
         lambda i, o: ["--out", o, "--only", "physics_audit", "--no-video"],
         bad=(("--data", "/no/such/mocap"), ("--only", "no_such_experiment")),
@@ -233,7 +237,7 @@ def verb(name: str, reads: bool = False) -> Verb:
 
 def writes(spec: Verb) -> bool:
     """Whether the verb writes a file the output contract applies to (and may be run for it)."""
-    return spec.runs and "OUT" in spec.argv("IN", "OUT")
+    return spec.runs and not spec.folder and "OUT" in spec.argv("IN", "OUT")
 
 
 # --- running ---------------------------------------------------------------------------------
@@ -257,6 +261,17 @@ def refused(rc: int, err: str, *phrases: str) -> str:
     for p in phrases:
         assert p in lines[0], f"{p!r} not in {lines[0]!r}"
     return lines[0]
+
+
+def works_or_refuses(spec: Verb, rc: int, err: str, out: Path) -> None:
+    """Exit 0 with the output written and no error line, or the contract of a refusal with
+    nothing written (hit writes its best effort by design, and says so)."""
+    if rc == 0:
+        assert "Traceback" not in err and not any(ln.startswith("error:") for ln in err.splitlines()), err
+        assert not writes(spec) or out.exists()
+    else:
+        line = refused(rc, err)
+        assert not out.exists() or "best effort written" in line
 
 
 @pytest.fixture(scope="module")
@@ -373,6 +388,8 @@ def test_unreadable_directory(name, tmp_path, clip, capsys):
 def test_corpus_file_is_one_error_line_with_file_and_line(name, tmp_path, capsys):
     """Every error case of the corpus (one loop per verb: cheap, and a failure lists every case)."""
     spec = verb(name, reads=True)
+    if spec.folder:
+        pytest.skip(f"{name} reads folders: a corpus file is a row of its table")
     out = tmp_path / "out" / f"out{spec.ext}"
     out.parent.mkdir()
     failures = []
@@ -398,6 +415,8 @@ VALID_FOR_VERBS = [c for c in VALID_CASES if c.name in ("utf16", "zero_length_en
 def test_valid_corpus_file_never_gives_a_traceback(name, tmp_path, capsys):
     """Unusual but valid files: the verb works or refuses cleanly (exit 0 or 2), never a bug."""
     spec = verb(name, reads=True)
+    if spec.folder:
+        pytest.skip(f"{name} reads folders: a corpus file is a row of its table")
     failures = []
     for case in VALID_FOR_VERBS:
         inp = tmp_path / f"{case.name}.bvh"
@@ -405,11 +424,7 @@ def test_valid_corpus_file_never_gives_a_traceback(name, tmp_path, capsys):
         out = tmp_path / f"out_{case.name}{spec.ext}"
         rc, _, err = run([name, *spec.argv(str(as_input(spec, inp)), str(out))], capsys)
         try:
-            if rc == 0:
-                assert "Traceback" not in err and not any(ln.startswith("error:") for ln in err.splitlines()), err
-                assert not writes(spec) or out.exists()
-            else:
-                refused(rc, err)
+            works_or_refuses(spec, rc, err, out)
         except AssertionError as e:
             failures.append(f"{case.name}: {str(e).splitlines()[0]}")
     assert not failures, f"{name}: " + "; ".join(failures)
@@ -530,7 +545,7 @@ def test_verbose_shows_the_traceback(name, tmp_path, capsys):
 
 @pytest.mark.parametrize("name", _verb_params("atomic"))
 def test_outputs_are_written_atomically(name, tmp_path, clip, human, capsys, monkeypatch):
-    """The final rename fails (a full disk, say): the verb refuses, and nothing is left behind."""
+    """Flushing the written file fails (a full disk): the verb refuses, and nothing is left behind."""
     spec = verb(name)
     if not writes(spec):
         pytest.skip(f"{name} writes no file")
@@ -546,10 +561,10 @@ def test_outputs_are_written_atomically(name, tmp_path, clip, human, capsys, mon
     for n in made:
         (out_dir / n).unlink()
 
-    def full_disk(src, dst):
-        raise OSError(28, "No space left on device (simulated)", str(dst))
+    def full_disk(fd):  # where a full disk shows with delayed allocation: flushing the written file
+        raise OSError(28, "No space left on device (simulated)")
 
-    monkeypatch.setattr(os, "replace", full_disk)
+    monkeypatch.setattr(os, "fsync", full_disk)
     rc, _, err = run(argv, capsys)
     monkeypatch.undo()
     refused(rc, err, "No space left on device")
@@ -623,3 +638,356 @@ def test_deep_hierarchy_through_the_cli(tmp_path, capsys):
     assert rc == 0 and "10000" in out, err
     refused(*run(["compile", str(deep), "-o", str(tmp_path / "deep.xml")], capsys)[::2], "joints deep")
     assert not (tmp_path / "deep.xml").exists()
+
+
+# --- issue 17: hostile options, files and faults, for every verb ---------------------------------
+import signal  # noqa: E402
+import stat  # noqa: E402
+import tracemalloc  # noqa: E402
+
+from conftest import within  # noqa: E402
+
+from mjmotion import outputs  # noqa: E402
+from mjmotion.caps import MAX_JOINTS, MAX_MODEL_JOINTS  # noqa: E402
+
+HOSTILE_VALUES = ("nan", "inf", "-inf", "1e308", "-1e308", "abc")
+
+
+def _numeric_actions(name: str) -> list[argparse.Action]:
+    return [a for a in SUBPARSERS[name]._actions if a.type is not None and a.option_strings and not isinstance(a.type, argparse.FileType)]
+
+
+@pytest.mark.parametrize("name", VERB_NAMES)
+def test_every_numeric_option_has_a_domain(name):
+    """No plain float/int reaches a verb: each numeric option goes through mjmotion.commands._options."""
+    plain = [a.option_strings[0] for a in _numeric_actions(name) if a.type in (float, int) and not a.choices]  # choices are a domain
+    assert not plain, f"{name}: {plain} use type=float/int; use a domain from mjmotion/commands/_options.py"
+
+
+@pytest.mark.parametrize("name", VERB_NAMES)
+def test_hostile_option_values_are_refused_before_any_file_is_read(name, tmp_path, capsys):
+    """NaN, infinities, 1e308 and words, for every numeric option: one error line naming the option
+    and the value; the input does not exist, so an error about it would mean work started first."""
+    spec = verb(name)
+    missing = str(tmp_path / "missing.bvh")
+    failures = []
+    for action in _numeric_actions(name):
+        if getattr(action.type, "__name__", "") not in ("number", "integer") or not getattr(action.type, "option_domain", False):
+            continue
+        option = max(action.option_strings, key=len)
+        n = action.nargs if isinstance(action.nargs, int) else 1
+        for value in HOSTILE_VALUES:
+            # OPTION=VALUE: argparse reads a lone "-inf" as an option, not a value. With several
+            # values it cannot tell either: then the refusal is argparse's ("expected 3 arguments").
+            argv = [
+                name,
+                *spec.argv(missing, str(tmp_path / f"out{spec.ext}")),
+                *([f"{option}={value}"] if n == 1 else [option, value, *["0"] * (n - 1)]),
+            ]
+            rc, _, err = run(argv, capsys)
+            try:
+                refused(rc, err, f"error: {option} {value}: expected" if n == 1 or not value.startswith("-") else option)
+            except AssertionError as e:
+                failures.append(f"{option} {value}: {str(e).splitlines()[0]}")
+    assert not failures, "; ".join(failures)
+    assert sorted(os.listdir(tmp_path)) == []
+
+
+def _not_regular_inputs(tmp_path: Path) -> dict[str, tuple[Path, str]]:
+    cases = {}
+    if hasattr(os, "mkfifo"):
+        os.mkfifo(tmp_path / "fifo.bvh")
+        cases["fifo"] = (tmp_path / "fifo.bvh", "is a named pipe (FIFO)")
+    if os.path.exists("/dev/zero"):
+        cases["dev-zero"] = (Path("/dev/zero"), "is a character device")
+    (tmp_path / "loop_a.bvh").symlink_to(tmp_path / "loop_b.bvh")
+    (tmp_path / "loop_b.bvh").symlink_to(tmp_path / "loop_a.bvh")
+    cases["symlink-loop"] = (tmp_path / "loop_a.bvh", "too many levels of symbolic links")
+    with open(tmp_path / "sparse.bvh", "wb") as fh:
+        fh.truncate(2 << 30)
+    cases["sparse-2GB"] = (tmp_path / "sparse.bvh", "larger than the limit of")  # 256 MiB (mjmotion.caps); the studio's uploads 32 MiB
+    return cases
+
+
+@pytest.mark.parametrize("name", VERB_NAMES)
+def test_inputs_that_are_not_regular_files_are_refused_unread(name, tmp_path, capsys):
+    """A FIFO with no writer, /dev/zero, a symlink loop, a 2 GB sparse file: refused in seconds,
+    with little memory (nothing read), naming the file; nothing written."""
+    spec = verb(name, reads=True)
+    if spec.folder:
+        pytest.skip(f"{name} reads folders: such a file is an error row of its table (tests/test_audit.py)")
+    inputs_dir = tmp_path / "in"
+    inputs_dir.mkdir()
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    failures = []
+    for kind, (path, phrase) in _not_regular_inputs(inputs_dir).items():
+        tracemalloc.start()
+        try:
+            with within(20, f"{name} on {kind}"):
+                rc, _, err = run([name, *spec.argv(str(as_input(spec, path) if spec.script else path), str(out_dir / f"out{spec.ext}"))], capsys)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        try:
+            refused(rc, err, str(path), phrase)
+            assert peak < 256 << 20, f"peak {peak >> 20} MB"
+            assert os.listdir(out_dir) == [], os.listdir(out_dir)
+        except AssertionError as e:
+            failures.append(f"{kind}: {str(e).splitlines()[0]}")
+        for p in inputs_dir.glob("*_script.json"):
+            p.unlink()
+    assert not failures, f"{name}: " + "; ".join(failures)
+
+
+def test_not_regular_files_under_a_real_memory_limit(tmp_path):
+    """The same through a process whose address space is capped at 1 GiB: reading the sparse
+    2 GB file or /dev/zero would fail with MemoryError, not a clean refusal."""
+    import resource
+
+    sparse = tmp_path / "sparse.bvh"
+    with open(sparse, "wb") as fh:
+        fh.truncate(2 << 30)
+    script = tmp_path / "zero_script.json"
+    script.write_text(
+        json.dumps({"duration": 1, "clips": {"a": {"file": "/dev/zero"}}, "locomotion": ["a"], "commands": [{"time": 0, "weights": {"a": 1}}]})
+    )
+
+    def cap():
+        resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
+
+    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    for argv, phrase in (
+        (["info", str(sparse)], "larger than the limit"),
+        (["convert", "/dev/zero", str(tmp_path / "o.bvh")], "is a character device"),
+        (["stream", "/dev/zero", "-o", str(tmp_path / "o.bvh")], "is a character device"),
+        (["stream", str(script), "-o", str(tmp_path / "o.bvh")], "/dev/zero: is a character device"),
+    ):
+        p = subprocess.run([sys.executable, "-m", "mjmotion.cli", *argv], capture_output=True, text=True, timeout=60, env=env, preexec_fn=cap)
+        refused(p.returncode, p.stderr, phrase)
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["sparse.bvh", "zero_script.json"]
+
+
+@pytest.mark.parametrize("name", VERB_NAMES)
+def test_extreme_skeletons_are_refused_or_handled_in_seconds(name, tmp_path, capsys):
+    """10,001 joints wide and 100,000 deep: a BvhError naming the line (the reader's cap); 1,001
+    joints wide: loads, and every verb that builds a MuJoCo model refuses it at once."""
+    spec = verb(name, reads=True)
+    if spec.folder:
+        pytest.skip(f"{name} reads folders: such a file is an error row of its table (tests/test_audit.py)")
+    cases = {
+        "wide": (_corpus().wide_hierarchy(MAX_JOINTS + 1), f"more than {MAX_JOINTS} joints"),
+        "deep": (_corpus().deep_hierarchy(100_000), f"more than {MAX_JOINTS} joints"),
+        "model-wide": (_corpus().wide_hierarchy(MAX_MODEL_JOINTS + 1), None),
+    }
+    failures = []
+    for kind, (data, phrase) in cases.items():
+        inp = tmp_path / f"{kind}.bvh"
+        inp.write_bytes(data)
+        out = tmp_path / f"out_{kind}{spec.ext}"
+        with within(60, f"{name} on {kind}"):
+            rc, _, err = run([name, *spec.argv(str(as_input(spec, inp)), str(out))], capsys)
+        try:
+            if phrase is not None:
+                refused(rc, err, f"{inp}:", phrase)
+                assert not out.exists()
+            elif rc != 0:
+                refused(rc, err)
+        except AssertionError as e:
+            failures.append(f"{kind}: {str(e).splitlines()[0]}")
+    assert not failures, f"{name}: " + "; ".join(failures)
+
+
+@pytest.mark.parametrize("name", VERB_NAMES)
+def test_one_two_and_three_frame_clips(name, tmp_path, human, capsys):
+    """The shortest clips of a real skeleton (vary on 2 frames used to crash): work or one error line."""
+    spec = verb(name, reads=True)
+    src = _human(human)
+    failures = []
+    for n in (1, 2, 3):
+        short = tmp_path / f"short{n}.bvh"
+        assert cli.main(["convert", str(src), str(short), "--frames", f"0:{n}"]) == 0
+        out = tmp_path / f"out{n}{spec.ext}"
+        with within(60, f"{name} on {n} frames"):
+            rc, _, err = run([name, *spec.argv(str(as_input(spec, short)), str(out))], capsys)
+        try:
+            works_or_refuses(spec, rc, err, out)
+        except AssertionError as e:
+            failures.append(f"{n} frames: {str(e).splitlines()[0]}")
+    assert not failures, f"{name}: " + "; ".join(failures)
+
+
+@pytest.mark.parametrize("name", VERB_NAMES)
+def test_hostile_output_paths(name, tmp_path, clip, human, capsys):
+    """A dangling symlink exists; 'out.bvh/' names a folder; a FIFO or /dev/null is never replaced, --force or not."""
+    spec = verb(name)
+    if not writes(spec):
+        pytest.skip(f"{name} writes no file")
+    inp = str(_input(spec, clip, human))
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    dangling = out_dir / f"out{spec.ext}"
+    dangling.symlink_to(out_dir / "nowhere")
+    refused(*run([name, *spec.argv(inp, str(dangling))], capsys)[::2], "already exists (a symbolic link)", "--force")
+    assert dangling.is_symlink() and not (out_dir / "nowhere").exists()
+    dangling.unlink()
+    slash = f"{out_dir}/out{spec.ext}/"
+    refused(*run([name, *spec.argv(inp, slash)], capsys)[::2], "names a folder")
+    targets = ["/dev/null"]
+    if hasattr(os, "mkfifo"):
+        os.mkfifo(out_dir / f"fifo{spec.ext}")
+        targets.append(str(out_dir / f"fifo{spec.ext}"))
+    for target in targets:
+        for force in ([], ["--force"]):
+            refused(*run([name, *spec.argv(inp, target), *force], capsys)[::2], target, "--force replaces only a regular file")
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+    assert sorted(os.listdir(out_dir)) == ([f"fifo{spec.ext}"] if hasattr(os, "mkfifo") else [])
+
+
+@pytest.mark.parametrize("name", VERB_NAMES)
+def test_a_file_appearing_at_the_output_during_the_run_is_kept(name, tmp_path, clip, human, capsys, monkeypatch):
+    """Checked free before the work, taken by someone else before the result is published: the
+    verb exits 2 and the other file is untouched (it used to be silently replaced)."""
+    spec = verb(name)
+    if not writes(spec):
+        pytest.skip(f"{name} writes no file")
+    inp = str(_input(spec, clip, human))
+    out = tmp_path / "out" / f"out{spec.ext}"
+    out.parent.mkdir()
+    real = outputs._fsync
+
+    def someone_else_writes(path):
+        real(path)
+        if not out.exists():
+            out.write_bytes(b"theirs")
+
+    monkeypatch.setattr(outputs, "_fsync", someone_else_writes)
+    refused(*run([name, *spec.argv(inp, str(out))], capsys)[::2], "appeared while this command ran")
+    assert out.read_bytes() == b"theirs"
+    assert all(not n.startswith(".") for n in os.listdir(out.parent)), os.listdir(out.parent)
+
+
+def _with_file_size_limit(limit: int):
+    import resource
+
+    def apply():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # writes past the limit fail (EFBIG), as on a full disk
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return apply
+
+
+@pytest.mark.parametrize(
+    ("argv", "limit"),
+    [
+        (["render", "CLIP", "-o", "OUT/v.mp4", "--width", "320", "--height", "240", "--fast"], 6000),
+        (["render", "CLIP", "-o", "OUT/v.gif", "--width", "64", "--height", "48", "--fast"], 2000),
+        (["convert", "CLIP", "OUT/c.bvh"], 2000),
+        (["synth", "library", "OUT/lib"], 100_000),
+    ],
+    ids=["render-mp4", "render-gif", "convert", "synth-library"],
+)
+def test_a_full_disk_is_an_error_and_leaves_nothing(argv, limit, tmp_path, human):
+    """Writes fail part-way (a file-size limit stands in for a full disk, for ffmpeg too): one
+    error line, exit 2, no output, no temporary file, no half-written folder."""
+    out = tmp_path / "out"
+    out.mkdir()
+    argv = [str(_human(human)) if a == "CLIP" else a.replace("OUT", str(out)) for a in argv]
+    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    p = subprocess.run(
+        [sys.executable, "-m", "mjmotion.cli", *argv], capture_output=True, text=True, timeout=300, env=env, preexec_fn=_with_file_size_limit(limit)
+    )
+    line = refused(p.returncode, p.stderr)
+    assert "wrote" not in p.stdout, p.stdout
+    assert "File too large" in line or "incomplete" in line or "encoder" in line, line
+    assert os.listdir(out) == [], os.listdir(out)
+
+
+def test_stream_scripts_of_the_wrong_shape(tmp_path, human, capsys):
+    """tests/data/bad's script cases: one error line naming the script and the key path."""
+    clip = str(_human(human))
+    failures = []
+    for case in _corpus().script_cases():
+        script = tmp_path / f"{case.name}.json"
+        script.write_bytes(case.data.replace(b"CLIP", json.dumps(clip)[1:-1].encode()))
+        out = tmp_path / "out.bvh"
+        with within(30, f"stream {case.name}"):
+            rc, _, err = run(["stream", str(script), "-o", str(out)], capsys)
+        try:
+            refused(rc, err, str(script), case.match)
+            assert "\x1b" not in err
+            assert not out.exists()
+        except AssertionError as e:
+            failures.append(f"{case.name}: {str(e).splitlines()[0]}")
+    assert not failures, "; ".join(failures)
+
+
+def test_score_files_of_the_wrong_kind(tmp_path, human, capsys):
+    """tests/data/bad's score cases through vary --scores, and scores that are not regular files."""
+    src = str(_human(human))
+    cases = [(tmp_path / c.name, c.match, c.data) for c in _corpus().score_cases()]
+    if hasattr(os, "mkfifo"):
+        os.mkfifo(tmp_path / "fifo.npy")
+        cases.append((tmp_path / "fifo.npy", "is a named pipe", None))
+    (tmp_path / "zero.npy").symlink_to("/dev/zero")
+    cases.append((tmp_path / "zero.npy", "is a character device", None))
+    failures = []
+    for path, match, data in cases:
+        if data is not None:
+            path.write_bytes(data)
+        out = tmp_path / "out.bvh"
+        with within(30, f"vary --scores {path.name}"):
+            rc, _, err = run(["vary", src, "--scores", str(path), "-o", str(out)], capsys)
+        try:
+            refused(rc, err, str(path), match)
+            assert not out.exists()
+        except AssertionError as e:
+            failures.append(f"{path.name}: {str(e).splitlines()[0]}")
+    assert not failures, "; ".join(failures)
+
+
+def test_render_refuses_before_the_progress_bar(tmp_path, human, capsys):
+    """An odd MP4 size, too many characters, a label with a line break: refused before any work."""
+    src = str(_human(human))
+    for extra, phrase in (
+        (["--width", "641", "--height", "360"], "even width and height"),
+        (["--labels", "a\nb"], "expected printable text"),
+        (["--prop", "club", "--prop", "club:rwrist"], "given twice"),
+    ):
+        rc, out, err = run(["render", src, "-o", str(tmp_path / "v.mp4"), *extra], capsys)
+        refused(rc, err, phrase)
+        assert "frame/s" not in err and "%|" not in err, err  # no progress bar: nothing was rendered
+    rc, _, err = run(["render", *[src] * 17, "-o", str(tmp_path / "v.mp4")], capsys)
+    refused(rc, err, "more than the limit of 16 characters")
+    assert "frame/s" not in err and os.listdir(tmp_path) == []
+
+
+def test_demo_keeps_an_existing_results_folder(tmp_path, capsys):
+    folder = tmp_path / "results"
+    folder.mkdir()
+    (folder / "summary.md").write_text("precious")
+    for flag in ("-o", "--output", "--out"):
+        refused(*run(["demo", flag, str(folder), "--only", "path_search", "--no-video"], capsys)[::2], "--force")
+    assert (folder / "summary.md").read_text() == "precious"
+
+
+def test_info_prints_no_terminal_escapes(tmp_path, clip, capsys):
+    """A path holding an escape sequence is printed escaped (joint names with one are refused by the reader)."""
+    folder = tmp_path / "a\x1b[2Jb"
+    folder.mkdir()
+    inp = folder / "clip.bvh"
+    inp.write_bytes(clip.read_bytes())
+    rc, out, err = run(["info", str(inp)], capsys)
+    assert rc == 0 and "\x1b" not in out and "a\\x1b[2Jb" in out, err
+
+
+def test_file_names_with_escapes_are_printed_and_drawn_escaped(tmp_path, human, capsys):
+    """evaluate DIR prints clip names it found, render draws file names as labels: neither raw."""
+    folder = tmp_path / "clips"
+    folder.mkdir()
+    odd = folder / "a\x1b[2J\nb.bvh"
+    odd.write_bytes(_human(human).read_bytes())
+    rc, out, err = run(["evaluate", str(folder), "--jobs", "1"], capsys)
+    assert rc == 0 and "\x1b" not in out + err and "a\\x1b[2J\\nb" in out, err
+    rc, out, err = run(["render", str(odd), "-o", str(tmp_path / "v.gif"), "--width", "64", "--height", "48", "--fast"], capsys)
+    assert rc == 0 and (tmp_path / "v.gif").exists(), err

@@ -16,7 +16,7 @@ def test_demo_writes_tables_and_two_videos(tmp_path, capsys):
     assert "physics_audit/table.md" in summary and "transitions/table.md" in summary
     audit = (out / "physics_audit" / "table.md").read_text()
     assert "| synthesized | walk |" in audit and "cleanup of the linear blend" in audit
-    assert "cleanup of the linear blend of bundled walk+run: skate_mm_per_s" in audit
+    assert "cleanup of the linear blend of bundled walk+run: planted skate" in audit
     assert (out / "physics_audit" / "cleanup_after.png").stat().st_size > 10_000
     assert (out / "transitions" / "weights.png").stat().st_size > 10_000
     for name, expect_frames in (("blend.mp4", 100), ("hitpoint.mp4", None)):

@@ -40,16 +40,19 @@ def test_path_search_dp_is_optimal_and_greedy_is_not_better(paths):
     check_outputs(table, out)
     rows = records(table)
     sub = [r for r in rows if r["grid"] == "sub-grid"]
-    assert sub and all(int(r["cells"]) <= 100 for r in sub)  # brute force only on small grids
+    assert sub and all(int(r["cells"]) <= 100 for r in sub)
+    exact_mean = {"DP, least mean", "brute force, least mean"}
     for r in rows:
-        if r["method"] in ("DP", "brute force"):
-            # on the sub-grids the optimum is brute force's: DP matches it on every pair
+        if r["method"] in ("DP", "brute force"):  # the per-end rule: the cheapest path to where it ends
+            assert r["total / least to its end (worst)"] == pytest.approx(1.0, abs=1e-12), r
+        if r["method"] in ("DP", "brute force", *exact_mean):
+            assert r["solved"].split("/")[0] == r["solved"].split("/")[1]
+        if r["method"] in exact_mean or (r["ends"] == "corners" and r["method"] in ("DP", "brute force")):
             assert r["cost / optimum (mean)"] == pytest.approx(1.0, abs=1e-12), r
             assert r["worst"] == pytest.approx(1.0, abs=1e-12), r
-            assert r["solved"].split("/")[0] == r["solved"].split("/")[1]
     for r in rows:
-        if r["ends"] == "corners" and r["solved"] != "0/" + r["solved"].split("/")[1]:
-            assert r["cost / optimum (mean)"] >= 1.0 - 1e-12, r  # nothing beats the optimum with fixed corners
+        if r["solved"] != "0/" + r["solved"].split("/")[1]:
+            assert r["cost / optimum (mean)"] >= 1.0 - 1e-12, r  # nothing beats the optimum, at either end rule
     greedy = [r for r in rows if r["method"] == "greedy" and r["ends"] == "corners"]
     assert greedy and max(r["worst"] for r in greedy) > 1.0  # on real grids greedy is not optimal
     for values in ("real", "integer"):
@@ -57,6 +60,9 @@ def test_path_search_dp_is_optimal_and_greedy_is_not_better(paths):
     assert any(r["method"].startswith("threshold") for r in rows)
     detail = (out / "pairs.md").read_text(encoding="utf-8")
     assert "walk × run (241×181)" in detail  # grid sizes are reported
+    brute = (out / "brute_force.md").read_text(encoding="utf-8")
+    lines = [ln for ln in brute.splitlines() if ln.startswith("| every")]
+    assert len(lines) == 4 and all(ln.rstrip(" |").endswith("yes") for ln in lines)  # brute force = DP at every size
 
 
 def test_sub_grid_and_quantise():
@@ -110,6 +116,19 @@ def test_bspline_timewarp_recovers_the_known_warp_and_is_smoother(blends):
         assert float(kinds["bspline"]["clock jerk frames/frame²"]) < float(kinds["discrete"]["clock jerk frames/frame²"])
 
 
+def test_blendability_table_calls_alike_pairs_blendable_and_others_not(blends):
+    """Issue 18.4's calibration, on the bundled clips: walk with run, fast walk, sneak, limp under the
+    threshold; walk with a standing kick, punch or cricket drive over it."""
+    out, table = blends
+    text = (out / "blendability.md").read_text(encoding="utf-8")
+    rows = [[c.strip() for c in ln.split("|")[1:-1]] for ln in text.splitlines() if ln.startswith("| walk")]
+    assert len(rows) == len(timewarp_blend.BLENDABILITY_PAIRS_BUNDLED)
+    for r in rows:
+        rec = dict(zip(timewarp_blend.BLENDABILITY_COLUMNS, r, strict=True))
+        assert rec["blendable"] == rec["alike (Sako §7.2)"], rec
+    assert str(out / "blendability.md") in table.files
+
+
 def test_steps_per_s_counts_stance_changes():
     from mjmotion.evaluate import foot_track
 
@@ -150,6 +169,17 @@ def test_stream_is_continuous_without_time_blip(stream_table):
     # the stream follows its commands: faster in the walk/run blend, nearly still in the kick
     assert rows["walk/run .5"]["speed m/s"] > 1.3 * rows["walk"]["speed m/s"]
     assert rows["kick"]["speed m/s"] < 0.3 * rows["walk"]["speed m/s"]
+    # seed 000 §3.3: the fade from the walk/run mix into the kick is longer by its pace; from the walk, nominal
+    fades = {}
+    for ln in (out / "transitions.md").read_text(encoding="utf-8").splitlines():
+        if ln.startswith(("| kick", "| punch")):
+            rec = dict(zip(transitions.TRANSITION_COLUMNS, (c.strip() for c in ln.split("|")[1:-1]), strict=True))
+            fades[rec["clip"]] = rec
+    kick, punch = fades["kick"], fades["punch"]
+    assert float(kick["locomotion pace r (in)"]) > 1.1 and int(kick["fade-in frames"]) == round(18 * float(kick["locomotion pace r (in)"]))
+    assert float(punch["locomotion pace r (in)"]) == pytest.approx(1.0) and int(punch["fade-in frames"]) == 18
+    for rec in (kick, punch):
+        assert float(rec["clip frames played"]) == float(rec["clip's last frame"])
 
 
 def test_clock_checks_catch_a_backward_step_and_a_hidden_jump():

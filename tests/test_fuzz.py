@@ -8,15 +8,13 @@ Bounded for CI (150 examples, derandomised so CI is reproducible); set
 
 from __future__ import annotations
 
-import contextlib
 import io
 import os
-import signal
 from contextlib import redirect_stderr, redirect_stdout
 from datetime import timedelta
 
 import numpy as np
-from conftest import random_motion, random_skeleton
+from conftest import random_motion, random_skeleton, within
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -45,20 +43,9 @@ HOSTILE = [
 ]  # fmt: skip
 
 
-@contextlib.contextmanager
 def no_hang(seconds: int = HANG_S):
     """Fail (not hang) if the block runs longer than ``seconds``."""
-
-    def alarm(signum, frame):
-        raise AssertionError(f"parse took more than {seconds} s: a hang")
-
-    old = signal.signal(signal.SIGALRM, alarm)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
+    return within(seconds, "parse")
 
 
 @st.composite

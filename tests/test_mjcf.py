@@ -8,6 +8,7 @@ import pytest
 from conftest import clip_params, random_motion, random_skeleton, require_data
 
 from mjmotion import bvh, kinematics, mjcf
+from mjmotion import rotations as rot
 from mjmotion.errors import MjmotionError
 from mjmotion.skeleton import Skeleton
 
@@ -74,9 +75,11 @@ def test_foot_boxes_sit_on_the_sole_in_the_rest_pose(mocap):
     g = c.foot_geoms["left"][0]
     corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * c.model.geom_size[g]
     world = d.geom_xpos[g] + corners @ d.geom_xmat[g].reshape(3, 3).T
-    # Rest pose: the skeleton stands nearly along z, so the box bottom is at the toe tip's height.
-    assert world[:, 2].min() == pytest.approx(toe_tip[2], abs=0.01)
-    assert world[:, 2].max() <= skel.rest_positions()[ankle][2] + 0.01
+    # Rest pose: the skeleton stands nearly along z, so the box bottom is at the toe tip's height
+    # (qpos0 lifts the rest pose by the root's height so that it stands on the floor).
+    lift = c.model.qpos0[2]
+    assert world[:, 2].min() == pytest.approx(toe_tip[2] + lift, abs=0.01)
+    assert world[:, 2].max() <= skel.rest_positions()[ankle][2] + lift + 0.01
 
 
 def test_name_clash_with_added_elements_is_refused():
@@ -126,3 +129,102 @@ def test_no_body_geom_reaches_below_the_foot_sole_in_the_rest_pose(mocap):
     sole = min(lowest(g) for side in c.foot_geoms.values() for g in side)
     others = [lowest(g) for g in c.body_geom_ids if all(g not in side for side in c.foot_geoms.values())]
     assert min(others) >= sole - 1e-9
+
+
+# --- standing, keyframes, servos ----------------------------------------------------------------
+STANDING = {
+    "asf": ("cmu_asfamc_converted/16_15", 2),
+    "daz": ("cmu_cgspeed_daz/07_01", 4),
+    "max": ("cmu_cgspeed_max/131_01", 0),
+    "iclone": ("cmu_iclone_ccrig/002_05", 1),
+}
+
+
+def _lowest(c, qpos):
+    d = mujoco.MjData(c.model)
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(c.model, d)
+    return mjcf.lowest_point(c.model, d, mjcf.character_geoms(c.model, int(c.body_ids[0])))
+
+
+def _clip(name):
+    rel, start = STANDING[name]
+    return bvh.read(require_data() / f"{rel}.bvh")[start:]
+
+
+def _corners_lowest(c, qpos):
+    """The lowest point of the character's geoms, independently: box corners and capsule end caps."""
+    m = c.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(m, d)
+    low = np.inf
+    for g in mjcf.character_geoms(m, int(c.body_ids[0])):
+        mat, size, pos = d.geom_xmat[g].reshape(3, 3), m.geom_size[g], d.geom_xpos[g]
+        if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+            corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * size
+            low = min(low, float((pos + corners @ mat.T)[:, 2].min()))
+        else:
+            ends = pos + np.outer([-1.0, 1.0], mat[:, 2] * size[1])
+            low = min(low, float(ends[:, 2].min() - size[0]))
+    return low
+
+
+@pytest.mark.parametrize("name", list(STANDING))
+def test_rest_pose_stands_on_the_floor_and_the_keyframe_touches_it(name, tmp_path):
+    motion = _clip(name)
+    c = mjcf.compile(motion.skeleton)
+    assert abs(_corners_lowest(c, c.model.qpos0)) < 1e-9
+    q = kinematics.qpos(c, motion[:1])[0]
+    q[2] += 0.37  # wherever the clip's first frame is, the keyframe is put on the floor
+    keyed = mjcf.add_keyframe(c, q, name="first_frame")
+    path = tmp_path / "k.xml"
+    keyed.save_xml(path)
+    loaded = mujoco.MjModel.from_xml_path(str(path))
+    assert np.allclose(loaded.qpos0, c.model.qpos0)
+    assert loaded.nkey == 1 and abs(_corners_lowest(keyed, loaded.key_qpos[0])) < 0.01
+    assert np.allclose(loaded.key_qpos[0, 3:], q[3:], atol=1e-6) and np.allclose(loaded.key_qpos[0, :2], q[:2], atol=1e-6)
+
+
+def test_servo_lengths_are_rotation_vectors_from_the_neutral_pose():
+    from mjmotion import synth
+
+    skel = synth.skeleton()
+    rng = np.random.default_rng(5)
+    neutral = rot.normalize(rng.normal(size=(skel.n_joints, 4)))
+    c = mjcf.add_actuators(mjcf.compile(skel), neutral)
+    assert c.model.nu == 3 * (skel.n_joints - 1)
+    q = c.model.qpos0.copy()
+    local = rot.normalize(rot.multiply(neutral, rot.exp(rng.normal(scale=0.8, size=(skel.n_joints, 3)))))
+    for j in range(1, skel.n_joints):
+        q[c.qpos_adr[j] : c.qpos_adr[j] + 4] = local[j]
+    d = mujoco.MjData(c.model)
+    d.qpos[:] = q
+    mujoco.mj_forward(c.model, d)
+    expect = rot.log(rot.multiply(rot.conjugate(neutral[1:]), local[1:])).ravel()
+    assert np.allclose(d.actuator_length, expect, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", list(STANDING))
+def test_servos_hold_the_keyframe_for_two_seconds_without_instability(name):
+    from mjmotion.skin import bind
+
+    motion = _clip(name)
+    c = mjcf.compile(motion.skeleton)
+    served = mjcf.add_keyframe(mjcf.add_actuators(c, bind.bind_rotations(motion.skeleton, motion)), kinematics.qpos(c, motion[:1])[0])
+    free = mjcf.add_keyframe(c, kinematics.qpos(c, motion[:1])[0])
+    worst = {}
+    for label, model in (("servos", served.model), ("free", free.model)):
+        d = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, d, 0)
+        start = d.qpos.copy()
+        dev = 0.0
+        for step in range(int(round(2.0 / model.opt.timestep))):
+            mujoco.mj_step(model, d)
+            if step % 25 == 0:
+                dev = max(dev, max(float(np.degrees(rot.angle_between(d.qpos[a : a + 4], start[a : a + 4]))) for a in c.qpos_adr[1:]))
+        worst[label] = dev
+        if label == "servos":
+            assert np.all(np.isfinite(d.qpos)) and all(w.number == 0 for w in d.warning), [w.number for w in d.warning]
+    # Every joint within 25° of its keyframe angle for 2 s (the body, unbalanced, may tip over); without servos it folds up.
+    assert worst["servos"] < 25.0 and worst["free"] > 45.0

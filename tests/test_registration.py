@@ -15,6 +15,7 @@ from scipy import optimize
 from mjmotion import bvh, kinematics, transform
 from mjmotion import registration as R
 from mjmotion.errors import MjmotionError, SkeletonMismatchError
+from mjmotion.registration.blendability import THRESHOLD
 
 DAZ = "cmu_cgspeed_daz"
 
@@ -56,6 +57,19 @@ def test_distance_grid_matches_numerical_minimum_per_cell():
         th, tx, ty = R.rigid_2d(ca[None], cb[None], ww)[0]
         assert np.angle(np.exp(1j * (th - x[0]))) == pytest.approx(0, abs=1e-4)
         assert (tx, ty) == pytest.approx((x[1], x[2]), abs=1e-4)
+
+
+def test_grid_leaves_out_joints_of_weight_zero_and_its_products_give_the_cost():
+    rng = np.random.default_rng(4)
+    pa, pb = rng.normal(size=(9, 5, 3)) + [3.0, -2.0, 1.0], rng.normal(size=(7, 5, 3))
+    w = np.array([1.0, 0.0, 2.0, 0.5, 0.0])
+    full = R.distance_grid(pa, pb, w, window=2).cost
+    kept = R.distance_grid(pa[:, w > 0], pb[:, w > 0], w[w > 0], window=2).cost
+    assert np.allclose(full, kept, rtol=0, atol=1e-13)
+    left, right, left_z, right_z = R.grid.grid_operands(pa, pb, w, 2)
+    assert left.shape == (18, 2 * 5 * 3) and right.shape == (7, 30) and left_z.shape == (9, 17) and right_z.shape == (7, 17)
+    ab = left @ right.T
+    assert np.allclose(np.maximum(left_z @ right_z.T - np.hypot(ab[:9], ab[9:]), 0), full, rtol=0, atol=1e-13)
 
 
 def test_grid_is_zero_for_a_clip_moved_on_the_floor():
@@ -113,6 +127,132 @@ def test_dp_equals_brute_force_on_small_random_grids(seed, backend):
             assert tuple(dp.cells[-1]) == (n_a - 1, n_b - 1)
 
 
+def _least_mean_by_length(cost: np.ndarray, slope: R.SlopeLimit) -> float:
+    """The least mean cell cost of a free-end path from (0, 0), by DP over (cell, run, length):
+    for every boundary cell and path length the least total, then the least total / length — an
+    exact method independent of the parametric search (affordable on small grids)."""
+    n_a, n_b = cost.shape
+    wv, wh = slope.vertical, slope.horizontal
+    n_len = n_a + n_b
+    best = np.full((n_a, n_b, 1 + wv + wh, n_len + 1), np.inf)  # state 0 D, 1..wv V_r, wv+1.. H_r
+    best[0, 0, 0, 1] = cost[0, 0]
+
+    def shift(x: np.ndarray) -> np.ndarray:  # one more cell
+        out = np.full_like(x, np.inf)
+        out[1:] = x[:-1]
+        return out
+
+    for i in range(n_a):
+        for j in range(n_b):
+            if i and j:
+                best[i, j, 0] = shift(best[i - 1, j - 1].min(axis=0)) + cost[i, j]
+            if i and wv:
+                best[i, j, 1] = shift(np.minimum(best[i - 1, j, 0], best[i - 1, j, 1 + wv :].min(axis=0, initial=np.inf))) + cost[i, j]
+                for r in range(2, wv + 1):
+                    best[i, j, r] = shift(best[i - 1, j, r - 1]) + cost[i, j]
+            if j and wh:
+                best[i, j, 1 + wv] = shift(best[i, j - 1, : 1 + wv].min(axis=0)) + cost[i, j]
+                for r in range(2, wh + 1):
+                    best[i, j, wv + r] = shift(best[i, j - 1, wv + r - 1]) + cost[i, j]
+    ends = np.concatenate([best[-1].min(axis=1), best[:, -1].min(axis=1)])  # (boundary cells, lengths)
+    return float((ends / np.maximum(np.arange(n_len + 1), 1)).min())
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_least_mean_path_is_exact_against_brute_force_and_a_length_dp(seed):
+    """Issue 18.5: with rule="mean" the free-end path has the least mean cell cost of all paths —
+    brute force on small grids, a DP over (cell, run, length) on larger ones — and never more
+    than Kovar & Gleicher's per-end path, which is exact for its own objective (least total per
+    end cell, then least mean)."""
+    rng = np.random.default_rng(100 + seed)
+    small = rng.random(tuple(rng.integers(2, 8, 2)))
+    slope = R.SlopeLimit(int(rng.integers(1, 3)), int(rng.integers(1, 3)))
+    for backend in ("numpy", "auto"):
+        dp = R.dp_path(small, slope, True, rule="mean", backend=backend)
+        bf = R.brute_path(small, slope, True, rule="mean")
+        assert dp.mean_cost == pytest.approx(bf.mean_cost, rel=1e-12)
+        np.testing.assert_array_equal(dp.cells, bf.cells)
+        R.check_path(dp.cells, slope)
+    per_end = R.dp_path(small, slope, True, rule="per-end")
+    assert per_end.cost == pytest.approx(R.brute_path(small, slope, True, rule="per-end").cost, rel=1e-12)
+    assert dp.mean_cost <= per_end.mean_cost + 1e-15
+    medium = rng.random((int(rng.integers(15, 30)), int(rng.integers(15, 30)))) ** 3  # skewed: cheap valleys
+    slope = R.SlopeLimit.default(*medium.shape)
+    exact = _least_mean_by_length(medium, slope)
+    for method in ("dp", "threshold"):
+        p = R.find_path(medium, method, rule="mean", **({"area_threshold": 1.0} if method == "threshold" else {}))
+        assert p.mean_cost == pytest.approx(exact, rel=1e-12), method
+        R.check_path(p.cells, slope)
+    greedy = R.find_path(medium, "greedy")
+    assert greedy.mean_cost >= exact - 1e-15
+
+
+def test_free_end_rules_on_a_real_grid(mocap):
+    """Greedy beats Kovar & Gleicher's per-end path on the mean (07_01 × 08_01), never the exact
+    least-mean path; the per-end path is still the least total to its own end, and greedy's."""
+    a, b = _clip(mocap, "07_01"), _clip(mocap, "08_01")
+    grid = R.distance_grid(R.positions_of(a), R.positions_of(b), R.joint_weights(a.skeleton)).cost
+    per_end, mean, greedy = (R.find_path(grid, m, start="auto", rule=r) for m, r in (("dp", "per-end"), ("dp", "mean"), ("greedy", "per-end")))
+    assert greedy.mean_cost < per_end.mean_cost and mean.mean_cost < greedy.mean_cost
+    for p in (per_end, greedy):  # the least total to the cell where each ends, from the same start
+        end = tuple(p.cells[-1])
+        to_end = R.dp_path(grid[: end[0] + 1, : end[1] + 1], R.SlopeLimit.default(*grid.shape), False, tuple(p.cells[0]))
+        assert to_end.cost <= p.cost + 1e-12 and (p is greedy or to_end.cost == pytest.approx(p.cost, rel=1e-12))
+    assert len(mean.cells) > 1.2 * len(per_end.cells)  # the least mean stair-steps along the valley
+
+
+def _count_by_recursion(n_a: int, n_b: int, slope: R.SlopeLimit, free_end: bool) -> int:
+    """Paths from (0, 0) counted by walking every step (the ends brute force records)."""
+    import functools
+
+    @functools.cache
+    def walks(i: int, j: int, rh: int, rv: int) -> int:
+        end = (i == n_a - 1 or j == n_b - 1) if free_end else (i == n_a - 1 and j == n_b - 1)
+        n = int(end)
+        for di, dj, nrh, nrv in ((1, 1, 0, 0), (1, 0, 0, rv + 1), (0, 1, rh + 1, 0)):
+            if i + di < n_a and j + dj < n_b and nrh <= slope.horizontal and nrv <= slope.vertical:
+                n += walks(i + di, j + dj, nrh, nrv)
+        return n
+
+    return walks(0, 0, 0, 0)
+
+
+def test_count_paths_matches_delannoy_numbers_and_a_recursion():
+    from math import comb
+
+    def delannoy(m: int, n: int) -> int:  # lattice paths with steps (1,0), (0,1), (1,1)
+        return sum(comb(m, k) * comb(n, k) * 2**k for k in range(min(m, n) + 1))
+
+    free = R.SlopeLimit(99, 99)
+    for m, n in ((1, 1), (4, 6), (9, 9), (12, 5)):
+        assert R.count_paths((m, n), free, free_end=False) == delannoy(m - 1, n - 1)
+    for shape, w in (((6, 9), 1), ((8, 8), 2), ((7, 5), 3)):
+        for free_end in (False, True):
+            assert R.count_paths(shape, R.SlopeLimit(w, w), free_end) == _count_by_recursion(*shape, R.SlopeLimit(w, w), free_end)
+    assert R.count_paths((600, 600), R.SlopeLimit(2, 2)) == np.inf  # past float range: a clear "too many"
+
+
+def test_brute_force_beyond_100_cells_within_a_time_budget():
+    """Issue 18.6: brute force on a 150-cell grid (200 thousand paths) equals DP; a 16 × 16 grid
+    (1.2e10 paths) stops at once with what it would take."""
+    rng = np.random.default_rng(5)
+    cost = rng.random((10, 15))
+    slope = R.SlopeLimit(1, 1)
+    for free_end in (True, False):
+        bf = R.brute_path(cost, slope, free_end, time_limit_s=60.0)
+        dp = R.dp_path(cost, slope, free_end)
+        assert bf.cost == pytest.approx(dp.cost, rel=1e-12)
+        np.testing.assert_array_equal(bf.cells, dp.cells)
+    import time
+
+    t0 = time.perf_counter()
+    with pytest.raises(MjmotionError, match=r"16 × 16 grid: 1\.24e\+10 paths .* would take about .* over the 2 s budget.*--time-limit"):
+        R.brute_path(rng.random((16, 16)), R.SlopeLimit(2, 2), True, time_limit_s=2.0)
+    assert time.perf_counter() - t0 < 2.0  # its rate showed it could not finish: it did not wait for the budget
+    with pytest.raises(MjmotionError, match="positive number of seconds"):
+        R.brute_path(cost, slope, time_limit_s=0)
+
+
 @pytest.mark.parametrize("loop", [False, True])
 def test_alternative_searches_obey_constraints_and_cost_no_less_than_dp(loop):
     rng = np.random.default_rng(7)
@@ -152,6 +292,43 @@ def test_timewarp_curve_strictly_increasing_and_pinned(seed):
     assert np.all(np.diff(d, axis=0) > 0)
 
 
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_bspline_basis_equals_scipys_design_matrix(k):
+    from scipy.interpolate import BSpline
+
+    rng = np.random.default_rng(k)
+    x = np.r_[0.0, np.sort(rng.uniform(0.0, 50.0, 300)), 50.0, 12.5]  # both ends and a knot exactly
+    knots = np.r_[[0.0] * k, np.linspace(0.0, 50.0, 9), [50.0] * k]
+    ours = R.curves.bspline_basis(x, knots, k)
+    assert ours.shape == (len(x), len(knots) - k - 1)
+    assert np.allclose(ours, BSpline.design_matrix(x, knots, k).toarray(), rtol=0, atol=1e-14)
+    assert np.allclose(ours.sum(axis=1), 1.0)  # a partition of unity
+
+
+@pytest.mark.parametrize("sigma", [0.4, 3.0, 6.0, 90.0])
+def test_gaussian_smooth_equals_scipys_gaussian_filter1d(sigma):
+    from scipy.ndimage import gaussian_filter1d
+
+    x = np.random.default_rng(1).normal(size=(120, 3)).cumsum(axis=0)
+    expect = gaussian_filter1d(x, sigma, axis=0, mode="nearest")
+    assert np.allclose(R.align.gaussian_smooth(x, sigma), expect, rtol=0, atol=1e-12 * np.abs(x).max())
+
+
+def test_register_loads_no_scipy(mocap):
+    """A fresh registration of two clips stays off SciPy (its import alone would double a fresh `register`)."""
+    code = (
+        "import sys\n"
+        "from mjmotion import bvh, registration as R\n"
+        f"a = bvh.read({str(mocap / 'cmu_cgspeed_daz' / '07_01.bvh')!r})[4:]\n"
+        f"b = bvh.read({str(mocap / 'cmu_cgspeed_daz' / '07_02.bvh')!r})[4:]\n"
+        "R.register(a, b)\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'scipy', 'numba', 'casadi', 'matplotlib'}))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip() == "[]"
+
+
 def test_discrete_timewarp_reproduces_sako_table_1():
     # case 1 (deletion): 1-1, 2-2, 2-3, 3-4 → frame 2 blends with 2.5 (2 iw 3); frames 0-based here
     d = R.discrete_timewarp(np.array([[0, 0], [1, 1], [1, 2], [2, 3]])).samples
@@ -189,7 +366,7 @@ def test_known_timewarp_and_floor_move_are_recovered(mocap, name, theta, shift):
     ang = np.degrees(np.abs(np.angle(np.exp(1j * (reg.alignment[:, 0] + theta)))))
     dist = np.linalg.norm(reg.alignment[:, 1:] - true_t, axis=1)
     assert ang.max() < 2.0 and dist.max() < 0.02, f"alignment error {ang.max():.2f}°, {dist.max() * 100:.1f} cm"
-    assert set(reg.timing_s) == {"grid", "path", "curve"}
+    assert set(reg.timing_s) == {"grid", "path", "curve", "blendability"}
 
 
 def test_clip_registered_with_itself_is_the_identity(mocap):
@@ -238,6 +415,61 @@ def test_n_way_registration(mocap):
     np.testing.assert_allclose(reg.times[:, k], ref * factor, atol=2.0)
 
 
+def test_n_way_registration_is_one_n_dimensional_bspline(mocap):
+    """Issue 18.2 (seed 000 §3.1): one clamped uniform cubic B-spline whose control points are
+    n-vectors, a knot every 5–10 frames of the reference, strictly increasing in every coordinate;
+    the registration's rows lie on it, it follows each pair's own curve, and it recovers the known
+    relation of a walk and its copy slowed to 0.7× better than merging the pair curves did
+    (0.26 frames at worst)."""
+    walk = _clip(mocap, "07_01")
+    slow = transform.timewarp(walk, lambda i: i * 0.7, int((walk.n_frames - 1) / 0.7))
+    run = _clip(mocap, "09_01")
+    reg = R.register_many([run, walk, slow], reference=1)
+    sp = reg.spline
+    assert sp.k == 3 and sp.c.shape[1] == 3
+    t = sp.t
+    assert np.all(t[:4] == t[0]) and np.all(t[-4:] == t[-1])  # clamped
+    gaps = np.diff(t[3:-3])
+    assert np.allclose(gaps, gaps[0]) and 5.0 <= gaps[0] <= 10.0  # uniform, every 5–10 reference frames
+    assert sp.c.shape[0] == len(gaps) + 3
+    assert np.all(np.diff(sp.c, axis=0) > 0)  # strictly increasing control points → strictly increasing curve
+    tau = reg.times[:, 1]
+    np.testing.assert_allclose(np.diff(tau), 1.0, atol=0.02)  # a row per frame of the reference
+    np.testing.assert_allclose(sp(tau), reg.times, atol=1e-9)
+    for k, clip in ((0, run), (2, slow)):  # within a third of a frame of each pair's own curve
+        pair = R.register(walk, clip).curve.samples
+        assert np.abs(reg.times[:, k] - np.interp(tau, pair[:, 0], pair[:, 1])).max() < 0.35
+    assert np.abs(reg.times[:, 2] - tau / 0.7).max() < 0.2
+
+
+# --------------------------------------------------------------------------- blendability
+def test_blendability_tells_walks_and_runs_from_a_walk_and_a_pitch(mocap):
+    """Issue 18.4 (seed 004 §7.2, Fig. 10): the score is the path's mean cost over the smaller
+    self-similarity (the mean of a clip's own distance grid); walk/run pairs score under the
+    threshold, a walk with the baseball pitch 124_01 over it."""
+    asf = mocap / "cmu_asfamc_converted"
+    walk = bvh.read(str(asf / "16_15.bvh"))[2:]
+    pitch = bvh.read(str(asf / "124_01.bvh"))
+    run = _clip(mocap, "09_01")
+    pw, pp, pr_ = R.positions_of(walk), R.positions_of(pitch), R.positions_of(run)
+    w = R.joint_weights(walk.skeleton)
+    # a short clip's self-similarity is the mean of its whole own grid; a long one's a close estimate
+    assert R.self_similarity(pr_, R.joint_weights(run.skeleton)) == pytest.approx(
+        R.distance_grid(pr_, pr_, R.joint_weights(run.skeleton)).cost.mean(), rel=1e-12
+    )
+    assert R.self_similarity(pw, w) == pytest.approx(R.distance_grid(pw, pw, w).cost.mean(), rel=0.03)
+    bad = R.register(walk, pitch, positions=(pw, pp))
+    b = bad.blendability
+    assert b.score == pytest.approx(bad.path.mean_cost / min(b.self_similarity), rel=1e-12)
+    assert b.score > THRESHOLD and not b.blendable
+    assert "unblendable" in b.warning("16_15", "124_01")
+    good = R.register(_clip(mocap, "07_01"), run).blendability
+    assert good.blendable and good.score < 0.8 and good.warning("a", "b") is None
+    same = R.register(run, transform.floor_transform(run, 1.0, (2.0, 0.5))).blendability
+    assert same.score == pytest.approx(0.0, abs=1e-9)  # a clip and itself moved on the floor
+    assert bad.to_json()["blendability"] == b.to_json() and b.to_json()["blendable"] is False
+
+
 # --------------------------------------------------------------------------- CLI
 def test_cli_register_writes_the_documented_json(mocap, tmp_path):
     a = mocap / DAZ / "07_01.bvh"
@@ -248,7 +480,8 @@ def test_cli_register_writes_the_documented_json(mocap, tmp_path):
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     d = json.loads(out.read_text())
-    assert set(d) >= {"frames", "path", "path_cost", "mean_cost", "timewarp", "alignment", "timing_s"}
+    assert set(d) >= {"frames", "path", "path_cost", "mean_cost", "timewarp", "alignment", "timing_s", "blendability"}
+    assert d["blendability"]["blendable"] is True and "blendability 0." in r.stdout
     assert d["frames"] == [313, 145]
     tw = np.array(d["timewarp"])
     assert np.all(np.diff(tw, axis=0) > 0) and len(d["alignment"]) == len(tw)

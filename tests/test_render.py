@@ -208,3 +208,22 @@ def test_broken_egl_gives_one_error_line_not_a_traceback(mocap, tmp_path):
         last = p.stderr.strip().splitlines()[-1]
         assert last.startswith("error: no offscreen OpenGL backend works") and "egl:" in last
         assert not out.exists()
+
+
+def test_contact_shadows_darken_the_floor_under_the_feet_and_nothing_else(gl_works, walk):
+    scene = render.build_scene([render.Actor(walk)], fps=30)
+    i = 10
+    with render.Renderer(scene, W, H, labels=False, contact_shadows=False) as r:
+        plain = r.frame(i).astype(int)
+        data = r.pose(i)
+        feet = np.array([_geom_pos(scene, data, f"c0/foot/{s}") for s in ("left", "right")])
+        low = feet[np.argmin(feet[:, 2])]  # the planted foot
+        ground_px, _ = r.camera.project(np.array([[low[0], low[1], 0.0]]))
+        sky_px, _ = r.camera.project(np.array([[low[0], low[1], 3.0 * walk.skeleton.stature()]]))
+    with render.Renderer(scene, W, H, labels=False) as r:  # the default: contact shadows on
+        shaded = r.frame(i).astype(int)
+    darker = plain.sum(axis=-1) - shaded.sum(axis=-1)
+    assert darker.min() >= -3  # a shadow only darkens
+    row, col = int(ground_px[0, 1]), int(ground_px[0, 0])
+    assert darker[max(row - 3, 0) : row + 4, max(col - 6, 0) : col + 7].max() > 15  # under the planted foot
+    assert np.abs(darker[: max(int(sky_px[0, 1]), 1)]).max() <= 3  # the sky above the character: unchanged

@@ -67,3 +67,10 @@ def test_euler_to_quat_is_the_product_of_axis_quaternions_bit_for_bit():
         got = rot.euler_to_quat(ang[:, : len(order)], order)
         assert got.shape == ref.shape and got.flags.c_contiguous
         assert np.array_equal(got, ref), order
+
+
+def test_to_matrix_agrees_with_scipy_and_normalises():
+    r = Rotation.random(2000, rng=5)
+    assert np.allclose(rot.to_matrix(rot.from_scipy(r) * 3.0), r.as_matrix(), atol=1e-12)
+    q = rot.from_scipy(r).reshape(2, 1000, 4)
+    assert rot.to_matrix(q).shape == (2, 1000, 3, 3) and np.allclose(rot.from_matrix(rot.to_matrix(q)), rot.positive_w(q), atol=1e-12)

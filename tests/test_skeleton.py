@@ -51,6 +51,31 @@ def test_resample_preserves_duration_and_poses_at_shared_times():
     assert np.allclose(down.root_positions, m.root_positions[::3])
 
 
+def test_resample_keeps_the_last_frame_of_a_rounded_frame_time(mocap):
+    """Issue 18.7: 16_16's Frame Time 0.00833333 reads as 120.00005 fps; at 120 fps it keeps all
+    510 frames (flooring the duration dropped one), each within a hair of the source's pose."""
+    m = bvh.read(str(mocap / "cmu_asfamc_converted" / "16_16.bvh"))
+    assert m.n_frames == 510 and m.fps != 120.0
+    r = m.resample(120.0)
+    assert r.n_frames == 510
+    np.testing.assert_allclose(r.root_positions, m.root_positions, atol=1e-5)
+    # a 12-frame clip whose frame time rounds 1/15 s down (0.0666666) keeps 12 frames at 15 fps
+    short = _motion(n=12).replace(fps=1 / 0.0666666)
+    assert short.resample(15.0).n_frames == 12
+
+
+@pytest.mark.parametrize("fps", [7.0, 10.0, 24.0, 25.0, 29.97, 50.0, 59.94, 60.0, 119.88])
+@pytest.mark.parametrize("rounding", [1.0, 1 - 4e-7, 1 + 4e-7])  # the clip's rate as a rounded frame time reads it
+def test_resample_keeps_the_duration_to_within_one_output_frame(fps, rounding):
+    m = _motion(n=31, fps=30.0 * rounding)
+    r = m.resample(fps)
+    assert -1.0 / fps < r.duration - m.duration <= 1e-4 * m.duration
+    assert np.allclose(r.root_positions[0], m.root_positions[0])
+    if fps in (10.0, 60.0):  # a whole number of output frames, whatever the rounding: all of them, the last the clip's last
+        assert r.n_frames == round(m.duration * fps) + 1
+        assert np.allclose(r.root_positions[-1], m.root_positions[-1], atol=1e-4)
+
+
 def test_motion_validates_shapes_and_fps():
     m = _motion()
     with pytest.raises(MjmotionError):

@@ -128,6 +128,41 @@ def test_stream_loops_locomotion_longer_than_its_clips(mocap):
     assert v.min() > 0.5 * _speeds(script.clips["walk"]).mean()  # keeps walking through the loops
 
 
+def test_transition_timing_scales_with_the_locomotion_pace(mocap):
+    """Issue 18.1 (seed 000 §3.3): a 0.3 s fade is 36 frames of the walk (the reference); from the
+    fast walk it lasts 36·r frames, r the fast walk's pace relative to the walk — which equals
+    their cadence ratio (steps per second from the feet, an independent measure) to 2 %. Over the
+    fade the kick's clock runs between the window's rate (36 / fade frames) and its own, and it
+    reaches its last frame exactly when its fade-out ends."""
+    from mjmotion import mjcf
+    from mjmotion.experiments.timewarp_blend import steps_per_s
+
+    found = {}
+    for name in ("walk", "fast"):
+        cmds = [{"time": 0.0, "weights": {name: 1}}, {"time": 1.5, "play": "kick", "blend": 0.3}]
+        script = S.parse_script(_script(mocap, duration=4.5, commands=cmds), mocap, _load)
+        ms = S.MotionStream(script)
+        tracks = ms.tracks()
+        (t,) = ms.transitions
+        kick = tracks[-1]
+        assert kick.motion.name == "kick" and t.start == 180 and t.nominal_fade_in == t.nominal_fade_out == 36
+        assert t.fade_in == round(36 * t.rate_in) and t.fade_out == round(36 * t.rate_out)
+        w = kick.weights / max(kick.weights.max(), 1e-12)
+        assert w[t.start + t.fade_in] == pytest.approx(1.0) and w[t.start + t.fade_in - 1] < 1.0
+        assert w[t.end] == pytest.approx(0.0, abs=1e-12) and w[t.end - 1] > 0.0
+        a = w[t.start + 1]  # the first step of the fade-in: mostly the window's rate
+        assert kick.steps[t.start + 1] == pytest.approx(a + (1 - a) * 36 / t.fade_in, rel=1e-9)
+        assert kick.times[t.end] == kick.motion.n_frames - 1 and np.all(kick.steps >= 0)
+        np.testing.assert_allclose(np.diff(kick.times), kick.steps[1:], atol=1e-12)  # no hidden jump
+        found[name] = (t, script.clips[name])
+    walk_t, walk = found["walk"]
+    fast_t, fast = found["fast"]
+    assert walk_t.rate_in == pytest.approx(1.0) and walk_t.fade_in == 36 and walk_t.fade_out == 36
+    cadence = [steps_per_s(evaluate.foot_heights_speeds(mjcf.compile(m.skeleton), m)) for m in (walk, fast)]
+    assert fast_t.rate_in == pytest.approx(cadence[1] / cadence[0], rel=0.02)
+    assert fast_t.fade_in > walk_t.fade_in + 8 and fast_t.fade_out == fast_t.fade_in  # lengthened (46 frames)
+
+
 @pytest.mark.parametrize(
     "change,message",
     [
@@ -156,9 +191,17 @@ def test_cli_stream(mocap, tmp_path):
     data = _script(mocap, duration=2.0, commands=[{"time": 0.0, "weights": {"walk": 1}}, {"time": 0.5, "play": "kick", "blend": 0.3}])
     script.write_text(json.dumps(data))
     out = tmp_path / "s.bvh"
-    r = subprocess.run([sys.executable, "-m", "mjmotion.cli", "stream", str(script), "-o", str(out)], capture_output=True, text=True)
+    cmd = [sys.executable, "-m", "mjmotion.cli", "stream", str(script), "-o", str(out), "--json", str(tmp_path / "r.json")]
+    r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert bvh.read(str(out)).n_frames == 240
+    report = json.loads((tmp_path / "r.json").read_text())
+    (t,) = report["transitions"]  # the kick's start, fades and end, in frames and seconds
+    assert t["clip"] == "kick" and t["start_frames"] == 60 and t["start_s"] == pytest.approx(0.5)
+    assert t["fade_in_frames"] == t["nominal_fade_in_frames"] == 36 and t["rate_in"] == pytest.approx(1.0)
+    assert t["end_frames"] == min(t["fade_out_start_frames"] + t["fade_out_frames"], 239)  # the stream ends first
+    assert t["end_s"] == pytest.approx(t["end_frames"] / 120.0) and t["fade_out_s"] == pytest.approx(t["fade_out_frames"] / 120.0)
+    assert report["blendability"]["fast"]["blendable"] is True
     (tmp_path / "bad.json").write_text("{not json")
     cmd = [sys.executable, "-m", "mjmotion.cli", "stream", str(tmp_path / "bad.json"), "-o", str(tmp_path / "b.bvh")]
     r = subprocess.run(cmd, capture_output=True, text=True)

@@ -1,29 +1,41 @@
-"""Options and loading shared by the verbs."""
+"""Options and loading shared by the verbs.
+
+Only the standard library at import: the CLI imports every verb module to list the verbs, so
+NumPy and the readers load when a verb runs (see :mod:`mjmotion.cli`).
+"""
 
 from __future__ import annotations
 
 import argparse
 import os
+import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from .. import bvh
 from ..errors import MjmotionError, OutputExistsError
 from ..outputs import check_output
-from ..skeleton import ASF_UNIT, CM, METRE, MM, Motion
 
-_UNITS = {"m": METRE, "cm": CM, "mm": MM, "asf": ASF_UNIT}
+if TYPE_CHECKING:
+    from ..skeleton import Motion
 
 
-def add_input_options(p: argparse.ArgumentParser) -> None:
-    """``--units`` and ``--up`` for verbs that read BVH files."""
+def add_input_options(p: argparse.ArgumentParser, trim: bool = True) -> None:
+    """``--units`` and ``--up`` for verbs that read BVH files, and ``--keep-start`` for those that
+    read their frames (``trim``; see :func:`load`)."""
     p.add_argument(
         "--units",
         default="auto",
         metavar="UNIT",
         help="file length unit: auto (detect from the skeleton's size), m, cm, mm, asf (CMU's 5.644 cm), "
-        "or a number of metres per unit (default: auto)",
+        "or a number of metres per unit, 1e-6 to 1000 (default: auto)",
     )
     p.add_argument("--up", choices=("y", "z"), default="y", help="the file's up axis (default: y, the BVH norm)")
+    if trim:
+        p.add_argument(
+            "--keep-start",
+            action="store_true",
+            help="keep a leading T-pose/transition (cgspeed daz frames 0-3), which is skipped unless a frame range is given",
+        )
 
 
 def add_output_options(p: argparse.ArgumentParser, required: bool = True, help: str = "output file") -> None:
@@ -33,29 +45,71 @@ def add_output_options(p: argparse.ArgumentParser, required: bool = True, help: 
 
 def units_scale(text: str) -> float | None:
     """Metres per file unit from ``--units`` (``None`` = detect)."""
+    from ..skeleton import ASF_UNIT, CM, METRE, MM
+
     if text == "auto":
         return None
-    if text in _UNITS:
-        return _UNITS[text]
+    units = {"m": METRE, "cm": CM, "mm": MM, "asf": ASF_UNIT}
+    if text in units:
+        return units[text]
     try:
         value = float(text)
     except ValueError:
         raise MjmotionError(f"--units {text!r}: expected auto, m, cm, mm, asf or a number of metres per unit") from None
-    if not (value > 0 and value < float("inf")):
-        raise MjmotionError(f"--units {text!r}: expected a positive number of metres per unit")
+    if not (1e-6 <= value <= 1e3):  # (NaN fails too)
+        raise MjmotionError(f"--units {text!r}: expected a number of metres per unit from 1e-6 to 1000")
     return value
 
 
-def load(path: str, args: argparse.Namespace) -> Motion:
-    """Read a BVH clip with the verb's ``--units``/``--up``.
+def read_motion(path: str, args: argparse.Namespace) -> Motion:
+    """Read a BVH clip as the file holds it, with the verb's ``--units``/``--up``.
 
     Refuses a clip that is the verb's ``-o`` output: inputs named inside another input (a
     stream script's clips) escape the check ``output_path`` makes before the work starts.
     """
+    from .. import bvh
+
     out = getattr(args, "output", None)
     if out and check_same_file(out, path):
         raise OutputExistsError(f"{out}: is an input of this command ({path}); choose another output path")
     return bvh.read(path, scale=units_scale(getattr(args, "units", "auto")), up=getattr(args, "up", "y"))
+
+
+def load_first(path: str, args: argparse.Namespace, frames: str | None = None, *, trim: bool = True, note: bool = True) -> tuple[Motion, int]:
+    """A clip as every verb reads it, and the file frame it starts at.
+
+    ``frames`` (``A:B``, the file's frame numbers) selects frames; without it a leading T-pose
+    or transition (:func:`mjmotion.trim.leading_transient`) is skipped unless ``--keep-start``
+    (or ``trim=False``), with one note line on stderr naming the frames (``note``).
+    """
+    m = read_motion(path, args)
+    if frames:
+        sl = parse_frames(frames, m.n_frames)
+        return m[sl], sl.indices(m.n_frames)[0]
+    if not trim or getattr(args, "keep_start", False):
+        return m, 0
+    from ..trim import skip_leading_transient
+
+    m, k = skip_leading_transient(m)
+    if k and note:
+        shown = "frame 0" if k == 1 else f"frames 0-{k - 1}"
+        sys.stderr.write(f"note: {path}: skipped {shown}, a leading T-pose, transition or glitch (--keep-start keeps them)\n")
+    return m, k
+
+
+def load(path: str, args: argparse.Namespace, frames: str | None = None, *, trim: bool = True, note: bool = True) -> Motion:
+    """:func:`load_first` without the start frame."""
+    return load_first(path, args, frames, trim=trim, note=note)[0]
+
+
+def clip_frame(frame: int, first: int, option: str) -> int:
+    """A file frame number given in ``option`` as a frame of the clip :func:`load_first` read
+    starting at file frame ``first`` (negative numbers count from the end, unchanged)."""
+    if frame < 0 or not first:
+        return frame
+    if frame < first:
+        raise MjmotionError(f"{option} {frame}: inside the skipped leading T-pose/transition (frames 0-{first - 1}); add --keep-start")
+    return frame - first
 
 
 def check_same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
@@ -65,7 +119,7 @@ def check_same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> boo
             return True
     except OSError:
         pass
-    return Path(a).resolve() == Path(b).resolve()
+    return os.path.realpath(a) == os.path.realpath(b)  # (a symlink loop is not an error here)
 
 
 def output_path(args: argparse.Namespace, *inputs: str) -> Path:

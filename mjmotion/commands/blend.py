@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from ..errors import MjmotionError
+from . import _joint_weights as joint_weights
 from ._common import output_path
+from ._progress import steps
 from .register import add_clip_options, load_clips
 
 NAME = "blend"
@@ -14,7 +17,7 @@ DESCRIPTION = """Blend clips of the same skeleton topology (bone lengths may dif
 clip's skeleton). registered (default): the clips are registered (timewarp + alignment), sampled
 at corresponding times, their joint rotations averaged as quaternions and the root built from
 the weighted per-frame steps, so the blend walks one continuous path at an in-between pace.
-linear: frame n of every clip averaged (the seed 004 baseline). Weights are non-negative and
+linear: frame n of every clip averaged (the Sako 2008 baseline). Weights are non-negative and
 must sum to 1.
 
 examples:
@@ -44,9 +47,28 @@ def run(args: argparse.Namespace) -> int:
     except ValueError:
         raise MjmotionError(f"--weights {args.weights!r}: expected numbers separated by commas") from None
     blend.check_weights(weights, len(args.files), "--weights")
-    clips = load_clips(args.files, args)
-    result = blend.blend(clips, weights, method=args.method, name=out.stem)
-    bvh.write(result, out)
+    if args.joint_weights and args.method == "linear":
+        raise MjmotionError("--joint-weights weighs the registration's distance; a linear blend has none (use --method registered)")
+    warnings = []
+    with steps("blend", ("read", "register", "blend", "write") if args.method == "registered" else ("read", "blend", "write")) as step:
+        step("read")
+        clips = blend.common_rate(load_clips(args.files, args))
+        registration = None
+        if args.method == "registered":
+            from ..registration import register_many
+
+            step("register")
+            registration = register_many(clips, reference=0 if len(clips) <= 2 else None, weights=joint_weights.load(args, clips[0].skeleton))
+            for k, b in enumerate(registration.blendability):
+                warning = b.warning(clips[registration.reference].name, clips[k].name) if b is not None else None
+                if warning:
+                    warnings.append(warning)
+        step("blend")
+        result = blend.blend(clips, weights, method=args.method, name=out.stem, registration=registration)
+        step("write")
+        bvh.write(result, out)
+    for warning in warnings:  # after the progress bar, which they would break
+        sys.stderr.write(f"warning: {warning}\n")
     travel = float(((result.root_positions[-1, :2] - result.root_positions[0, :2]) ** 2).sum()) ** 0.5
     print(f"wrote {out}: {result.n_frames} frames at {result.fps:g} fps ({args.method}), net floor travel {travel:.2f} m")
     return 0

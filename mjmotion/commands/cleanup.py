@@ -6,27 +6,30 @@ import argparse
 import json
 import math
 
-from .. import bvh
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, load, output_path
-from .evaluate import _finite, _nan_to_none
+from ._options import CONTACT_HEIGHT, CONTACT_SPEED, number
+from .evaluate import _finite, _nan_to_none, add_judge_options, check_floor, load_sources
 
 NAME = "cleanup"
-HELP = "remove footskate: pin foot plants, two-bone leg IK, root adjustment, smooth blending"
-DESCRIPTION = """Find foot plants (METRICS contact: foot within --h-c of the floor at two adjacent frames and
-slower than --v-c), pin each plant's ankle and foot orientation, solve the legs with analytic
-two-bone IK (bone lengths unchanged), lower/move the root where a leg cannot reach, and blend
-every adjustment in and out over --blend seconds. METRICS' skate_mm_per_s counts any foot
-moving within --h-c of the floor, planted or swinging, so a foot that moves faster than --v-c
-that low outside a plant is lifted to --clearance (default --h-c; --clearance 0 keeps swings as
-captured); a plant's foot rises in place over its last frames before it swings. Only hips,
-knees, ankles and the root change, and only near plants or where a foot is lifted. Prints
-footskate and penetration before and after.
+HELP = "remove footskate: hold foot plants on the floor, two-bone leg IK, root adjustment, smooth blending"
+DESCRIPTION = """Find foot plants with the judge's contact labels (docs/METRICS.md: sole within --h-c of the
+floor and slower than --v-c, with hysteresis), hold the point each plant touches the floor with
+still while the foot turns as captured, raise a plant that is below the floor onto it, lift any
+foot out of the floor, solve the legs with analytic two-bone IK (bone lengths unchanged), move
+the root where a leg cannot reach, and ease every adjustment in and out (--blend seconds) so
+no joint pops. Only hips, knees, ankles and the root change, and only near plants.
+
+The floor is --floor METRES, else that of the --source clip(s) the input was made from (the clips
+of a blend; repeatable), else the input's own stance floor. --source clips also calibrate the
+feet, and the report gives worst_joint_speed_ratio and pop_frames against them (against the
+input without them). Lifting swing feet clear of the floor is an option (--clearance M), off by
+default. Prints footskate, ground and pops before and after.
 
 examples:
-  mjmotion cleanup blend.bvh -o blend_clean.bvh
-  mjmotion cleanup blend.bvh -o blend_clean.bvh --json cleanup_report.json --force
-  mjmotion cleanup walk.bvh -o walk_clean.bvh --clearance 0     # pin plants only; swings as captured
+  mjmotion cleanup blend.bvh -o blend_clean.bvh --source walk.bvh --source run.bvh
+  mjmotion cleanup walk.bvh -o walk_clean.bvh --json cleanup_report.json --force
+  mjmotion cleanup walk.bvh -o walk_clean.bvh --floor 0 --clearance 0.05   # and lift swings to 5 cm
 """
 
 
@@ -35,73 +38,82 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="the cleaned clip")
     p.add_argument("--json", metavar="REPORT.json", help="write the plants and before/after metrics")
     p.add_argument("--force", action="store_true", help="replace outputs that exist")
-    p.add_argument("--h-c", type=float, default=0.05, metavar="M", help="contact height (default 0.05 m)")
-    p.add_argument("--v-c", type=float, default=0.5, metavar="M/S", help="contact speed (default 0.5 m/s)")
-    p.add_argument("--blend", type=float, default=0.2, metavar="S", help="blend-in/out time (default 0.2 s)")
+    p.add_argument("--h-c", type=CONTACT_HEIGHT, default=0.05, metavar="M", help="contact height, at most 1 m (default 0.05 m)")
+    p.add_argument("--v-c", type=CONTACT_SPEED, default=0.5, metavar="M/S", help="contact speed, at most 100 m/s (default 0.5 m/s)")
+    p.add_argument(
+        "--blend", type=number(0, 10, what="a time in seconds"), default=0.2, metavar="S", help="blend-in/out time, at most 10 s (default 0.2 s)"
+    )
     p.add_argument(
         "--clearance",
-        type=float,
-        default=None,
+        type=number(0, 1, what="a height in metres"),
+        default=0.0,
         metavar="M",
-        help="lift a foot moving faster than --v-c to this height outside plants (default: --h-c; 0 keeps swings as captured)",
+        help="lift a foot moving faster than --v-c within M of the floor outside plants up to M, at most 1 m (default 0: swings stay as captured)",
     )
+    p.add_argument("--hold-orientation", action="store_true", help="hold each plant's foot at one orientation (stiller feet, knee pops at toe-off)")
+    add_judge_options(p)
     add_input_options(p)
 
 
-def _metrics(c, motion, params) -> dict[str, float]:
-    """Footskate and penetration of ``motion`` under ``c`` (its skeleton's compiled model)."""
+def _metrics(motion, sources, floor, params) -> dict[str, float]:
+    """What the judge says of ``motion`` against ``sources`` (the floor given or theirs)."""
     from .. import evaluate as ev
-    from .. import kinematics
 
-    pose = kinematics.forward(c, motion)
-    tr = ev.foot_heights_speeds(c, motion, pose)
-    g = ev.ground_metrics(ev.lowest_body_point(c, pose), tr, params.h_c, params.v_c)
+    r = ev.evaluate(motion, params=ev.Params(h_c=params.h_c, v_c=params.v_c, hysteresis=params.hysteresis), sources=sources, floor=floor)
     return {
-        "skate_mm_per_s": ev.skate_mm_per_s(tr, params.h_c),
-        "planted_skate_mm_per_s": ev.planted_skate_mm_per_s(tr, params.h_c, params.v_c),
-        "skating_ratio": ev.skating_ratio(tr, params.h_c, params.v_c),
-        "penetrate_mm": g.penetrate_mm,
-        "max_penetrate_mm": g.max_penetrate_mm,
+        "planted_skate_mm_per_s": r.planted_skate_mm_per_s,
+        "skate_mm_per_s": r.skate_mm_per_s,
+        "skating_ratio": r.skating_ratio,
+        "penetrate_mm": r.penetrate_mm,
+        "max_penetrate_mm": r.max_penetrate_mm,
+        "float_mm": r.float_mm,
+        "physics_violation_ratio": r.physics_violation_ratio,
+        "pop_frames": float(r.pop_frames),
+        "worst_joint_speed_ratio": float("nan") if r.worst_joint_speed_ratio is None else r.worst_joint_speed_ratio,
+        "max_joint_speed_ratio": float("nan") if r.max_joint_speed_ratio is None else r.max_joint_speed_ratio,
     }
 
 
 def run(args: argparse.Namespace) -> int:
+    from .. import bvh
     from .. import cleanup as cl
-    from .. import evaluate as ev
-    from .. import mjcf
 
     _finite(args.h_c, "--h-c", "a contact height in metres")
     _finite(args.v_c, "--v-c", "a contact speed in m/s")
     _finite(args.blend, "--blend", "a blend time in seconds", strict=False)
-    if args.clearance is not None:
-        _finite(args.clearance, "--clearance", "a height in metres", strict=False)
-    out = output_path(args, args.file)
-    rep_path = check_output(args.json, force=args.force, inputs=(args.file, str(out))) if args.json else None
+    _finite(args.clearance, "--clearance", "a height in metres", strict=False)
+    check_floor(args)
+    out = output_path(args, args.file, *args.source)
+    rep_path = check_output(args.json, force=args.force, inputs=(args.file, str(out), *args.source)) if args.json else None
     m = load(args.file, args)
-    params = cl.CleanupParams(h_c=args.h_c, v_c=args.v_c, blend=args.blend, clearance=args.clearance)
-    res = cl.cleanup(m, params)
-    # The cleaned clip keeps the source's skeleton (cleanup changes rotations and the root): one model for both.
-    c = mjcf.compile(m.skeleton)
-    c_after = c if res.motion.skeleton is m.skeleton else mjcf.compile(res.motion.skeleton)
-    before, after = _metrics(c, m, params), _metrics(c_after, res.motion, params)
-    speed_ratio = ev.max_joint_speed_ratio(res.motion, m)
+    sources = load_sources(argparse.Namespace(**{**vars(args), "keep_start": True}), args.file, m) if args.source else []
+    params = cl.CleanupParams(
+        h_c=args.h_c, v_c=args.v_c, blend=args.blend, clearance=args.clearance, floor=args.floor, hold_orientation=args.hold_orientation
+    )
+    res = cl.cleanup(m, params, sources=sources)
+    # Judged as the judge would: against the sources (or the input itself), from the floor the cleanup used.
+    refs = sources or [m]
+    before = _metrics(m, refs if sources else [m.replace()], res.floor.height, params)
+    after = _metrics(res.motion, refs, res.floor.height, params)
     bvh.write(res.motion, out)
     info = res.to_dict()
     print(
-        f"wrote {out}: {len(res.plants)} plants, {int(res.changed_frames.sum())}/{m.n_frames} frames changed, "
-        f"root moved ≤ {res.max_root_shift_m * 1000:.1f} mm, {info['lifted_frames']} swing frames lifted ≤ {info['max_lift_m'] * 1000:.1f} mm"
+        f"wrote {out}: {len(res.plants)} plants ({info['raised_plants']} raised onto the floor), "
+        f"{int(res.changed_frames.sum())}/{m.n_frames} frames changed, root moved ≤ {res.max_root_shift_m * 1000:.1f} mm"
+        + (f", {info['lifted_frames']} swing frames lifted ≤ {float(res.lift.max()) * 1000:.1f} mm" if params.swing_clearance > 0 else "")
+    )
+    print(
+        f"floor {res.floor.height:+.3f} m ({res.floor.from_}); judged against {'the ' + str(len(sources)) + ' source(s)' if sources else 'the input'}"
     )
     print(f"{'metric':24s} {'before':>10s} {'after':>10s}")
     for k in before:
-        b, a = before[k], after[k]
-        print(f"{k:24s} {_f(b):>10s} {_f(a):>10s}")
-    print(f"{'max_joint_speed_ratio':24s} {'':>10s} {speed_ratio:10.3f}")
+        print(f"{k:24s} {_f(before[k]):>10s} {_f(after[k]):>10s}")
     print(
-        f"parameters: h_c={params.h_c} m, v_c={params.v_c} m/s, blend={params.blend} s, "
-        f"clearance={params.swing_clearance} m, min plant={params.min_plant} s, gap closed ≤ {params.max_gap} s"
+        f"parameters: h_c={params.h_c} m, v_c={params.v_c} m/s, hysteresis={params.hysteresis}, blend={params.blend} s, ease={params.ease} s, "
+        f"clearance={params.swing_clearance} m, min plant={params.min_plant} s, gap closed ≤ {params.max_gap} s (docs/METRICS.md)"
     )
     if rep_path is not None:
-        doc = dict(input=args.file, output=str(out), before=before, after=after, max_joint_speed_ratio=speed_ratio, **info)
+        doc = dict(input=args.file, output=str(out), sources=list(args.source), before=before, after=after, **info)
         write_text_atomic(rep_path, json.dumps(_nan_to_none(doc), indent=1, default=float, allow_nan=False))
         print(f"wrote {rep_path}")
     return 0

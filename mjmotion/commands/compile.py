@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from .. import mjcf
-from ._common import add_input_options, load, output_path
+from ._common import add_input_options, output_path, read_motion
+from ._options import UniqueProps
+from ._progress import steps
 
 NAME = "compile"
 HELP = "compile a BVH skeleton to a MuJoCo model (.xml)"
@@ -13,9 +14,21 @@ DESCRIPTION = """Compile the skeleton of a BVH file to MJCF: a free root, a ball
 capsules along the bones, foot boxes, masses for the character's size, a floor, lights and a
 tracking camera. The file loads with mujoco.MjModel.from_xml_path to the same kinematics.
 
+Its initial pose (qpos0) is the rest pose standing on the floor, and it carries a keyframe
+"first_frame": the clip's first frame, moved so its lowest geom touches the floor (load it in
+MuJoCo's viewer with the Key slider, or mujoco.mj_resetDataKeyframe).
+
+--skin adds the character's skinned surface (a MuJoCo <skin>: a closed mesh around the geoms
+in a standing T-pose, up to four bone weights per vertex by bind-pose distance; MuJoCo deforms
+it by vertex blending when it draws); the capsules and foot boxes stay the collision and mass
+geometry but move to geom group 3, which viewers hide unless asked (key 3 in MuJoCo's viewer). --actuators adds a position servo per joint degree of
+freedom (three per ball joint, on the rotation away from the T-pose; gains scaled by the inertia
+each joint moves), and the keyframe's controls hold its pose: python -m mujoco.viewer --mjcf=X.xml.
+
 examples:
   mjmotion compile swing.bvh -o swing.xml
   mjmotion compile swing.bvh -o swing.xml --prop club:rwrist --ball
+  mjmotion compile walk.bvh -o walk.xml --skin --actuators
 """
 
 
@@ -25,21 +38,51 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="replace the output if it exists")
     p.add_argument(
         "--prop",
-        action="append",
+        action=UniqueProps,
         default=[],
         metavar="KIND[:JOINT]",
-        help="attach a prop (club or bat) to JOINT (default: the right hand); repeatable",
+        help="attach a prop (club or bat) to JOINT (default: the right hand); repeatable, each kind once",
     )
     p.add_argument("--ball", action="store_true", help="add a free ball (cricket-ball size)")
-    add_input_options(p)
+    p.add_argument("--skin", action="store_true", help="add the character's skinned surface (a MuJoCo <skin>)")
+    p.add_argument("--actuators", action="store_true", help="add a position servo per joint degree of freedom")
+    add_input_options(p, trim=False)
 
 
 def run(args: argparse.Namespace) -> int:
+    from .. import kinematics, mjcf
+    from ..errors import MjmotionError
+
     out = output_path(args, args.file)
-    m = load(args.file, args)
-    props = tuple(mjcf.parse_prop_option(m.skeleton, text) for text in args.prop)
-    compiled = mjcf.compile(m.skeleton, props, mjcf.Ball() if args.ball else None)
-    compiled.save_xml(out)
+    names = ("read", "compile", *(("bind pose",) if args.skin or args.actuators else ()), *(("skin",) if args.skin else ()), "write")
+    with steps("compile", names) as step:
+        step("read")
+        m = read_motion(args.file, args)
+        step("compile")
+        props = tuple(mjcf.parse_prop_option(m.skeleton, text) for text in args.prop)
+        compiled = mjcf.compile(m.skeleton, props, mjcf.Ball() if args.ball else None)
+        try:
+            if args.skin or args.actuators:
+                from ..skin import attach, bind, build
+
+                step("bind pose")
+                neutral = bind.bind_rotations(m.skeleton, m)
+                if args.actuators:
+                    compiled = mjcf.add_actuators(compiled, neutral)
+            compiled = mjcf.add_keyframe(compiled, kinematics.qpos(compiled, m[:1])[0], name="first_frame")
+            if args.skin:
+                step("skin")
+                compiled = attach(compiled, build(compiled, reference=m))
+        except MjmotionError as e:
+            raise MjmotionError(f"{args.file}: {e}") from None
+        step("write")
+        compiled.save_xml(out)
     model = compiled.model
-    print(f"wrote {out}: {model.nbody - 1} bodies, nq={model.nq}, nv={model.nv}, mass {model.body_mass.sum():.1f} kg")
+    extra = "".join(
+        [
+            f", a skin of {model.nskinvert} vertices" if model.nskin else "",
+            f", {model.nu} actuators" if model.nu else "",
+        ]
+    )
+    print(f"wrote {out}: {model.nbody - 1} bodies, nq={model.nq}, nv={model.nv}, mass {model.body_mass.sum():.1f} kg{extra}, keyframe first_frame")
     return 0

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from .. import bvh
-from ..errors import MjmotionError
-from ._common import add_input_options, load, output_path, parse_frames
+from ._common import add_input_options, load, output_path
+from ._options import FPS, number, resample
+from ._progress import steps
 
 NAME = "convert"
 HELP = "write a BVH file again, optionally rescaled, resampled or cut"
@@ -24,24 +24,26 @@ examples:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", help="the .bvh file to read")
     p.add_argument("output", help="the .bvh file to write")
-    p.add_argument("--scale", type=float, metavar="S", help="multiply written lengths by S")
-    p.add_argument("--fps", type=float, metavar="F", help="resample to F frames per second")
+    p.add_argument("--scale", type=number(1e-6, 1e6, what="a length factor"), metavar="S", help="multiply written lengths by S (1e-6 to 1e6)")
+    p.add_argument("--fps", type=FPS, metavar="F", help="resample to F frames per second (0.1 to 10000; at most 1,000,000 frames)")
     p.add_argument("--frames", metavar="A:B", help="keep frames A to B-1 (Python slice, negatives allowed)")
     p.add_argument("--force", action="store_true", help="replace OUTPUT if it exists")
     add_input_options(p)
 
 
 def run(args: argparse.Namespace) -> int:
+    from .. import bvh
+
     out = output_path(args, args.input)
-    m = load(args.input, args)
-    if args.frames:
-        m = m[parse_frames(args.frames, m.n_frames)]
-    if args.fps is not None:
-        m = m.resample(args.fps)
-    if args.scale is not None:
-        if not (args.scale > 0 and args.scale < float("inf")):
-            raise MjmotionError(f"--scale {args.scale}: expected a positive number")
-        m = m.replace(skeleton=m.skeleton.replace_scale(m.skeleton.scale / args.scale))
-    bvh.write(m, out)
+    with steps("convert", ("read", *(("resample",) if args.fps is not None else ()), "write")) as step:
+        step("read")
+        m = load(args.input, args, args.frames)
+        if args.fps is not None:
+            step("resample")
+            m = resample(m, args.fps)
+        if args.scale is not None:
+            m = m.replace(skeleton=m.skeleton.replace_scale(m.skeleton.scale / args.scale))
+        step("write")
+        bvh.write(m, out)
     print(f"wrote {out} ({m.n_frames} frames at {m.fps:.4g} fps)")
     return 0

@@ -10,100 +10,199 @@ import math
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..errors import MjmotionError, require_number
+from ..errors import MjmotionError, printable, require_number
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, load, parse_frames
+from ._common import add_input_options, check_same_file, load, load_first
+from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, UniqueProps, integer, number
+
+if TYPE_CHECKING:
+    from ..evaluate import Report
+    from ..skeleton import Motion
 
 NAME = "evaluate"
-HELP = "footskate, ground, inverse-dynamics, limit and hitting metrics of a clip (or every clip in a folder)"
+HELP = "footskate, ground, inverse-dynamics, limit, pop and hitting metrics of a clip (or every clip in a folder)"
 DESCRIPTION = """Evaluate clips with the definitions of docs/METRICS.md (thresholds are options; the
-report states them): contacts and footskate (with the h_c sensitivity table), ground penetration,
-float and PhysDiff error, the detected floor offset (reported, not applied), MuJoCo inverse-dynamics
-residuals (root force ratio, flight residual, ground-reaction feasibility), joint limits and, with a
+report states them): foot contacts (with hysteresis) and planted footskate, the height-weighted
+footskate and the h_c sensitivity table, ground penetration, float and PhysDiff error, MuJoCo
+inverse-dynamics residuals (ground-reaction feasibility: can contact forces inside friction cones
+at the feet supply the wrench the motion needs?), joint-range violations, per-joint pops and, with a
 ball, the hitting metrics and a simulated ball launch.
 
-Leading T-pose/transition frames (cgspeed daz clips: 0-3) are detected and skipped unless --frames
-or --keep-start is given.
+The floor every ground metric measures from is, in order: --floor METRES; the source clip(s) of a
+result (--source, repeatable: the clips it was made from, same skeleton and frame rate); otherwise
+the clip's own stance floor (a note is printed when it is more than 1 cm from z = 0). A result
+lifted or sunk against its source reads as floating or penetrating only with --source. Sources
+also calibrate the feet and give the per-joint speed and pop references (worst_joint_speed_ratio).
+
+Leading T-pose/transition frames (cgspeed daz clips: 0-3) are detected and skipped (in sources too)
+unless --frames or --keep-start is given.
 
 examples:
   mjmotion evaluate walk.bvh
   mjmotion evaluate walk.bvh --json walk_report.json --csv
+  mjmotion evaluate blend.bvh --source walk.bvh --source run.bvh
+  mjmotion evaluate cleaned.bvh --source raw.bvh --floor 0
   mjmotion evaluate swing.bvh --prop club:rwrist --ball 0.6 0.1 0.03 --frame 212
   mjmotion evaluate drive.bvh --prop bat:RightHand --ball 0.27 0.35 0.18 --frame 66 --delivery medium
-  mjmotion evaluate ../shared/mocap --json all.json
+  mjmotion evaluate "$MJMOTION_DATA" --json all.json
 """
 
 _COLUMNS = (
     ("clip", 18, "s"),
     ("frames", 6, "d"),
     ("fps", 5, ".0f"),
-    ("skate_mm_s", 10, ".0f"),
     ("planted_mm_s", 12, ".0f"),
+    ("skate_mm_s", 10, ".0f"),
     ("skating_ratio", 13, ".3f"),
     ("flight", 6, ".2f"),
     ("penetrate_mm", 12, ".1f"),
     ("float_mm", 8, ".1f"),
     ("phys_err_mm", 11, ".1f"),
-    ("floor_m", 7, ".3f"),
+    ("floor_m", 7, "+.3f"),
+    ("floor_from", 10, "s"),
     ("flight_resid", 12, ".2f"),
     ("phys_viol", 9, ".2f"),
+    ("limit_viol", 10, ".2f"),
+    ("pops", 4, "d"),
 )
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("path", help="a .bvh file, or a folder (searched recursively for .bvh files)")
-    p.add_argument("--prop", action="append", default=[], metavar="KIND[:JOINT]", help="attach a prop (club, bat); the first is the effector")
-    p.add_argument("--ball", nargs=3, type=float, metavar=("X", "Y", "Z"), help="ball centre (m, world Z-up) for the hitting metrics")
-    p.add_argument("--ball-radius", type=float, default=0.036, metavar="R", help="ball radius in m (default 0.036, cricket)")
+    p.add_argument("--prop", action=UniqueProps, default=[], metavar="KIND[:JOINT]", help="attach a prop (club, bat); the first is the effector")
     p.add_argument(
-        "--ball-velocity", nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar=("VX", "VY", "VZ"), help="incoming ball velocity at impact, m/s"
+        "--ball", nargs=3, type=COORD, metavar=("X", "Y", "Z"), help="ball centre (m, world Z-up, each within ±1000) for the hitting metrics"
     )
-    p.add_argument("--frame", type=int, metavar="H", help="hit frame (0-based, of the file) for --ball")
     p.add_argument(
-        "--ball-release", nargs=3, type=float, metavar=("X", "Y", "Z"), help="--ball is a delivered ball released here (m; seed 003 §2.3.2)"
+        "--ball-radius",
+        type=number(0.001, 1, what="a ball radius in metres"),
+        default=0.036,
+        metavar="R",
+        help="ball radius in m, 0.001 to 1 (default 0.036, cricket)",
     )
-    p.add_argument("--release-velocity", nargs=3, type=float, metavar=("VX", "VY", "VZ"), help="its release velocity (m/s)")
+    p.add_argument(
+        "--ball-velocity",
+        nargs=3,
+        type=VELOCITY,
+        default=(0.0, 0.0, 0.0),
+        metavar=("VX", "VY", "VZ"),
+        help="incoming ball velocity at impact, m/s (each within ±1000)",
+    )
+    p.add_argument("--frame", type=FRAME, metavar="H", help="hit frame (0-based, of the file) for --ball")
+    p.add_argument(
+        "--ball-release",
+        nargs=3,
+        type=COORD,
+        metavar=("X", "Y", "Z"),
+        help="--ball is a delivered ball released here (m, each within ±1000; Hicks 2010, §2.3.2)",
+    )
+    p.add_argument("--release-velocity", nargs=3, type=VELOCITY, metavar=("VX", "VY", "VZ"), help="its release velocity (m/s, each within ±1000)")
     p.add_argument("--delivery", choices=("fast", "medium", "slow"), help="--ball is a ball delivered at it at this pace, from --bowler's end")
-    p.add_argument("--bowler", nargs=2, type=float, default=(0.0, 1.0), metavar=("DX", "DY"), help="direction to the bowler (default 0 1)")
+    p.add_argument(
+        "--bowler", nargs=2, type=COORD, default=(0.0, 1.0), metavar=("DX", "DY"), help="horizontal direction to the bowler, not 0 0 (default 0 1)"
+    )
     p.add_argument(
         "--hit-grid",
-        type=int,
+        type=integer(2, 9, what="a grid size"),
         metavar="N",
-        help="seed 003 Figure 2.6: adapt the shot to an N x N grid of hit points around "
+        help="Hicks 2010, Figure 2.6: adapt the shot to an N x N grid of hit points around "
         "the sweet spot at --frame (arm IK, wrist locked vs club orientation kept), launch a ball from each and print "
-        "the rank correlation of launch direction with hit point (needs --prop and --frame)",
+        "the rank correlation of launch direction with hit point (needs --prop and --frame; N from 2 to 9)",
     )
-    p.add_argument("--grid-step", type=float, default=0.05, metavar="M", help="hit-grid spacing in m (default 0.05)")
+    p.add_argument(
+        "--grid-step",
+        type=number(0, 1, lo_open=True, what="a spacing in metres"),
+        default=0.05,
+        metavar="M",
+        help="hit-grid spacing in m, at most 1 (default 0.05)",
+    )
     p.add_argument("--frames", metavar="A:B", help="evaluate only these frames")
-    p.add_argument("--keep-start", action="store_true", help="do not skip a leading T-pose/transition")
-    p.add_argument("--h-c", type=float, default=0.05, metavar="M", help="contact height threshold (default 0.05 m)")
-    p.add_argument("--v-c", type=float, default=0.5, metavar="M/S", help="contact speed threshold (default 0.5 m/s)")
+    add_judge_options(p)
+    p.add_argument("--h-c", type=CONTACT_HEIGHT, default=0.05, metavar="M", help="contact height threshold, at most 1 m (default 0.05 m)")
+    p.add_argument("--v-c", type=CONTACT_SPEED, default=0.5, metavar="M/S", help="contact speed threshold, at most 100 m/s (default 0.5 m/s)")
     p.add_argument("--json", metavar="OUT.json", help="write every metric (and the parameters) as JSON")
     p.add_argument("--csv", action="store_true", help="print the table as CSV instead of aligned text")
     p.add_argument("--force", action="store_true", help="replace OUT.json if it exists")
-    p.add_argument("--jobs", type=int, default=2, metavar="N", help="parallel processes for a folder (default 2)")
+    p.add_argument(
+        "--jobs",
+        type=integer(1, 64, what="a number of processes"),
+        default=2,
+        metavar="N",
+        help="parallel processes for a folder, 1 to 64 (default 2)",
+    )
     add_input_options(p)
 
 
+def add_judge_options(p: argparse.ArgumentParser) -> None:
+    """``--floor`` and ``--source``: where the judge's floor and references come from (evaluate, cleanup)."""
+    p.add_argument(
+        "--floor",
+        type=number(-100, 100, what="a floor height in metres"),
+        metavar="METRES",
+        help="the floor height (world z, m, within ±100) every ground metric measures from (default: from --source, else detected)",
+    )
+    p.add_argument(
+        "--source",
+        action="append",
+        default=[],
+        metavar="SRC.bvh",
+        help="a clip the input was made from (repeatable; same skeleton and frame rate): gives the floor, "
+        "calibrates the feet, and is the reference of the per-joint speed ratio and pops",
+    )
+
+
+def check_floor(args: argparse.Namespace) -> None:
+    floor = getattr(args, "floor", None)
+    if floor is not None and not math.isfinite(floor):
+        raise MjmotionError(f"--floor {floor:g}: expected a finite floor height in metres (world z)")
+
+
+def load_sources(args: argparse.Namespace, result_path: str, result) -> list:
+    """The ``--source`` clips, checked against the result (``result_path``, motion ``result``):
+    same skeleton and frame rate, not the result itself; leading transients cut like the result's."""
+
+    out = []
+    for src in args.source:
+        if not os.path.isfile(src):
+            raise MjmotionError(f"--source {src}: no such file")
+        same = check_same_file(src, result_path)
+        if not same:
+            with open(src, "rb") as a, open(result_path, "rb") as b:
+                same = a.read() == b.read()
+        if same:
+            raise MjmotionError(f"--source {src}: is the result itself ({result_path}); give the clip(s) the result was made from")
+        m = load(src, args, note=False)  # its leading transient skipped like the result's
+        if not m.skeleton.same_topology(result.skeleton):
+            raise MjmotionError(
+                f"--source {src}: another skeleton ({m.skeleton.n_joints} joints, root {m.skeleton.names[0]!r}) than "
+                f"{result_path} ({result.skeleton.n_joints} joints, root {result.skeleton.names[0]!r}); a source must share the result's skeleton"
+            )
+        if abs(m.fps - result.fps) > 1e-6 * result.fps:
+            raise MjmotionError(f"--source {src}: {m.fps:g} fps, {result_path} {result.fps:g} fps; resample one first (mjmotion convert --fps)")
+        out.append(m)
+    return out
+
+
 def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:
-    """Evaluate one file; returns ``{"file", "skipped_frames", "report"}`` (runs in worker processes)."""
+    """Evaluate one file; returns ``{"file", "skipped_frames", "report", "row", "notes"}`` (runs in worker processes)."""
+    _, offset, rep = evaluate_one(path, opts)
+    return {"file": path, "skipped_frames": offset, "report": rep.to_dict(), "row": rep.row(), "notes": rep.notes()}
+
+
+def evaluate_one(path: str, opts: dict[str, Any]) -> tuple[Motion, int, Report]:
+    """The one-file evaluation ``evaluate`` and ``audit`` share: the clip as evaluated (leading
+    transient or ``--frames`` cut off), the frames skipped, and its report. ``opts`` holds this
+    verb's options by their ``argparse`` names."""
     import numpy as np
 
     from .. import evaluate as ev
     from .. import mjcf
 
     args = argparse.Namespace(**opts)
-    m = load(path, args)
-    offset = 0
-    if args.frames:
-        sl = parse_frames(args.frames, m.n_frames)
-        offset = sl.indices(m.n_frames)[0]
-        m = m[sl]
-    elif not args.keep_start:
-        offset = ev.leading_transient(m)
-        m = m[offset:]
+    m, offset = load_first(path, args, args.frames, note=False)  # the skipped frames are listed once, after the table
+    sources = load_sources(args, path, m) if getattr(args, "source", None) else []
     props = tuple(_prop(m, t) for t in args.prop)
     ball = None
     hit = None
@@ -116,18 +215,23 @@ def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:
             raise MjmotionError(f"--frame {args.frame}: outside the evaluated frames {offset}..{offset + m.n_frames - 1}")
     params = ev.Params(h_c=args.h_c, v_c=args.v_c)
     ball_velocity = tuple(args.ball_velocity)
-    if ball is not None and (args.ball_release is not None or args.delivery is not None):
+    release, pace = getattr(args, "ball_release", None), getattr(args, "delivery", None)  # audit's options have no delivery
+    if ball is not None and (release is not None or pace is not None):
         from .. import delivery
 
         # a delivered ball (released, pitching on the floor): its velocity where it passes the ball's position
         dv = (
             delivery.Delivery(tuple(args.ball_release), tuple(args.release_velocity), radius=args.ball_radius)
-            if args.ball_release is not None
+            if release is not None
             else delivery.aimed(np.asarray(args.ball), bowler=np.asarray(args.bowler), preset=args.delivery)
         )
         ball_velocity = tuple(delivery.fly(dv).nearest(np.asarray(args.ball))[2])
-    rep = ev.evaluate(m.replace(name=Path(path).stem), props, ball, hit, params, ball_velocity=ball_velocity)
-    return {"file": path, "skipped_frames": offset, "report": rep.to_dict(), "row": rep.row()}
+    m = m.replace(name=Path(path).stem)
+    return (
+        m,
+        offset,
+        ev.evaluate(m, props, ball, hit, params, ball_velocity=ball_velocity, sources=sources, floor=getattr(args, "floor", None)),
+    )
 
 
 def _prop(motion, text: str):
@@ -139,7 +243,7 @@ def _prop(motion, text: str):
 def _fmt(v: Any, spec: str) -> str:
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return "-"
-    return format(v, spec) if spec != "s" else str(v)
+    return format(v, spec) if spec != "s" else printable(v)  # a clip's name comes from a file name: no raw escapes
 
 
 def format_table(rows: list[dict[str, Any]], as_csv: bool = False) -> str:
@@ -174,9 +278,10 @@ def format_table(rows: list[dict[str, Any]], as_csv: bool = False) -> str:
 def _params_line(report: dict[str, Any]) -> str:
     p = report["params"]
     return (
-        f"parameters: h_c={p['h_c']} m, v_c={p['v_c']} m/s, skating window={p['skate_window']} frames, "
-        f"float tolerance={p['float_tol']} m, mu={p['mu']}, CoP margin={p['cop_margin']} m, "
-        f"flight force ratio>{p['flight_force_ratio']}, finite-difference stencil={p['fd_step']:.4f} s"
+        f"parameters: h_c={p['h_c']} m, v_c={p['v_c']} m/s, hysteresis={p['hysteresis']}, skating window={p['skate_window']} frames, "
+        f"float tolerance={p['float_tol']} m, low-pass {p['cutoff_hz']} Hz before differentiating, mu={p['mu']}, "
+        f"ground-reaction residual>{p['residual_tol']} m·g or deeper than {p['penetration_tol']} m fails, "
+        f"pops: angular acceleration>{p['pop_factor']}x the reference's p{p['peak_percentile']:g} (docs/METRICS.md)"
     )
 
 
@@ -208,6 +313,9 @@ def check_options(args: argparse.Namespace) -> None:
         raise MjmotionError("--hit-grid needs one clip, --prop and --frame")
     if args.frame is not None and args.frame < 0:
         raise MjmotionError(f"--frame {args.frame}: expected a frame index ≥ 0")
+    check_floor(args)
+    if args.source and os.path.isdir(args.path):
+        raise MjmotionError("--source applies to one result clip; give a file, not a folder")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -220,11 +328,11 @@ def run(args: argparse.Namespace) -> int:
         if args.ball is not None:
             raise MjmotionError("--ball applies to one clip; give a file, not a folder")
     else:
-        if not os.path.isfile(args.path):
-            raise MjmotionError(f"{args.path}: no such file or folder")
+        if not os.path.lexists(args.path):
+            raise MjmotionError(f"{args.path}: no such file or folder")  # anything else: the reader says what it is
         files = [args.path]
     # Checked before any work: the report may never replace one of the clips it reads.
-    out = check_output(args.json, force=args.force, inputs=files) if args.json else None
+    out = check_output(args.json, force=args.force, inputs=[*files, *args.source]) if args.json else None
     if os.path.isdir(args.path):
         results = evaluate_files(files, opts, args.jobs)
     else:
@@ -238,15 +346,28 @@ def run(args: argparse.Namespace) -> int:
     sys.stdout.write(format_table(rows, args.csv))
     if ok and not args.csv:
         print(_params_line(ok[0]["report"]))
-        skipped = [f"{Path(r['file']).stem}:{r['skipped_frames']}" for r in ok if r["skipped_frames"]]
+        skipped = [f"{printable(Path(r['file']).stem)}:{r['skipped_frames']}" for r in ok if r["skipped_frames"]]
         if skipped:
             print("leading frames skipped: " + ", ".join(skipped))
+        for r in ok:
+            for note in r.get("notes", ()):
+                print(printable(note))
         if len(ok) == 1:
             rep = ok[0]["report"]
             print(
                 "h_c sensitivity: "
-                + "; ".join(f"h_c={s['h_c']}: skate {s['skate_mm_per_s']:.0f} mm/s, ratio {s['skating_ratio']:.3f}" for s in rep["sensitivity"])
+                + "; ".join(
+                    f"h_c={s['h_c']}: planted {_fmt(s['planted_skate_mm_per_s'], '.0f')} mm/s, weighted {_fmt(s['skate_mm_per_s'], '.0f')} mm/s, "
+                    f"ratio {s['skating_ratio']:.3f}"
+                    for s in rep["sensitivity"]
+                )
             )
+            if rep["sources"]:
+                print(
+                    f"against {rep['sources']} source(s): worst_joint_speed_ratio {rep['worst_joint_speed_ratio']:.2f} ({rep['worst_joint']}), "
+                    f"max_joint_speed_ratio (whole body) {rep['max_joint_speed_ratio']:.2f}, root_jump_m {rep['root_jump_m']:+.4f}, "
+                    f"pop_frames {rep['pop_frames']}"
+                )
             if rep.get("hit"):
                 print("hit: " + ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in rep["hit"].items()))
             for mode, g in (ok[0].get("hit_grid") or {}).items():
@@ -258,7 +379,7 @@ def run(args: argparse.Namespace) -> int:
                     print("   " + "  ".join(f"{k}={v:8.3f}" for k, v in row.items()))
     for r in results:
         if "error" in r:
-            sys.stderr.write(f"error: {r['file']}: {r['error']}\n")
+            sys.stderr.write(f"error: {printable(r['file'])}: {printable(r['error'])}\n")
     if out is not None:
         write_text_atomic(
             out,
@@ -285,16 +406,17 @@ def run(args: argparse.Namespace) -> int:
 
 def _hit_grid(args: argparse.Namespace, opts: dict[str, Any]) -> dict[str, Any]:
     """Seed 003 §2.3.2 on this clip: launch predictability for both wrist treatments."""
-    from .. import physics
+    from .. import launchgrid
 
-    m = load(args.path, argparse.Namespace(**opts))
+    m, first = load_first(args.path, argparse.Namespace(**opts), args.frames, note=False)
     prop = _prop(m, args.prop[0])
-    if not 0 <= args.frame < m.n_frames:
-        raise MjmotionError(f"--frame {args.frame}: outside the clip's 0..{m.n_frames - 1}")
-    offsets = physics.grid_offsets(m, prop, args.frame, args.hit_grid, args.grid_step)
+    frame = args.frame - first
+    if not 0 <= frame < m.n_frames:
+        raise MjmotionError(f"--frame {args.frame}: outside the evaluated frames {first}..{first + m.n_frames - 1}")
+    offsets = launchgrid.grid_offsets(m, prop, frame, args.hit_grid, args.grid_step)
     out = {}
     for mode in ("locked", "world"):
-        p = physics.hit_grid(m, prop, args.frame, offsets, wrist=mode, ball_radius=args.ball_radius, ball_velocity=tuple(args.ball_velocity))
+        p = launchgrid.hit_grid(m, prop, frame, offsets, wrist=mode, ball_radius=args.ball_radius, ball_velocity=tuple(args.ball_velocity))
         out[mode] = {"rho_azimuth": p.rho_azimuth, "rho_elevation": p.rho_elevation, "slope_deg_per_m": p.slope_deg_per_m, "rows": p.rows()}
     return out
 
@@ -328,13 +450,23 @@ def _safe(path: str, opts: dict[str, Any]) -> dict[str, Any]:
 
 
 def evaluate_files(files: list[str], opts: dict[str, Any], jobs: int) -> list[dict[str, Any]]:
-    """Evaluate many files in ``jobs`` processes with a progress bar; a bad file gives ``{"file", "error"}``."""
-    from concurrent.futures import ProcessPoolExecutor
+    """Evaluate many files in ``jobs`` processes with a progress bar; a bad file gives ``{"file", "error"}``.
+
+    Results come back in ``files`` order; the largest files are started first so that no worker
+    is left with a long clip at the end, and the judge is imported before the workers fork, so
+    each of them starts with MuJoCo and SciPy loaded.
+    """
+    from concurrent.futures import ProcessPoolExecutor, as_completed
 
     from tqdm import tqdm
 
-    if jobs == 1:
+    from .. import evaluate as _judge  # noqa: F401  (loaded once, inherited by forked workers)
+
+    if jobs == 1 or len(files) == 1:
         return [_safe(f, opts) for f in tqdm(files, desc="evaluate", unit="clip", file=sys.stderr)]
+    order = sorted(range(len(files)), key=lambda i: -os.path.getsize(files[i]))
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = [pool.submit(_safe, f, opts) for f in files]
-        return [f.result() for f in tqdm(futures, desc="evaluate", unit="clip", file=sys.stderr)]
+        futures = {i: pool.submit(_safe, files[i], opts) for i in order}
+        for _ in tqdm(as_completed(futures.values()), total=len(files), desc="evaluate", unit="clip", file=sys.stderr):
+            pass
+        return [futures[i].result() for i in range(len(files))]

@@ -5,11 +5,10 @@ from __future__ import annotations
 import argparse
 import io
 
-import numpy as np
-
-from .. import kinematics, mjcf
 from ..outputs import write_bytes_atomic
 from ._common import add_input_options, load, output_path
+from ._options import UniqueProps
+from ._progress import steps
 
 NAME = "fk"
 HELP = "forward kinematics of a BVH clip to an .npz of world positions (metres, Z-up)"
@@ -27,16 +26,37 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help="a .bvh file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.npz", help="the .npz file to write")
     p.add_argument("--force", action="store_true", help="replace the output if it exists")
-    p.add_argument("--prop", action="append", default=[], metavar="KIND[:JOINT]", help="attach a prop and export its sites")
+    p.add_argument("--prop", action=UniqueProps, default=[], metavar="KIND[:JOINT]", help="attach a prop and export its sites (each kind once)")
     add_input_options(p)
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .. import kinematics, mjcf
+
     out = output_path(args, args.file)
-    m = load(args.file, args)
-    props = tuple(_prop(m, text) for text in args.prop)
-    compiled = mjcf.compile(m.skeleton, props)
-    pose = kinematics.forward(compiled, m)
+    with steps("fk", ("read", "compile", "forward kinematics", "write")) as step:
+        step("read")
+        m = load(args.file, args)
+        step("compile")
+        props = tuple(_prop(m, text) for text in args.prop)
+        compiled = mjcf.compile(m.skeleton, props)
+        step("forward kinematics")
+        pose = kinematics.forward(compiled, m)
+        step("write")
+        arrays, n_sites = _arrays(m, pose, props)
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        write_bytes_atomic(out, buf.getvalue())
+    print(f"wrote {out}: positions {pose.joint_positions.shape}" + (f", {n_sites} sites" if props else ""))
+    return 0
+
+
+def _arrays(m, pose, props) -> tuple[dict, int]:
+    """The arrays of the .npz and the number of prop sites among them."""
+    import numpy as np
+
     arrays = {
         "joint_names": np.array(m.skeleton.names),
         "positions": pose.joint_positions,
@@ -46,15 +66,13 @@ def run(args: argparse.Namespace) -> int:
         keep = [i for i, n in enumerate(pose.site_names) if any(n.startswith(f"{p.name}/") for p in props)]
         arrays["site_names"] = np.array([pose.site_names[i] for i in keep])
         arrays["site_positions"] = pose.site_positions[:, keep]
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    write_bytes_atomic(out, buf.getvalue())
-    print(f"wrote {out}: positions {pose.joint_positions.shape}" + (f", {len(arrays['site_names'])} sites" if props else ""))
-    return 0
+    return arrays, len(arrays.get("site_names", ()))
 
 
-def _prop(motion, text: str) -> mjcf.Prop:
+def _prop(motion, text: str):
     """A prop from ``--prop``; the club on a golf swing is fitted to both hands when that module exists."""
+    from .. import mjcf
+
     kind = text.partition(":")[0]
     if kind == "club" and ":" not in text:
         try:

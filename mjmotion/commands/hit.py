@@ -1,4 +1,4 @@
-"""``mjmotion hit``: adapt a swing or kick so it meets a ball somewhere else (seed 003 §2)."""
+"""``mjmotion hit``: adapt a swing or kick so it meets a ball somewhere else (Hicks 2010, §2)."""
 
 from __future__ import annotations
 
@@ -6,25 +6,23 @@ import argparse
 import json
 import sys
 
-import numpy as np
-
-from .. import bvh
 from ..errors import MjmotionError
 from ..outputs import write_text_atomic
-from ._common import add_input_options, load, output_path
+from ._common import add_input_options, clip_frame, load_first, output_path
+from ._options import COORD, FRAME, VELOCITY, number
 
 NAME = "hit"
 HELP = "move a swing's hit point (IK with importance-based blending, keeping the style)"
 DESCRIPTION = """Adapt SHOT.bvh so its effector (a club's sweet spot, a foot, a fist, or a site) meets a new
 ball position at the hit frame, blending IK in and out by the effector's distance to the hit
-point (seed 003 §2.2.5). Coordinates are metres in the model's world frame (Z up).
+point (Hicks 2010, §2.2.5). Coordinates are metres in the model's world frame (Z up).
 The hit frame is the moment of contact: the effector's lowest pass in the downswing (a ball on
 the ground or a tee), or with --source-ball the downswing frame nearest the source's ball; the
 report gives the rule and the effector's height there above the floor the feet stand on
 (measured, not z = 0: CMU subject 64's floor is 2-4 cm below it).
-A delivered ball (seed 003 §2.3.2: released, pitching on the floor in MuJoCo with restitution
+A delivered ball (Hicks 2010, §2.3.2: released, pitching on the floor in MuJoCo with restitution
 0.5) can be given by its release (--ball-release, --release-velocity: the target is then where
-its path passes nearest the source's hit point, seed §2.5.1, unless --target/--offset say
+its path passes nearest the source's hit point, §2.5.1, unless --target/--offset say
 otherwise) or as --delivery PACE aimed at the target from the bowler's end (--bowler); the report
 adds how it arrives and the launch of the ball struck by the adapted shot.
 An unreachable target is solved best-effort: the clip and report are written (with
@@ -45,32 +43,56 @@ examples:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="SHOT.bvh", help="the source clip")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--target", nargs=3, type=float, metavar=("X", "Y", "Z"), help="new hit point (metres, world)")
-    g.add_argument("--offset", nargs=3, type=float, metavar=("DX", "DY", "DZ"), help="move the hit point by this (metres)")
+    g.add_argument("--target", nargs=3, type=COORD, metavar=("X", "Y", "Z"), help="new hit point (metres, world; each within ±1000)")
+    g.add_argument("--offset", nargs=3, type=COORD, metavar=("DX", "DY", "DZ"), help="move the hit point by this (metres, each within ±1000)")
     d = p.add_mutually_exclusive_group()
-    d.add_argument("--ball-release", nargs=3, type=float, metavar=("X", "Y", "Z"), help="a delivered ball released here (m; with --release-velocity)")
+    d.add_argument(
+        "--ball-release",
+        nargs=3,
+        type=COORD,
+        metavar=("X", "Y", "Z"),
+        help="a delivered ball released here (m, each within ±1000; with --release-velocity)",
+    )
     d.add_argument(
         "--delivery",
         choices=("fast", "medium", "slow"),
         help="a ball delivered at the hit point from the bowler's end at this pace (38, 30, 22 m/s), pitching before it",
     )
-    p.add_argument("--release-velocity", nargs=3, type=float, metavar=("VX", "VY", "VZ"), help="the delivered ball's release velocity (m/s)")
-    p.add_argument("--bowler", nargs=2, type=float, default=(0.0, 1.0), metavar=("DX", "DY"), help="horizontal direction to the bowler (default 0 1)")
+    p.add_argument(
+        "--release-velocity",
+        nargs=3,
+        type=VELOCITY,
+        metavar=("VX", "VY", "VZ"),
+        help="the delivered ball's release velocity (m/s, each within ±1000)",
+    )
+    p.add_argument(
+        "--bowler", nargs=2, type=COORD, default=(0.0, 1.0), metavar=("DX", "DY"), help="horizontal direction to the bowler, not 0 0 (default 0 1)"
+    )
     p.add_argument("--prop", default="club", choices=("club", "bat"), help="the prop fitted to both hands for --effector club (default: club)")
     p.add_argument(
-        "--frame", type=int, default=None, metavar="H", help="hit frame (default: the moment of contact, the effector's lowest pass in the downswing)"
+        "--frame",
+        type=FRAME,
+        default=None,
+        metavar="H",
+        help="hit frame (default: the moment of contact, the effector's lowest pass in the downswing)",
     )
     p.add_argument(
         "--source-ball",
         nargs=3,
-        type=float,
+        type=COORD,
         default=None,
         metavar=("X", "Y", "Z"),
         help="where the ball was in the source (m): the hit frame is the downswing frame where the effector comes nearest to it",
     )
     p.add_argument("--effector", default="club", metavar="NAME", help="club|left_foot|right_foot|left_fist|right_fist|SITE (default: club)")
     p.add_argument("--solver", default="nlp", choices=("nlp", "nlp-shot", "dls", "ccd"), help="IK solver (default: nlp)")
-    p.add_argument("--falloff", type=float, default=None, metavar="D", help="importance falloff distance in metres (default: 0.6)")
+    p.add_argument(
+        "--falloff",
+        type=number(0, 100, lo_open=True, what="a distance in metres"),
+        default=None,
+        metavar="D",
+        help="importance falloff distance in metres, at most 100 (default: 0.6)",
+    )
     p.add_argument("--wrist", default="locked", choices=("locked", "swing", "ball"), help="freedom of the effector's wrist (default: locked)")
     p.add_argument("--lock", nargs="+", default=[], metavar="JOINT", help="joints to lock in the chain")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="the adapted clip")
@@ -80,7 +102,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import hitpoint
+    import numpy as np
+
+    from .. import bvh, hitpoint
 
     out = output_path(args, args.file)
     report_path = None
@@ -93,7 +117,8 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError("--ball-release and --release-velocity go together")
     if args.target is None and args.offset is None and args.ball_release is None and args.delivery is None:
         raise MjmotionError("give --target or --offset (or a delivered ball: --ball-release with --release-velocity, or --delivery)")
-    m = load(args.file, args)
+    m, first = load_first(args.file, args)
+    frame = None if args.frame is None else clip_frame(args.frame, first, "--frame")
     prop = hitpoint.fit_club(m, args.prop) if args.effector == "club" else None
     source_ball = None if args.source_ball is None else np.array(args.source_ball)
     target = None if args.target is None else np.array(args.target)
@@ -101,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
     if args.ball_release is not None or args.delivery is not None:
         from .. import delivery
 
-        base = hitpoint.setup(m, offset=np.zeros(3), frame=args.frame, effector=args.effector, weights="clip", prop=prop, source_ball=source_ball)
+        base = hitpoint.setup(m, offset=np.zeros(3), frame=frame, effector=args.effector, weights="clip", prop=prop, source_ball=source_ball)
         source_hit = base.effector_fk[base.hit]
         if target is None and args.offset is not None:
             target = source_hit + np.array(args.offset)
@@ -111,14 +136,14 @@ def run(args: argparse.Namespace) -> int:
             ball = delivery.Delivery(tuple(args.ball_release), tuple(args.release_velocity))
         flight = delivery.fly(ball)
         if target is None:
-            # seed 003 §2.5.1: the new hit point is the point of the ball's path nearest the source's
+            # Hicks 2010, §2.5.1: the new hit point is the point of the ball's path nearest the source's
             target = flight.nearest(source_hit)[1]
     result = hitpoint.adapt(
         m,
         target=target,
         offset=None if (args.offset is None or target is not None) else np.array(args.offset),
         prop=prop,
-        frame=args.frame,
+        frame=frame,
         effector=args.effector,
         solver=args.solver,
         falloff=falloff,
@@ -153,7 +178,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _launch(result, ball, flight, preset: str | None) -> dict:
-    """The delivered ball met by the adapted shot: where and how it arrives, and how it leaves (seed 003 §2.3.2)."""
+    """The delivered ball met by the adapted shot: where and how it arrives, and how it leaves (Hicks 2010, §2.3.2)."""
+    import numpy as np
+
     from .. import mjcf, physics
 
     h = result.problem.hit

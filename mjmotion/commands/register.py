@@ -1,13 +1,18 @@
-"""``mjmotion register``: the registration curve of two clips (seed 000 §3.1, seed 004 §4–5)."""
+"""``mjmotion register``: the registration curve of two clips (Macleod 2006, §3.1; Sako 2008, §4–5)."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
+from pathlib import Path
 
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, load, parse_frames
+from . import _joint_weights as joint_weights
+from ._common import add_input_options, load
+from ._options import FPS, integer, number, resample
+from ._progress import steps
 
 NAME = "register"
 HELP = "timewarp and alignment curves between two clips (distance grid + minimal-cost path)"
@@ -19,16 +24,22 @@ JSON keys: frames [nA, nB]; path [[i, j], ...]; path_cost, mean_cost (m², weigh
 point distance per cell); method; timewarp [[tA, tB], ...] fractional frames, strictly increasing
 in both; alignment [[theta_rad, tx_m, ty_m], ...] one per timewarp sample, the floor transform
 that moves B onto A (rotate by theta about the vertical axis through the origin, then translate);
-timing_s {grid, path, curve} seconds.
+timing_s {grid, path, curve, blendability} seconds; blendability {score, threshold, blendable,
+mean_cost, self_similarity [A, B]}: mean_cost over the smaller self-similarity (mean distance
+between two frames of one clip), above threshold (0.9) the pair looks unblendable (Sako 2008, §7.2).
 
 By default the path starts at the best cell of the first third of the first row or column and
-ends where it reaches the last frame of either clip with the least average cost (Kovar &
-Gleicher); --loop pins it to both corners (looping clips, seed 000).
+ends on the last frame of either clip (--free-end): per-end (default; Kovar & Gleicher, in Sako 2008,
+§4.3) takes the least-total path to each end cell, then the one of least average cost; mean the
+least average cost over every path (Dinkelbach's parametric search over DP passes). --method dp
+solves either exactly, as brute does by enumerating every path (within --time-limit). --loop pins
+the path to both corners (looping clips, Macleod 2006) and minimises its total.
 
 examples:
   mjmotion register walk.bvh run.bvh --json reg.json --plot grid.png
   mjmotion register 07_01.bvh 09_01.bvh --frames 4: --json reg.json
   mjmotion register a.bvh b.bvh --loop --slope-limit 3 --method greedy --json reg.json
+  mjmotion register walk.bvh run.bvh --joint-weights legs.json --json reg.json
 """
 
 
@@ -37,10 +48,11 @@ def add_clip_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--frames",
         metavar="A:B[,A:B...]",
-        help="frame range of every clip, or one range per clip separated by commas (e.g. 4: for cgspeed clips whose first frames are a T-pose)",
+        help="frame range of every clip (the file's frames), or one range per clip separated by commas; without one a leading T-pose is skipped",
     )
-    p.add_argument("--fps", type=float, metavar="F", help="resample every clip to F frames per second first")
+    p.add_argument("--fps", type=FPS, metavar="F", help="resample every clip to F frames per second first (0.1 to 10000)")
     add_input_options(p)
+    joint_weights.add_option(p)
 
 
 def load_clips(files: list[str], args: argparse.Namespace) -> list:
@@ -50,15 +62,11 @@ def load_clips(files: list[str], args: argparse.Namespace) -> list:
         ranges = ranges * len(files)
     if len(ranges) != len(files):
         raise MjmotionError(f"--frames: give one range for all clips or one per clip ({len(files)}), got {len(ranges)}")
-    if args.fps is not None and not (args.fps > 0 and args.fps < float("inf")):
-        raise MjmotionError(f"--fps {args.fps}: expected a positive frame rate")
     clips = []
     for f, r in zip(files, ranges, strict=True):
-        m = load(f, args)
-        if r:
-            m = m[parse_frames(r, m.n_frames)]
+        m = load(f, args, r or None)
         if args.fps is not None:
-            m = m.resample(args.fps)
+            m = resample(m, args.fps)
         clips.append(m)
     return clips
 
@@ -67,11 +75,35 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("a", metavar="A.bvh", help="the first clip (rows of the grid)")
     p.add_argument("b", metavar="B.bvh", help="the second clip (columns)")
     p.add_argument("--json", required=True, metavar="OUT.json", help="where to write the registration")
-    p.add_argument("--plot", metavar="GRID.png", help="also draw the grid with the path and the curve")
-    p.add_argument("--window", type=int, default=5, metavar="N", help="frames per point cloud, odd (default 5)")
-    p.add_argument("--slope-limit", type=int, metavar="W", help="most consecutive steps along one clip only (default: seed 000 Eq. 6)")
+    p.add_argument("--plot", metavar="GRID.png", help="also draw the grid (A along x, B along y; dark = similar) with the path and the curve, as PNG")
+    p.add_argument(
+        "--window",
+        type=integer(1, 1001, what="an odd number of frames"),
+        default=5,
+        metavar="N",
+        help="frames per point cloud, odd, at most the shorter clip's frames (default 5)",
+    )
+    p.add_argument(
+        "--slope-limit",
+        type=integer(0, 100, what="a number of steps"),
+        metavar="W",
+        help="most consecutive steps along one clip only, 0 to 100 (default: Macleod 2006, Eq. 6)",
+    )
     p.add_argument("--loop", action="store_true", help="fixed corners: the path joins (0,0) and (nA-1,nB-1)")
-    p.add_argument("--method", choices=("dp", "greedy", "threshold", "brute"), default="dp", help="path search (default dp, exact)")
+    p.add_argument(
+        "--method",
+        choices=("dp", "greedy", "threshold", "brute"),
+        default="dp",
+        help="path search (default dp: exact for --free-end and --loop; brute: exact by enumeration, slow)",
+    )
+    p.add_argument("--free-end", choices=("per-end", "mean"), default="per-end", help="free-end objective (default per-end, see above)")
+    p.add_argument(
+        "--time-limit",
+        type=number(0, 86400, lo_open=True, what="a number of seconds"),
+        default=60.0,
+        metavar="S",
+        help="brute force: give up after S seconds (default 60)",
+    )
     p.add_argument("--curve", choices=("bspline", "discrete"), default="bspline", help="timewarp fit (default bspline)")
     p.add_argument("--force", action="store_true", help="replace outputs that exist")
     add_clip_options(p)
@@ -81,37 +113,59 @@ def run(args: argparse.Namespace) -> int:
     from .. import registration
 
     out = check_output(args.json, args.force, (args.a, args.b))
-    plot = check_output(args.plot, args.force, (args.a, args.b)) if args.plot else None
+    plot = check_output(args.plot, args.force, (args.a, args.b, args.json)) if args.plot else None  # (not the JSON's path either)
+    if plot is not None and plot.suffix.lower() != ".png":
+        raise MjmotionError(f"--plot {args.plot}: plots are written as PNG; expected a .png path")
     if args.window < 1 or args.window % 2 == 0:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
-    a, b = load_clips([args.a, args.b], args)
-    pr = registration.register(a, b, window=args.window // 2, slope_limit=args.slope_limit, loop=args.loop, method=args.method, curve=args.curve)
-    write_text_atomic(out, json.dumps(pr.to_json()))
-    if plot:
-        _plot(pr, plot, a.name, b.name)
+    if not 0 < args.time_limit < float("inf"):
+        raise MjmotionError(f"--time-limit {args.time_limit}: expected a positive number of seconds")
+    with steps("register", ("read", "register", "write")) as step:
+        step("read")
+        a, b = load_clips([args.a, args.b], args)
+        if args.window > min(a.n_frames, b.n_frames):
+            raise MjmotionError(
+                f"--window {args.window}: longer than the shorter clip ({min(a.n_frames, b.n_frames)} frames); use a smaller odd window"
+            )
+        step("grid, path and curve" + (f" (brute force, at most {args.time_limit:g} s)" if args.method == "brute" else ""))
+        pr = _register(registration, a, b, args)
+        step("write")
+        written = _write(pr, out, plot, a.name, b.name)
     t = pr.timing_s
+    assert pr.blendability is not None  # register() always scores it
     print(
-        f"wrote {out}: {len(pr.path.cells)}-cell path, mean cost {pr.path.mean_cost:.4g} m², "
+        f"wrote {written}: {len(pr.path.cells)}-cell path, mean cost {pr.path.mean_cost:.4g} m², "
         f"{len(pr.curve.samples)} timewarp samples; grid {t['grid'] * 1e3:.1f} ms, path {t['path'] * 1e3:.1f} ms, "
-        f"curve {t['curve'] * 1e3:.1f} ms"
+        f"curve {t['curve'] * 1e3:.1f} ms; blendability {pr.blendability.score:.2f}"
     )
+    warning = pr.blendability.warning(a.name or args.a, b.name or args.b)
+    if warning:
+        sys.stderr.write(f"warning: {warning}\n")
     return 0
 
 
-def _plot(pr, path, name_a: str, name_b: str) -> None:
-    import matplotlib
+def _register(registration, a, b, args: argparse.Namespace):
+    return registration.register(
+        a,
+        b,
+        window=args.window // 2,
+        slope_limit=args.slope_limit,
+        loop=args.loop,
+        method=args.method,
+        curve=args.curve,
+        weights=joint_weights.load(args, a.skeleton),
+        rule=args.free_end,
+        path_options={"time_limit_s": args.time_limit} if args.method == "brute" else None,
+    )
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    from ..outputs import write_with
+def _write(pr, out: Path, plot: Path | None, name_a: str, name_b: str) -> str:
+    """Write the registration's JSON (and the grid's plot); the files written, for the summary line."""
+    write_text_atomic(out, json.dumps(pr.to_json()))
+    if plot is None:
+        return str(out)
+    from .. import plots
 
-    fig, ax = plt.subplots(figsize=(6, 6 * pr.grid.cost.shape[0] / max(pr.grid.cost.shape[1], 1) + 0.5))
-    ax.imshow(pr.grid.cost, origin="lower", cmap="gray", aspect="auto")
-    ax.plot(pr.path.cells[:, 1], pr.path.cells[:, 0], "r-", lw=1, label="path")
-    ax.plot(pr.curve.samples[:, 1], pr.curve.samples[:, 0], "c-", lw=1, label="timewarp")
-    ax.set_xlabel(f"frame of {name_b or 'B'}")
-    ax.set_ylabel(f"frame of {name_a or 'A'}")
-    ax.legend(loc="upper left")
-    write_with(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
-    plt.close(fig)
+    a, b = name_a or "A", name_b or "B"
+    plots.distance_grid(pr.grid.cost, pr.path.cells, pr.curve.samples, plot, labels=(f"frame of {a}", f"frame of {b}"), title=f"{a} / {b}")
+    return f"{out} and {plot}"

@@ -9,13 +9,19 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import argparse
 
-from ..errors import MjmotionError
+from ..caps import MAX_MODEL_JOINTS, check_motion_size
+from ..errors import MjmotionError, printable
 from ._common import add_input_options, load, output_path, parse_frames
+from ._options import COORD, VIDEO_FPS, UniqueProps, check_actors, integer, number
+from ._options import label as label_text
+
+PIXELS = integer(16, 4096, what="pixels")
 
 NAME = "render"
 HELP = "render BVH clips side by side to an MP4 or GIF (offscreen MuJoCo)"
 DESCRIPTION = """Render one or more clips into one scene, side by side, each in its own colour with a
-label, on a checker floor, with a camera that follows them. Clips are resampled to --fps;
+label, on a checker floor with soft contact shadows, with a camera that follows them (--hq: MuJoCo's
+shadow-mapped light and the floor reflection, about 2.5x slower in software GL). Clips are resampled to --fps;
 shorter clips hold their last pose. The video is MP4 (H.264) or GIF, chosen by the OUT suffix.
 
 examples:
@@ -23,6 +29,12 @@ examples:
   mjmotion render source.bvh adapted.bvh blend.bvh --labels source adapted blend -o compare.mp4
   mjmotion render swing.bvh --prop club --ball 0.5 0.1 0.02 --trail -o swing.gif --width 640 --height 360
   mjmotion render kick.bvh --trail rtoes --frames 100:400 --fps 25 --fast -o kick.mp4
+  mjmotion render walk.bvh --skin -o walk_skin.mp4
+  mjmotion render walk.bvh --skin both -o skin_vs_capsules.mp4
+
+--skin draws each character as its skinned surface (the mesh and weights `mjmotion compile --skin`
+writes, deformed by MuJoCo's vertex blending) instead of capsules; --skin both draws every clip
+twice, skinned and as capsules, side by side in one colour. Either works with --fast.
 """
 
 
@@ -30,15 +42,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("files", nargs="+", metavar="FILE.bvh", help="clips to render, left to right")
     p.add_argument("-o", "--output", required=True, metavar="OUT.mp4|OUT.gif", help="the video to write")
     p.add_argument("--force", action="store_true", help="replace the output if it exists")
-    p.add_argument("--labels", nargs="+", metavar="LABEL", help="one label per clip (default: file names)")
+    p.add_argument(
+        "--labels", nargs="+", type=label_text(), metavar="LABEL", help="one label per clip, printable, at most 80 characters (default: file names)"
+    )
     p.add_argument(
         "--prop",
-        action="append",
+        action=UniqueProps,
         default=[],
         metavar="KIND[:JOINT]",
         help="give every character a prop: club or bat, held by JOINT (default: a club is fitted to both hands, a bat to the right hand)",
     )
-    p.add_argument("--ball", nargs=3, type=float, metavar=("X", "Y", "Z"), help="a ball at X Y Z metres (Z up) beside each character")
+    p.add_argument(
+        "--ball", nargs=3, type=COORD, metavar=("X", "Y", "Z"), help="a ball at X Y Z metres (Z up, each within ±1000) beside each character"
+    )
     p.add_argument(
         "--trail",
         nargs="?",
@@ -46,16 +62,43 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="SITE|JOINT",
         help="draw a ghost trail of an effector (default with no name: the prop's sweet spot, else the right hand)",
     )
-    p.add_argument("--width", type=int, default=960, help="image width in pixels (default 960)")
-    p.add_argument("--height", type=int, default=540, help="image height in pixels (default 540)")
-    p.add_argument("--fps", type=float, default=30.0, help="video frame rate; clips are resampled to it (default 30)")
+    p.add_argument("--width", type=PIXELS, default=960, help="image width in pixels, 16 to 4096, even for MP4 (default 960)")
+    p.add_argument("--height", type=PIXELS, default=540, help="image height in pixels, 16 to 4096, even for MP4 (default 540)")
+    p.add_argument("--fps", type=VIDEO_FPS, default=30.0, help="video frame rate, 1 to 240; clips are resampled to it (default 30)")
     p.add_argument("--frames", metavar="A:B", help="render only frames A:B of each clip (its own frame numbers)")
-    p.add_argument("--spacing", type=float, default=1.2, help="metres between characters (default 1.2; 0 overlays them)")
-    p.add_argument("--azimuth", type=float, help="camera heading in degrees (default: from the clips' travel direction)")
-    p.add_argument("--elevation", type=float, default=-10.0, help="camera elevation in degrees (default -10)")
-    p.add_argument("--distance", type=float, help="camera distance in metres (default: fit the characters)")
-    p.add_argument("--no-shadows", action="store_true", help="faster: no shadows")
-    p.add_argument("--fast", action="store_true", help="no shadows and no floor reflection: about twice as fast in software GL")
+    p.add_argument(
+        "--spacing",
+        type=number(0, 100, what="a distance in metres"),
+        default=1.2,
+        help="metres between characters, at most 100 (default 1.2; 0 overlays them)",
+    )
+    p.add_argument(
+        "--azimuth",
+        type=number(-360, 360, what="an angle in degrees"),
+        help="camera heading in degrees, ±360 (default: from the clips' travel direction)",
+    )
+    p.add_argument(
+        "--elevation", type=number(-90, 90, what="an angle in degrees"), default=-10.0, help="camera elevation in degrees, ±90 (default -10)"
+    )
+    p.add_argument(
+        "--distance",
+        type=number(0, 1000, lo_open=True, what="a distance in metres"),
+        help="camera distance in metres, at most 1000 (default: fit the characters)",
+    )
+    p.add_argument("--no-shadows", action="store_true", help="no contact shadows under the characters")
+    p.add_argument("--fast", action="store_true", help="the quickest frames: no shadows of any kind, no floor reflection")
+    p.add_argument(
+        "--hq",
+        action="store_true",
+        help="MuJoCo's shadow-mapped key light and the floor reflection instead of contact shadows (about 2.5x slower in software GL)",
+    )
+    p.add_argument(
+        "--skin",
+        nargs="?",
+        const="only",
+        choices=("only", "both"),
+        help="draw the skinned character instead of capsules; 'both': each clip skinned and as capsules, side by side",
+    )
     add_input_options(p)
 
 
@@ -65,23 +108,51 @@ def run(args: argparse.Namespace) -> int:
     out = output_path(args, *args.files)
     if out.suffix.lower() not in (".mp4", ".gif"):
         raise MjmotionError(f"{out}: expected an .mp4 or .gif output")
+    if out.suffix.lower() == ".mp4" and (args.width % 2 or args.height % 2):
+        raise MjmotionError(f"--width {args.width} --height {args.height}: MP4 (yuv420p) needs an even width and height")
     if args.labels is not None and len(args.labels) != len(args.files):
         raise MjmotionError(f"--labels: got {len(args.labels)} labels for {len(args.files)} clips; give one per clip")
-    labels = args.labels or [os.path.splitext(os.path.basename(f))[0] for f in args.files]
+    check_actors(len(args.files))
+    labels = args.labels or [printable(os.path.splitext(os.path.basename(f))[0]) for f in args.files]  # drawn: one printable line
     actors = []
-    for path, label in zip(args.files, labels):
-        m = load(path, args)
+    for i, (path, label) in enumerate(zip(args.files, labels)):
+        m = load(path, args, trim=not args.frames)  # --frames: the file's own frame numbers
         props = tuple(_prop(m, text) for text in args.prop)  # fitted on the whole clip (a swing's address frames)
         if args.frames:
             m = m[parse_frames(args.frames, m.n_frames)]
-        actors.append(render.Actor(m, label=label, props=props, trail=_trail(m, props, args.trail)))
+        trail = _trail(m, props, args.trail)
+        if args.skin == "both":
+            colour = render.PALETTE[i % len(render.PALETTE)]
+            for skinned, kind in ((True, "skin"), (False, "capsules")):
+                actors.append(render.Actor(m, label=f"{label} {kind}".strip(), color=colour, props=props, trail=trail, skin=skinned))
+        else:
+            actors.append(render.Actor(m, label=label, props=props, trail=trail, skin=args.skin == "only"))
+    _check_scene([a.motion for a in actors], args.fps)
     ball = mjcf.Ball(position=tuple(args.ball)) if args.ball else None
     view = render.View(azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
-    scene = render.build_scene(actors, fps=args.fps, ball=ball, spacing=args.spacing, view=view)
-    quality = {"shadows": not (args.fast or args.no_shadows), "reflections": not args.fast}
+    try:
+        scene = render.build_scene(actors, fps=args.fps, ball=ball, spacing=args.spacing, view=view)
+    except MjmotionError as e:
+        if not args.skin:
+            raise
+        raise MjmotionError(f"--skin: {e} ({', '.join(args.files)})") from None
+    hq = args.hq and not args.fast
+    quality = {"contact_shadows": not (hq or args.fast or args.no_shadows), "shadows": hq and not args.no_shadows, "reflections": hq}
     render.render(scene, out, width=args.width, height=args.height, **quality)
     print(f"wrote {out}: {scene.n_frames} frames, {args.width}x{args.height} at {args.fps:g} fps, {len(actors)} character(s)")
     return 0
+
+
+def _check_scene(motions: list, fps: float) -> None:
+    """The scene's size before it is built: one model of every character, every clip at ``fps``."""
+    joints = sum(m.skeleton.n_joints for m in motions)
+    if joints > MAX_MODEL_JOINTS:
+        raise MjmotionError(f"FILE.bvh: {len(motions)} characters with {joints} joints in all; one render holds at most {MAX_MODEL_JOINTS}")
+    longest = max(motions, key=lambda m: m.duration)
+    try:
+        check_motion_size(longest.duration * fps + 1, joints, f"{len(motions)} character(s), {longest.duration:.4g} s at {fps:g} fps")
+    except MjmotionError as e:
+        raise MjmotionError(f"--fps {fps:g}: {e}") from None
 
 
 def _prop(motion, text: str):

@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import json
+import sys
 
-from ._common import add_input_options, load, output_path, parse_frames
+from ..errors import MjmotionError
+from ..outputs import check_output, write_text_atomic
+from . import _joint_weights as joint_weights
+from ._common import add_input_options, load, output_path
+from ._progress import steps
 
 NAME = "stream"
 HELP = "play a script of timed commands (blend weights, transitions to clips and back) into a BVH"
-DESCRIPTION = """Run a motion-stream script (seed 000 §3.3): a registered locomotion set blended with weights
+DESCRIPTION = """Run a motion-stream script (Macleod 2006, §3.3): a registered locomotion set blended with weights
 that ramp on command, looped as long as needed, with transitions into other clips (a kick, a
 punch) and back. The script is JSON; clip paths are relative to it:
 
@@ -24,16 +30,25 @@ punch) and back. The script is JSON; clip paths are relative to it:
 Optional: "fps" (default the first locomotion clip's), "loop_blend" seconds (0.4); a command
 {"time": t, "return": true, "blend": b} ends a played clip early.
 
+A blend is seconds of the first locomotion clip (the reference): fading from or back to a faster
+mix takes longer, by the mix's pace relative to the reference (Macleod 2006, §3.3), and the played
+clip's clock runs between the mix's pace and its own over the fade. --json writes, per played
+clip, its start, fade-in, fade-out start, fade-out and end (frames and seconds), the nominal fades
+(blend x fps) and the paces (rate_in, rate_out); and the locomotion's blendability.
+
 examples:
   mjmotion stream kick_stream.json -o stream.bvh
+  mjmotion stream kick_stream.json -o stream.bvh --json transitions.json
 """
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("script", metavar="SCRIPT.json", help="the stream script")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="the streamed clip")
-    p.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    p.add_argument("--json", metavar="R.json", help="also write every transition's timing (see above)")
+    p.add_argument("--force", action="store_true", help="replace outputs that exist")
     add_input_options(p)
+    joint_weights.add_option(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -42,11 +57,34 @@ def run(args: argparse.Namespace) -> int:
     out = output_path(args, args.script)
 
     def load_clip(path: str, frames: str | None):
-        m = load(path, args)
-        return m[parse_frames(frames, m.n_frames)] if frames else m
+        return load(path, args, frames)
 
-    script = stream.load_script(args.script, load_clip)
-    result = stream.stream(script, name=out.stem)
-    bvh.write(result, out)
+    report = check_output(args.json, args.force, (args.script,)) if args.json else None
+    if report is not None and report == out:
+        raise MjmotionError("--json and -o name the same file")
+    with steps("stream", ("read", "register", "stream", "write")) as step:
+        step("read")
+        script = stream.load_script(args.script, load_clip)
+        step("register")
+        controller = stream.MotionStream(script, joint_weights.load(args, script.clips[script.locomotion[0]].skeleton))
+        step("stream")
+        result = controller.run(name=out.stem)
+        step("write")
+        bvh.write(result, out)
+    registration = controller.registration
+    blends = {script.locomotion[k]: b for k, b in enumerate(registration.blendability) if b is not None}
+    for name, b in blends.items():
+        warning = b.warning(script.locomotion[registration.reference], name)
+        if warning:
+            sys.stderr.write(f"warning: {warning}\n")
     print(f"wrote {out}: {result.n_frames} frames at {result.fps:g} fps from {len(script.commands)} commands")
+    if report is not None:
+        data = {
+            "fps": script.fps,
+            "frames": result.n_frames,
+            "transitions": [t.to_json(script.fps) for t in controller.transitions],
+            "blendability": {name: b.to_json() for name, b in blends.items()},
+        }
+        write_text_atomic(report, json.dumps(data, indent=1))
+        print(f"wrote {report}: {len(controller.transitions)} transition(s)")
     return 0

@@ -8,6 +8,8 @@ import json
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from ._common import output_path
+from ._options import integer, number
+from ._progress import steps
 
 NAME = "synth"
 HELP = "generate a bundled clip (walk, run, sneak, limp, drive, pull, kick, punch) or the whole library"
@@ -34,11 +36,30 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("kind", choices=(*KINDS, "library"), help="what to generate")
     p.add_argument("directory", nargs="?", help="for `library`: the folder to write (created if missing)")
     p.add_argument("-o", "--output", metavar="OUT.bvh", help="the BVH file to write (not for `library`)")
-    p.add_argument("--speed", type=float, metavar="V", help="gaits: speed in m/s (default per gait)")
-    p.add_argument("--turn", type=float, default=0.0, metavar="DEG_PER_S", help="gaits: turning rate, + to the left (default 0)")
-    p.add_argument("--seconds", type=float, metavar="S", help="gaits: duration (default 4 s; run 3 s)")
-    p.add_argument("--step-length", type=float, metavar="M", help="gaits: metres per step (default per gait, scaled with speed)")
-    p.add_argument("--seed", type=int, default=0, metavar="N", help="small deterministic variations (default 0: the nominal clip)")
+    p.add_argument("--speed", type=number(0, 20, lo_open=True, what="a speed in m/s"), metavar="V", help="gaits: speed in m/s (default per gait)")
+    p.add_argument(
+        "--turn",
+        type=number(-90, 90, what="a turning rate in degrees per second"),
+        default=0.0,
+        metavar="DEG_PER_S",
+        help="gaits: turning rate, + to the left, at most ±90 (default 0)",
+    )
+    p.add_argument(
+        "--seconds", type=number(0.5, 120, what="a duration in seconds"), metavar="S", help="gaits: duration, 0.5 to 120 s (default 4 s; run 3 s)"
+    )
+    p.add_argument(
+        "--step-length",
+        type=number(0, 10, lo_open=True, what="metres per step"),
+        metavar="M",
+        help="gaits: metres per step (default per gait, scaled with speed)",
+    )
+    p.add_argument(
+        "--seed",
+        type=integer(0, 2**32 - 1, what="a seed"),
+        default=0,
+        metavar="N",
+        help="small deterministic variations (default 0: the nominal clip)",
+    )
     p.add_argument("--truth", metavar="OUT.json", help="also write the clip's ground truth as JSON")
     p.add_argument("--force", action="store_true", help="replace existing outputs")
 
@@ -51,8 +72,12 @@ def run(args: argparse.Namespace) -> int:
             raise MjmotionError("synth library: give the folder to write, e.g. `mjmotion synth library clips/`")
         if args.output or args.truth or args.speed is not None or args.seconds is not None or args.turn or args.step_length is not None:
             raise MjmotionError("synth library: takes only DIR (and --force); the set is fixed")
-        clips = synth.write_library(args.directory, force=args.force)
-        print(f"wrote {len(clips)} clips and manifest.json to {args.directory}")
+        with steps("synth library", ("make clips", "write")) as step:
+            step("make clips")
+            made = synth.library()
+            step("write")
+            clips = synth.write_library(args.directory, force=args.force, clips=made)
+        print(f"wrote {len(clips)} clips ({', '.join(f'{n}.bvh' for n in clips)}) and manifest.json to {args.directory}")
         return 0
     if args.directory:
         raise MjmotionError(f"synth {args.kind}: unexpected argument {args.directory!r}; write with -o OUT.bvh")
@@ -78,5 +103,6 @@ def run(args: argparse.Namespace) -> int:
     if truth is not None:
         write_text_atomic(truth, json.dumps(clip.to_manifest(out.name), indent=1) + "\n")
     extra = f", hit frame {clip.hit_frame}" if clip.hit_frame is not None else ""
-    print(f"wrote {out}: {args.kind}, {clip.motion.n_frames} frames at {clip.motion.fps:g} fps{extra}")
+    written = f"{out} and {truth}" if truth is not None else str(out)
+    print(f"wrote {written}: {args.kind}, {clip.motion.n_frames} frames at {clip.motion.fps:g} fps{extra}")
     return 0

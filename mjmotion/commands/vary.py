@@ -1,4 +1,4 @@
-"""``mjmotion vary``: a new version of a shot along a new path through its PCA space (seed 003 §3)."""
+"""``mjmotion vary``: a new version of a shot along a new path through its PCA space (Hicks 2010, §3)."""
 
 from __future__ import annotations
 
@@ -6,11 +6,11 @@ import argparse
 import itertools
 import json
 
-import numpy as np
-
+from ..caps import MAX_COMPONENTS, MAX_FRAMES, check_motion_size
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, load, output_path, parse_frames
+from ._common import add_input_options, clip_frame, load_first, output_path, parse_frames
+from ._options import FRAME, integer, number
 
 NAME = "vary"
 HELP = "exaggerate, mute or abort a shot by moving along its PCA score path"
@@ -46,13 +46,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     how = p.add_mutually_exclusive_group(required=True)
     how.add_argument(
         "--scale",
-        type=float,
+        type=number(0, 10, lo_open=True, what="a positive factor"),
         metavar="F",
-        help="scale the score path about its centre by F",
+        help="scale the score path about its centre by F (0 < F ≤ 10)",
     )
     how.add_argument(
         "--abort-at",
-        type=int,
+        type=FRAME,
         metavar="FRAME",
         help="abandon the shot at FRAME and return to the rest pose",
     )
@@ -63,21 +63,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--abort-frames",
-        type=int,
+        type=integer(1, MAX_FRAMES, what="a number of frames"),
         metavar="N",
-        help="frames from the abort to the rest pose",
+        help="frames from the abort to the rest pose (the whole variant at most 1,000,000 frames)",
     )
     p.add_argument(
         "--rest-frame",
-        type=int,
+        type=integer(-MAX_FRAMES, MAX_FRAMES - 1, what="a frame index"),
         default=None,
         metavar="F",
-        help="the rest pose's frame (default: the last)",
+        help="the rest pose's frame, negative from the end (default: the last)",
     )
-    p.add_argument("--pcs", type=int, metavar="K", help="number of controlled principal components")
+    p.add_argument(
+        "--pcs", type=integer(1, MAX_COMPONENTS, what="a number of components"), metavar="K", help="number of controlled principal components"
+    )
     p.add_argument(
         "--variance",
-        type=float,
+        type=number(0, 1, lo_open=True, what="a fraction of the variance"),
         default=0.9,
         metavar="V",
         help="variance fraction that picks K when --pcs is not given (default 0.9)",
@@ -147,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
     if args.scores and args.pcs is not None:
         raise MjmotionError("--pcs is set by the number of columns of --scores; drop --pcs")
 
-    source = load(args.file, args)
+    source, first = load_first(args.file, args)
     # inner-joint translations (some rigs animate them) are parameters too, so nothing is lost
     space = PoseSpace.fit(source, translations=True)
     if args.scores:
@@ -159,16 +161,21 @@ def run(args: argparse.Namespace) -> int:
         if args.scale is not None:
             seg = None
             if args.segment:
-                sl = parse_frames(args.segment, source.n_frames)
-                a, b, _ = sl.indices(source.n_frames)
-                seg = (a, b)
+                a, b, _ = parse_frames(args.segment, source.n_frames + first).indices(source.n_frames + first)  # file frames
+                seg = (max(a - first, 0), b - first)
+                if seg[1] <= seg[0]:
+                    raise MjmotionError(
+                        f"--segment {args.segment}: inside the skipped leading T-pose/transition (frames 0-{first - 1}); add --keep-start"
+                    )
             path = variations.scaled_path(base, args.scale, seg)
         else:
+            n_out = args.abort_at + 1 + (args.abort_frames or 0)
+            check_motion_size(n_out, source.skeleton.n_joints, f"--abort-at {args.abort_at} --abort-frames {args.abort_frames}")
             path = variations.aborted_path(
                 base,
-                args.abort_at,
+                clip_frame(args.abort_at, first, "--abort-at"),
                 args.abort_frames,
-                -1 if args.rest_frame is None else args.rest_frame,
+                -1 if args.rest_frame is None else clip_frame(args.rest_frame, first, "--rest-frame"),
                 source.fps,
                 space=space,
             )
@@ -234,6 +241,8 @@ def _mm(x: float | None) -> str:
 
 
 def _jsonable(x: object) -> object:
+    import numpy as np
+
     if isinstance(x, np.generic):
         return x.item()
     if isinstance(x, np.ndarray):

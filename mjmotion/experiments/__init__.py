@@ -98,10 +98,12 @@ def script(name: str, doc: str | None, argv: list[str] | None = None) -> int:
 
     ``--data DIR`` (default ``MJMOTION_DATA`` or ``../shared/mocap``), ``--bundled`` (the procedural
     clips instead), ``--out DIR`` (default ``results/<name>``), ``--quick`` (the demo's version),
-    ``--jobs N`` where the experiment runs work in parallel. Prints the table; an error a user can
-    act on is one ``error:`` line and status 2.
+    ``--jobs N`` where the experiment runs work in parallel, and ``--workers N`` / ``--scheduler ADDRESS``
+    (Dask, :mod:`mjmotion.executor`) where its ``run`` takes an ``executor``. Prints the table; an error a
+    user can act on is one ``error:`` line and status 2.
     """
     import argparse
+    import contextlib
     import importlib
     import inspect
     import sys
@@ -116,6 +118,11 @@ def script(name: str, doc: str | None, argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="the short version `mjmotion demo` runs")
     if takes_jobs:
         p.add_argument("--jobs", type=int, default=2, metavar="N", help="worker processes (default 2)")
+    takes_executor = "executor" in inspect.signature(module.run).parameters
+    if takes_executor:
+        from ..executor import add_options
+
+        add_options(p, default="instead of --jobs")
     args = p.parse_args(argv)
     start = time.perf_counter()
     out = Path(args.out)
@@ -124,8 +131,13 @@ def script(name: str, doc: str | None, argv: list[str] | None = None) -> int:
         if takes_jobs and args.jobs < 1:
             raise MjmotionError(f"--jobs {args.jobs}: expected at least 1")
         extra = {"jobs": args.jobs} if takes_jobs else {}
-        with single_thread_blas():
-            table = module.run(out, source, quick=args.quick, **extra)
+        with contextlib.ExitStack() as stack:
+            if takes_executor and (args.workers is not None or args.scheduler is not None):
+                from .. import executor
+
+                extra["executor"] = stack.enter_context(executor.start(workers=args.workers, scheduler=args.scheduler))
+            with single_thread_blas():
+                table = module.run(out, source, quick=args.quick, **extra)
     except MjmotionError as e:
         sys.stderr.write(f"error: {e}\n")
         return 2

@@ -18,16 +18,19 @@ first shot's ±10 cm grid only. ``quick``: the drive, DLS, the ±10 cm grid.
 
 from __future__ import annotations
 
-import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..skeleton import Motion
 from . import Table, single_thread_blas
+
+if TYPE_CHECKING:
+    from ..executor import Executor
 
 #: Grid spacings (metres) of the 3×3 target grids (issue 5; seed §2.5 tests "left-to-right and low-to-high").
 SPACINGS = (0.1, 0.2)
@@ -207,7 +210,7 @@ def _struck_geom(compiled, shot: Shot, q_hit: np.ndarray, point: np.ndarray) -> 
 
 def run_grid(shot: Shot, solver: str, wrist: str, spacings: Sequence[float], launch: bool = True) -> GridResult:
     """Adapt ``shot`` to every target of its grids with ``solver`` and ``wrist``; simulate the launches."""
-    from .. import hitpoint, physics
+    from .. import hitpoint, launchgrid, physics
 
     start = time.perf_counter()
     offsets = grid_offsets(shot, spacings)
@@ -228,7 +231,7 @@ def run_grid(shot: Shot, solver: str, wrist: str, spacings: Sequence[float], lau
         if launch:
             if geom is None:
                 geom = _struck_geom(p.compiled, shot, p.qpos[p.hit], p.effector_fk[p.hit])
-            pos, quat, h = physics.effector_path(p.compiled, a.motion, geom, p.hit, LAUNCH_WINDOW)
+            pos, quat, h = launchgrid.effector_path(p.compiled, a.motion, geom, p.hit, LAUNCH_WINDOW)
             paths.append((pos, quat))
     pred = delivered = delivery = None
     if launch and geom is not None:
@@ -392,9 +395,10 @@ def _style_paths_png(shot: Shot, solver: str, offset: np.ndarray, out: Path) -> 
     )  # fmt: skip
 
 
-def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: int = 2) -> Table:
-    """Run the grid and write ``out_dir/table.md`` with the launch plots (see the module doc)."""
-    from tqdm import tqdm
+def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: int = 2, executor: Executor | None = None) -> Table:
+    """Run the grid and write ``out_dir/table.md`` with the launch plots (see the module doc); the
+    tasks run on ``executor`` (Dask, :mod:`mjmotion.executor`) if given, else in ``jobs`` processes."""
+    from ..executor import using
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -404,20 +408,9 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
     weight = {"ccd": 40.0, "nlp-shot": 3.0, "nlp": 1.5, "dls": 1.0}
     order = sorted(range(len(tasks)), key=lambda i: -weight[tasks[i][1]] * tasks[i][0].motion.n_frames * (len(tasks[i][3]) * 8 + 1))
     results: list[GridResult | None] = [None] * len(tasks)
-    bar = tqdm(total=len(tasks), desc="hitpoint grid", unit="task", file=sys.stderr, disable=quick)
-    if jobs > 1 and len(tasks) > 1:
-        from concurrent.futures import ProcessPoolExecutor, as_completed
-
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = {pool.submit(_task, tasks[i]): i for i in order}
-            for f in as_completed(futures):
-                results[futures[f]] = f.result()
-                bar.update()
-    else:
-        for i in order:
-            results[i] = _task(tasks[i])
-            bar.update()
-    bar.close()
+    with using(executor, jobs if len(tasks) > 1 else 1) as ex:
+        for out in ex.run(_task, [(i, (tasks[i],)) for i in order], desc="hitpoint grid", unit="task", progress=not quick):
+            results[out.key] = out.unwrap()
     with single_thread_blas():
         return _tabulate(out_dir, shots, [g for g in results if g is not None], quick)
 

@@ -9,6 +9,10 @@ Two tables (both in ``table.md``):
 2. *Timewarp* (seed 004 Table 5) — Sako's discrete insertion/deletion timewarp against the
    B-spline: how well each recovers a known warp made with :func:`mjmotion.transform.timewarp`
    (plus a floor move), how long it takes, and how smooth a blend along it is.
+3. *Blendability* (seed 004 §7.2, Fig. 10) — the score of
+   :mod:`mjmotion.registration.blendability` for walks and runs and for a walk with a shot (a
+   baseball pitch, golf swings, a kick, a jump): the calibration of its threshold
+   (``blendability.md``).
 """
 
 from __future__ import annotations
@@ -19,11 +23,14 @@ from pathlib import Path
 import numpy as np
 
 from .. import blend as bl
+from .. import bvh, mjcf, plots, transform
 from .. import evaluate as ev
-from .. import mjcf, plots, transform
 from .. import registration as reg
 from .. import rotations as rot
+from ..errors import MjmotionError
+from ..registration.blendability import THRESHOLD
 from ..skeleton import Motion
+from ..trim import skip_leading_transient
 from . import Table
 from .path_search import daz_clip, timed
 
@@ -39,6 +46,51 @@ BLEND_COLUMNS = (
     "pair", "run weight", "method", "frames", "speed m/s", "steps/s",
     "skate@0.03 mm/s", "skate@0.05 mm/s", "skate@0.08 mm/s", "planted skate mm/s",
 )  # fmt: skip
+BLENDABILITY_COLUMNS = (
+    "pair",
+    "kind",
+    "alike (Sako §7.2)",
+    "frames",
+    "mean path cost m²",
+    "self-similarity A m²",
+    "self-similarity B m²",
+    "score",
+    "blendable",
+)
+#: Pairs of the blendability table: (kind, clip A, clip B, alike), shared clips by folder/name or bundled
+#: clips by name.
+#: Sako's "logical similarity" (seed 004 §7.2): walks and runs, or shots of one kind, are alike; a walk
+#: and a pitch, a golf swing or a standing kick are not; 10_01 (an approach walk, then a kick) and a
+#: jump in place are mixed.
+BLENDABILITY_PAIRS_REAL = (
+    ("walk / run", "cmu_cgspeed_daz/07_01", "cmu_cgspeed_daz/09_01", "yes"),
+    ("walk / run", "cmu_cgspeed_daz/08_01", "cmu_cgspeed_daz/09_11", "yes"),
+    ("walk / run", "cmu_cgspeed_daz/02_01", "cmu_cgspeed_daz/02_03", "yes"),
+    ("walk / walk", "cmu_cgspeed_daz/07_01", "cmu_cgspeed_daz/08_01", "yes"),
+    ("walk / slow walk", "cmu_cgspeed_daz/07_01", "cmu_cgspeed_daz/07_04", "yes"),
+    ("run / run", "cmu_cgspeed_daz/09_01", "cmu_cgspeed_daz/09_11", "yes"),
+    ("walk / fast walk", "cmu_asfamc_converted/16_15", "cmu_asfamc_converted/16_24", "yes"),
+    ("walk / fast walk", "cmu_asfamc_converted/16_16", "cmu_asfamc_converted/16_26", "yes"),
+    ("walk / turning walk", "cmu_asfamc_converted/16_15", "cmu_asfamc_converted/16_17", "yes"),
+    ("walk / veering walk", "cmu_asfamc_converted/16_15", "cmu_asfamc_converted/16_12", "yes"),
+    ("golf / golf", "cmu_asfamc_converted/64_01", "cmu_asfamc_converted/64_02", "yes"),
+    ("walk / kick", "cmu_asfamc_converted/16_15", "cmu_asfamc_converted/10_01", "mixed"),
+    ("walk / jump", "cmu_asfamc_converted/16_15", "cmu_asfamc_converted/16_01", "mixed"),
+    ("walk / pitch", "cmu_asfamc_converted/16_15", "cmu_asfamc_converted/124_01", "no"),
+    ("walk / golf", "cmu_asfamc_converted/16_15", "cmu_asfamc_converted/64_01", "no"),
+    ("walk / golf", "cmu_asfamc_converted/16_24", "cmu_asfamc_converted/64_03", "no"),
+    ("golf / pitch", "cmu_asfamc_converted/64_01", "cmu_asfamc_converted/124_01", "no"),
+)
+BLENDABILITY_PAIRS_BUNDLED = (
+    ("walk / run", "walk", "run", "yes"),
+    ("walk / fast walk", "walk", "walk_fast", "yes"),
+    ("walk / sneak", "walk", "sneak", "yes"),
+    ("walk / limp", "walk", "limp", "yes"),
+    ("walk / kick", "walk", "kick", "no"),
+    ("walk / punch", "walk", "punch", "no"),
+    ("walk / drive", "walk", "drive", "no"),
+)
+
 WARP_COLUMNS = (
     "pair", "timewarp", "samples", "recovery RMS frames", "recovery max frames", "curve ms", "time performance %",
     "clock jerk frames/frame²", "RMS ang. accel rad/s²", "sources' RMS rad/s²", "max joint speed ratio",
@@ -251,9 +303,9 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
             f"source: {source}",
             ("linear: frame n of both clips averaged (seed 004 §6.2.2; clips first moved to start at the same place and heading); "
                 "registered: along the DP registration curve with incremental root (seed 000 §3.2)"),
-            ("skate@h_c: METRICS skate_mm_per_s, mean horizontal speed of the lowest foot point over frames it is below h_c (m) "
-                "— counts low swing feet too; planted skate: the same over frames in contact by height (5 cm) and speed (< 0.5 m/s)"),
-            "every clip first set on its floor (METRICS floor offset: the daz feet stand ~5 cm above z = 0)",
+            ("skate@h_c: docs/METRICS.md skate_mm_per_s, the height-weighted footskate (speed × (2 − 2^(h/h_c)) over frames a "
+                "foot is below h_c, m); planted skate: planted_skate_mm_per_s, over contact frames (5 cm, 0.5 m/s, with hysteresis)"),
+            "every clip first set on its floor (its detected stance floor: the daz feet stand 1–6 cm above z = 0)",
             ("steps/s: changes of the stance (lower) foot per second, with 2 cm hysteresis (contact rhythm); "
                 "speed: root path length / duration"),
         ],
@@ -284,10 +336,57 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
             warps.add(*r)
         if n == 0:
             files += wfiles + figures(out_dir, pair, tracks, positions)
-    blends.files = [str(out_dir / "timewarp.md"), *files]
+    blendable = blendability_table(data_dir)
+    blends.files = [str(out_dir / "timewarp.md"), str(out_dir / "blendability.md"), *files]
     (out_dir / "timewarp.md").write_text(warps.markdown(), encoding="utf-8")
-    (out_dir / "table.md").write_text(blends.markdown() + "\n" + warps.markdown(), encoding="utf-8")
+    (out_dir / "blendability.md").write_text(blendable.markdown(), encoding="utf-8")
+    (out_dir / "table.md").write_text(blends.markdown() + "\n" + warps.markdown() + "\n" + blendable.markdown(), encoding="utf-8")
     return blends
+
+
+def blendability_table(data_dir: Path | None) -> Table:
+    """Rows of :data:`BLENDABILITY_COLUMNS` for :data:`BLENDABILITY_PAIRS_REAL` (or the bundled pairs):
+    each pair registered as ``mjmotion register`` does and its blendability score."""
+    if data_dir is None:
+        from .. import synth
+
+        lib = synth.library()
+        pairs = [(kind, lib[a].motion.replace(name=a), lib[b].motion.replace(name=b), alike) for kind, a, b, alike in BLENDABILITY_PAIRS_BUNDLED]
+    else:
+
+        def read(rel: str) -> Motion:
+            path = Path(data_dir) / f"{rel}.bvh"
+            if not path.is_file():
+                raise MjmotionError(f"{path}: missing; the blendability table needs the shared CMU clips (SOURCES.md)")
+            return skip_leading_transient(bvh.read(str(path)))[0].replace(name=Path(rel).name)
+
+        pairs = [(kind, read(a), read(b), alike) for kind, a, b, alike in BLENDABILITY_PAIRS_REAL]
+    table = Table(
+        "Blendability: mean path cost over the smaller self-similarity (seed 004 §7.2, Fig. 10)",
+        BLENDABILITY_COLUMNS,
+        notes=[
+            ("each pair registered as mjmotion register does (free end, per-end rule, default joint weights; leading "
+                "transients skipped); self-similarity: the mean of a clip's own distance grid (up to 200 evenly spaced frames); "
+                f"score = mean path cost / min(self-similarity); blendable: score ≤ {THRESHOLD:g}"),
+        ],
+    )  # fmt: skip
+    for kind, a, b, alike in pairs:
+        pr = reg.register(a, b)
+        bl = pr.blendability
+        assert bl is not None
+        table.add(
+            f"{a.name} / {b.name}",
+            kind,
+            alike,
+            f"{a.n_frames}×{b.n_frames}",
+            bl.mean_cost,
+            *bl.self_similarity,
+            bl.score,
+            bl.blendable,
+        )
+    scores = {k: [float(str(r[7])) for r in table.rows if r[2] == k] for k in ("yes", "mixed", "no")}
+    table.notes.append("; ".join(f"alike '{k}': score {min(v):.3f}–{max(v):.3f}" for k, v in scores.items() if v) + f" (threshold {THRESHOLD:g})")
+    return table
 
 
 def figures(out_dir: Path, pair: Pair, tracks: dict, positions: tuple[np.ndarray, np.ndarray] | None = None) -> list[str]:

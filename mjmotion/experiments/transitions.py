@@ -15,6 +15,7 @@ skeleton). Continuity is measured phase by phase:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,7 +25,7 @@ from .. import bvh, plots
 from .. import evaluate as ev
 from .. import rotations as rot
 from .. import stream as st
-from ..blend import Track, yaw_of
+from ..blend import Track, compose, yaw_of
 from ..errors import MjmotionError
 from ..skeleton import Motion
 from . import Table
@@ -45,11 +46,13 @@ class StreamResult:
         script: the script that was run.
         motion: the output, ``N`` frames.
         tracks: every source track (locomotion clips per playhead, actions), weights ``(N,)`` each.
+        transitions: each played clip's fades (:class:`mjmotion.stream.Transition`).
     """
 
     script: st.Script
     motion: Motion
     tracks: tuple[Track, ...]
+    transitions: tuple[st.Transition, ...] = ()
 
     def weights_by_clip(self) -> tuple[list[str], np.ndarray]:
         """Clip names and their normalised weights ``(N, C)`` (a clip's playheads summed)."""
@@ -85,9 +88,10 @@ def absolute_compose(tracks: tuple[Track, ...], fps: float, name: str = "naive")
 
 
 def run_stream(script: st.Script) -> StreamResult:
-    """Run ``script`` and keep its tracks."""
-    out, tracks = st.stream(script, with_tracks=True)
-    return StreamResult(script, out, tracks)
+    """Run ``script`` and keep its tracks and transitions."""
+    controller = st.MotionStream(script)
+    tracks = controller.tracks()
+    return StreamResult(script, compose(tracks, script.fps, "stream"), tuple(tracks), tuple(controller.transitions))
 
 
 # --------------------------------------------------------------------------------------------
@@ -146,22 +150,20 @@ def real_script(data_dir: Path) -> st.Script:
 # --------------------------------------------------------------------------------------------
 # measures
 # --------------------------------------------------------------------------------------------
-def phases(script: st.Script) -> list[tuple[str, float, float]]:
-    """``(name, start_s, end_s)`` of each phase of a :func:`_script` stream."""
+def phases(script: st.Script, transitions: Sequence[st.Transition]) -> list[tuple[str, float, float]]:
+    """``(name, start_s, end_s)`` of each phase of a :func:`_script` stream, its fades as ``transitions`` says."""
     c = script.commands
-    ramp, act1, act2 = c[1], c[2], c[4]
+    ramp, act2 = c[1], c[4]
     fps = script.fps
-    out = [("walk", 0.0, ramp.time), ("ramp to walk/run .5", ramp.time, ramp.time + ramp.ramp), ("walk/run .5", ramp.time + ramp.ramp, act1.time)]
-    for act in (act1, act2):
-        assert act.clip is not None
-        end = act.time + (script.clips[act.clip].n_frames - 1) / fps
+    out = [("walk", 0.0, ramp.time), ("ramp to walk/run .5", ramp.time, ramp.time + ramp.ramp), ("walk/run .5", ramp.time + ramp.ramp, c[2].time)]
+    for k, t in enumerate(transitions):
         out += [
-            (f"into {act.clip}", act.time, act.time + act.blend),
-            (act.clip, act.time + act.blend, end - act.blend),
-            (f"{act.clip} back to locomotion", end - act.blend, end),
+            (f"into {t.clip}", t.start / fps, (t.start + t.fade_in) / fps),
+            (t.clip, (t.start + t.fade_in) / fps, t.fade_out_start / fps),
+            (f"{t.clip} back to locomotion", t.fade_out_start / fps, t.end / fps),
         ]
-        if act is act1:
-            out.append(("walk (ramped back)", end, act2.time))
+        if k == 0:
+            out.append(("walk (ramped back)", t.end / fps, act2.time))
     out.append(("walk", out[-1][2], script.duration))
     out.append(("whole stream", 0.0, script.duration))
     return out
@@ -259,11 +261,11 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
                 "blended clock rate (weighted mean step, source frames per output frame)"),
         ],
     )  # fmt: skip
-    for name, t0, t1 in phases(script):
+    for name, t0, t1 in phases(script, result.transitions):
         table.add(*phase_row(result, name, t0, t1, sources, checks))
     # the same tracks composed naively: the metrics must flag what the incremental root avoids
     naive = StreamResult(script, absolute_compose(result.tracks, script.fps), result.tracks)
-    for name, t0, t1 in phases(script):
+    for name, t0, t1 in phases(script, result.transitions):
         if "back to locomotion" in name or name == "whole stream":
             table.add(*phase_row(naive, f"naive: {name}", t0, t1, sources, checks))
     clip_names, weights = result.weights_by_clip()
@@ -273,6 +275,37 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
         path = out_dir / "stream.bvh"
         bvh.write(result.motion, path)
         files.append(path)
-    table.files = [str(f) for f in files]
+    fades = transitions_table(result)
+    (out_dir / "transitions.md").write_text(fades.markdown(), encoding="utf-8")
+    table.files = [str(out_dir / "transitions.md"), *(str(f) for f in files)]
     table.write(out_dir)
+    with open(out_dir / "table.md", "a", encoding="utf-8") as f:
+        f.write("\n" + fades.markdown())
+    return table
+
+
+TRANSITION_COLUMNS = (
+    "clip", "start s", "locomotion pace r (in)", "fade-in frames", "blend·fps", "fade-out start s", "pace r (out)",
+    "fade-out frames", "blend·fps (out)", "end s", "clip frames played", "clip's last frame",
+)  # fmt: skip
+
+
+def transitions_table(result: StreamResult) -> Table:
+    """Each played clip's fades (seed 000 §3.3): their lengths against the nominal ``blend · fps`` and
+    the locomotion's pace that scales them (:data:`TRANSITION_COLUMNS`)."""
+    fps = result.script.fps
+    table = Table(
+        "Transition timing scaled by the locomotion's pace (seed 000 §3.3)",
+        TRANSITION_COLUMNS,
+        notes=[
+            ("pace r: reference (walk) frames per output frame of the locomotion mix at the fade's start; a fade lasts "
+                "blend·fps·r output frames (seed 000: 'if the motion has a shorter time span than the reference … the "
+                "transition duration was lengthened'); over a fade the clip advances a + (1 − a)·blend·fps / fade frames "
+                "per output frame (a its weight), so it covers its blend window and ends on its last frame"),
+        ],
+    )  # fmt: skip
+    for t in result.transitions:
+        clip = result.script.clips[t.clip]
+        table.add(t.clip, t.start / fps, t.rate_in, t.fade_in, t.nominal_fade_in, t.fade_out_start / fps, t.rate_out,
+                  t.fade_out, t.nominal_fade_out, t.end / fps, t.clip_frames, clip.n_frames - 1)  # fmt: skip
     return table

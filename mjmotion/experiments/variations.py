@@ -332,8 +332,8 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
             "reconstruction; clean: after cleanup)"
         ),
         (
-            f"skate: skate_mm_per_s (METRICS.md, contact by height h_c = {ev.H_C} m); planted: planted_skate_mm_per_s "
-            f"(contact by height and speed v_c = {ev.V_C} m/s); src / raw / clean"
+            f"skate: skate_mm_per_s (docs/METRICS.md, height-weighted below h_c = {ev.H_C} m); planted: planted_skate_mm_per_s "
+            f"(contact by height and speed v_c = {ev.V_C} m/s, with hysteresis); src / raw / clean"
         ),
         (
             "grip: second hand from its source placement relative to the first hand on the club/bat, max over frames "

@@ -1,7 +1,8 @@
 """Analytic two-bone IK (a leg or an arm), vectorised over frames.
 
-Shared by the footskate cleanup (legs onto their plants) and the variations' cleanup (feet back
-on their footprints, the second hand back on the club). The middle joint bends about a given
+Shared by the footskate cleanup (legs onto their plants), the variations' cleanup (feet back
+on their footprints, the second hand back on the club) and the launch grid (an arm re-aimed at a
+new hit point, :mod:`mjmotion.launchgrid`). The middle joint bends about a given
 axis to get the reach, then the upper joint swings the limb onto the target.
 """
 
@@ -55,3 +56,21 @@ def two_bone(top: np.ndarray, mid: np.ndarray, end: np.ndarray, target: np.ndarr
     r_mid = rot.exp(axis * (np.pi - np.arccos(cos_inner) - bend)[..., None])
     r_top = shortest_arc(u + rot.rotate(r_mid, v), target - top)
     return r_top, r_mid, np.abs(d_raw - d)
+
+
+def two_bone_ik(
+    top: np.ndarray, mid: np.ndarray, end: np.ndarray, target: np.ndarray, fallback: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`two_bone` with the bend axes chosen for a limb: its current bending plane, or
+    ``fallback: (T, 3)`` where it is straight (default: perpendicular to the upper bone and the
+    target; :func:`mjmotion.cleanup.knee_hinge_axis` gives a knee's own).
+
+    ``top, mid, end, target: (T, 3)`` (hip, knee, ankle). Returns world rotations ``(T, 4)`` wxyz
+    for the upper bone (``r_top``, about ``top``) and the lower bone (``r_mid``, about ``mid``,
+    applied before ``r_top``), and ``reached: (T,)`` bool.
+    """
+    if fallback is None:
+        fallback = np.cross(mid - top, target - top)
+    axis = bend_axes(top, mid, end, fallback=fallback)
+    r_top, r_mid, short = two_bone(top, mid, end, target, axis)
+    return r_top, r_mid, short <= 1e-9

@@ -2,6 +2,11 @@
 
 A clamped uniform cubic B-spline with monotone coefficients (seed 004 §5.4), or Sako's discrete
 insertion/deletion corrections (seed 004 Table 1).
+
+The B-spline basis is evaluated here (:func:`bspline_basis`, checked against SciPy's
+``BSpline.design_matrix`` in the tests) rather than with SciPy, whose import (~0.3 s) would
+more than double the time of a fresh ``mjmotion register``; SciPy's bounded least squares is
+loaded only when the plain fit is not monotone.
 """
 
 from __future__ import annotations
@@ -9,7 +14,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import interpolate, optimize
 
 from ..errors import MjmotionError
 from .paths import Path
@@ -35,6 +39,27 @@ class TimewarpCurve:
         return np.interp(t_b, self.samples[:, 1], self.samples[:, 0])
 
 
+def bspline_basis(x: np.ndarray, knots: np.ndarray, k: int) -> np.ndarray:
+    """Values ``(P, n)`` of the ``n = len(knots) − k − 1`` B-splines of degree ``k`` at ``x: (P,)``.
+
+    Cox–de Boor recursion over all points at once; ``knots`` non-decreasing, ``x`` within
+    ``[knots[k], knots[-k-1]]`` (the last point belongs to the last non-empty span, as in SciPy).
+    """
+    x = np.asarray(x, dtype=float)
+    t = np.asarray(knots, dtype=float)
+    n = len(t) - k - 1
+    span = np.clip(np.searchsorted(t, x, side="right") - 1, k, n - 1)  # t[span] <= x < t[span+1]
+    b = np.zeros((len(x), len(t) - 1))
+    b[np.arange(len(x)), span] = 1.0
+    for d in range(1, k + 1):
+        left = t[d : d + len(t) - 1 - d] - t[: len(t) - 1 - d]  # t[i+d] - t[i]
+        right = t[d + 1 :] - t[1 : len(t) - d]  # t[i+d+1] - t[i+1]
+        wl = np.divide(x[:, None] - t[None, : len(left)], left, out=np.zeros((len(x), len(left))), where=left > 0)
+        wr = np.divide(t[None, d + 1 :] - x[:, None], right, out=np.zeros((len(x), len(right))), where=right > 0)
+        b = wl * b[:, :-1] + wr * b[:, 1:]
+    return b[:, :n]
+
+
 def _monotone_lsq(design: np.ndarray, targets: np.ndarray, eps: np.ndarray) -> np.ndarray:
     """Least-squares B-spline coefficients ``(n, C)`` for ``targets: (P, C)`` with
     ``c[k+1] − c[k] ≥ eps[col]`` (hence strictly increasing splines: a spline's derivative is a
@@ -48,9 +73,48 @@ def _monotone_lsq(design: np.ndarray, targets: np.ndarray, eps: np.ndarray) -> n
         lower = np.tril(np.ones((n, n)))
         lb = np.full(n, eps[col])
         lb[0] = -np.inf
+        from scipy import optimize
+
         res = optimize.lsq_linear(design @ lower, targets[:, col], bounds=(lb, np.full(n, np.inf)), method="bvls")
         coef[:, col] = lower @ res.x
     return coef
+
+
+@dataclass(frozen=True, eq=False)
+class Spline:
+    """A B-spline ``u → (C,)`` evaluated with :func:`bspline_basis` (SciPy's ``BSpline`` fields).
+
+    Attributes:
+        t: ``(n + k + 1,)`` knots; c: ``(n, C)`` coefficients (control points); k: degree.
+    """
+
+    t: np.ndarray
+    c: np.ndarray
+    k: int
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        """``(len(u), C)`` values at ``u`` (inside the knot span)."""
+        return bspline_basis(np.atleast_1d(np.asarray(u, dtype=float)), self.t, self.k) @ self.c
+
+
+def monotone_bspline(u: np.ndarray, targets: np.ndarray, n_intervals: int) -> Spline:
+    """A clamped uniform cubic B-spline ``u → (C,)`` fitted to ``targets: (P, C)`` at the strictly
+    increasing parameters ``u: (P,)``, strictly increasing in every coordinate.
+
+    ``n_intervals`` uniform knot intervals over ``[u[0], u[-1]]`` (degree 1 when there are too
+    few points for a cubic); least squares with monotone coefficients (each coordinate's
+    coefficients rise by at least 1e-3 of its span per knot) and the ends pinned (weight 100).
+    """
+    n_int = max(1, int(n_intervals))
+    k = 3 if n_int + 3 <= len(u) else 1
+    inner = np.linspace(u[0], u[-1], n_int + 1)
+    knots = np.r_[[u[0]] * k, inner, [u[-1]] * k]
+    design = bspline_basis(u, knots, k)
+    w = np.ones(len(u))
+    w[[0, -1]] = 100.0  # pin the ends
+    span = np.maximum(targets[-1] - targets[0], 1e-9)
+    coef = _monotone_lsq(design * w[:, None], targets * w[:, None], eps=1e-3 * span / len(knots))
+    return Spline(knots, coef, k)
 
 
 def timewarp_curve(path: Path | np.ndarray, knot_spacing: float = 8.0, n_samples: int | None = None) -> TimewarpCurve:
@@ -66,18 +130,8 @@ def timewarp_curve(path: Path | np.ndarray, knot_spacing: float = 8.0, n_samples
     if len(cells) < 2:
         raise MjmotionError("a timewarp curve needs a path of at least 2 cells; the clips are too short")
     u = cells[:, 0] + cells[:, 1]
-    n_int = max(1, int(round(len(cells) / knot_spacing)))
-    k = 3 if n_int + 3 <= len(cells) else 1
-    inner = np.linspace(u[0], u[-1], n_int + 1)
-    knots = np.r_[[u[0]] * k, inner, [u[-1]] * k]
-    design = interpolate.BSpline.design_matrix(u, knots, k)
-    w = np.ones(len(u))
-    w[[0, -1]] = 100.0  # pin the ends
-    n = n_samples or len(cells)
-    us = np.linspace(u[0], u[-1], n)
-    span = np.maximum(cells[-1] - cells[0], 1e-9)
-    coef = _monotone_lsq(design.toarray() * w[:, None], cells * w[:, None], eps=1e-3 * span / len(knots))
-    samples = interpolate.BSpline(knots, coef, k)(us)
+    spline = monotone_bspline(u, cells, round(len(cells) / knot_spacing))
+    samples = spline(np.linspace(u[0], u[-1], n_samples or len(cells)))
     samples = np.clip(samples, cells.min(axis=0), cells.max(axis=0))
     keep = np.r_[True, np.all(np.diff(samples, axis=0) > 0, axis=1)]
     return TimewarpCurve(samples=samples[keep], kind="bspline")

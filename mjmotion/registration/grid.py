@@ -12,6 +12,7 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from ..errors import MjmotionError
 from ..skeleton import Skeleton
@@ -39,32 +40,64 @@ def joint_weights(skeleton: Skeleton, weights: dict[str, float] | None = None) -
     return w
 
 
-def _window_clouds(positions: np.ndarray, window: int, weights: np.ndarray) -> dict[str, np.ndarray]:
-    """Weighted, horizontally centred window clouds of one clip.
+def _window_clouds(positions: np.ndarray, window: int, weights: np.ndarray, xy: np.ndarray, z: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """Weighted, horizontally centred window clouds of one clip, written into GEMM operands.
 
-    ``positions: (T, J, 3)`` → features ``(T, K·J)`` per axis (already multiplied by √w, the
-    horizontal ones centred on each window's weighted mean), the means ``(T, 2)`` and the
-    weighted squared norms ``(T,)``. Windows are clamped at the clip's ends (edge frames repeat).
+    ``positions: (T, J, 3)``, ``weights: (J,)`` (joints of weight zero are left out). Writes
+    ``xy: (T, 2, K, J')`` the horizontal features (each window centred on its weighted mean,
+    times ``scale·√w``) and ``z: (T, K, J')`` the heights times ``√w`` (both may be views into
+    larger operands); returns ``norms: (T,)`` each window's weighted squared norm (horizontal,
+    centred, plus heights). Point ``(k, j)`` is kept joint ``j`` at frame ``t + k − L``; windows
+    are clamped at the clip's ends (edge frames repeat). The clip is gathered once, per
+    coordinate and weighted, and every window is a view of it (no ``K``-fold copy); the weights
+    sum to one over a window (seed 004 §4.2.1).
     """
-    t, j, _ = positions.shape
+    t = positions.shape[0]
     k = 2 * window + 1
-    idx = np.clip(np.arange(t)[:, None] + np.arange(-window, window + 1)[None, :], 0, t - 1)
-    cloud = positions[idx].reshape(t, k * j, 3)  # (T, K·J, 3)
-    w = np.tile(weights, k)
-    w = w / w.sum()  # Σ w = 1 over the cloud (seed 004 §4.2.1)
-    mean = np.einsum("p,tpc->tc", w, cloud[:, :, :2])
-    sw = np.sqrt(w)
-    cx = (cloud[:, :, 0] - mean[:, 0:1]) * sw
-    cy = (cloud[:, :, 1] - mean[:, 1:2]) * sw
-    cz = cloud[:, :, 2] * sw
-    return {
-        "x": cx,
-        "y": cy,
-        "z": cz,
-        "mean": mean,
-        "hh": np.einsum("tp,tp->t", cx, cx) + np.einsum("tp,tp->t", cy, cy),
-        "zz": np.einsum("tp,tp->t", cz, cz),
-    }
+    joints = np.flatnonzero(weights > 0)
+    wn = weights[joints] / (k * weights[joints].sum())  # per point of a window: Σ over the window = 1
+    sw = np.sqrt(wn)
+    rows = np.clip(np.arange(-window, t + window), 0, t - 1)
+    coords = np.asarray(positions, dtype=float).transpose(2, 0, 1)[:, rows[:, None], joints]  # (3, T+2L, J')
+    coords[:2] *= scale * sw
+    coords[2] *= sw
+    mean = sliding_window_view(coords[:2] @ sw, k, axis=1).sum(axis=-1)  # (2, T) window means × scale
+    win = sliding_window_view(coords, k, axis=1).transpose(0, 1, 3, 2)  # (3, T, K, J') views
+    for c in range(2):
+        np.subtract(win[c], mean[c, :, None, None] * sw, out=xy[:, c])
+    z[...] = win[2]
+    norms = np.einsum("tckj,tckj->t", xy, xy) / scale**2
+    norms += np.einsum("tkj,tkj->t", z, z)
+    return norms
+
+
+def grid_operands(
+    positions_a: np.ndarray, positions_b: np.ndarray, weights: np.ndarray, window: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The two matrix products of :func:`distance_grid`: ``(left, right, left_z, right_z)``.
+
+    ``left @ right.T`` is ``(2nA, nB)``: ``2a`` over ``2b`` (``left = 2·[[x, y], [y, −x]]_A``,
+    ``right = [x, y]_B``); ``left_z @ right_z.T`` is ``(nA, nB)``, the height term and both
+    windows' norms in one product (``[−2 z, |c|², 1]_A · [z, 1, |c|²]_Bᵀ``), so the cost needs
+    only ``√(a² + b²)`` and one subtraction after the products. ``weights: (J,)``, joints of
+    weight zero left out.
+    """
+    n_a, n_b, k = len(positions_a), len(positions_b), 2 * window + 1
+    j = int(np.count_nonzero(weights > 0))
+    p = k * j
+    left = np.empty((2, n_a, 2, k, j))
+    left_z = np.empty((n_a, p + 2))
+    za = left_z[:, :p].reshape(n_a, k, j)  # a view: the heights are written in place
+    left_z[:, p] = _window_clouds(positions_a, window, weights, left[0], za, scale=2.0)
+    left_z[:, p + 1] = 1.0
+    za *= -2.0
+    left[1, :, 0] = left[0, :, 1]
+    np.negative(left[0, :, 0], out=left[1, :, 1])
+    right = np.empty((n_b, 2, k, j))
+    right_z = np.empty((n_b, p + 2))
+    right_z[:, p + 1] = _window_clouds(positions_b, window, weights, right, right_z[:, :p].reshape(n_b, k, j))
+    right_z[:, p] = 1.0
+    return left.reshape(2 * n_a, 2 * p), right.reshape(n_b, 2 * p), left_z, right_z
 
 
 @dataclass(frozen=True)
@@ -99,33 +132,41 @@ def distance_grid(
     weights: np.ndarray | None = None,
     window: int = DEFAULT_WINDOW,
     max_cells: int = MAX_CELLS,
+    frames_a: np.ndarray | None = None,
+    frames_b: np.ndarray | None = None,
 ) -> Grid:
     """The registration grid (seed 000 §3.1 Eq. 2–5), every sum a matrix product.
 
     ``positions_a: (nA, J, 3)``, ``positions_b: (nB, J, 3)`` world joint positions (metres);
-    ``weights: (J,)`` non-negative (default 1). Cell ``[i, j]`` is
+    ``weights: (J,)`` non-negative (default 1); ``frames_a``, ``frames_b``: only these frames'
+    rows and columns (windows still from the whole clips). Cell ``[i, j]`` is
     ``min_{θ,t} Σ_k w_k ‖p_k − (R_θ p'_k + t)‖²`` over the windows around frame ``i`` of A and
     frame ``j`` of B. After centring each window on its weighted mean, with
     ``a = Σ w (x x' + y y')`` and ``b = Σ w (y x' − x y')`` the optimum is ``θ = atan2(b, a)`` and
     the horizontal residual ``Σ w|c|² + Σ w|c'|² − 2√(a² + b²)``; heights add ``Σ w (z − z')²``.
+    Two matrix products (:func:`grid_operands`) carry every sum; after them only ``hypot``, one
+    subtraction and the clamp at zero touch the ``nA × nB`` cells.
     """
     pa, pb = np.asarray(positions_a, dtype=float), np.asarray(positions_b, dtype=float)
     if pa.ndim != 3 or pb.ndim != 3 or pa.shape[1:] != pb.shape[1:] or pa.shape[2] != 3:
         raise MjmotionError(f"distance_grid needs (T, J, 3) positions with equal J, got {pa.shape} and {pb.shape}")
     if window < 0:
         raise MjmotionError(f"the window half-width must be ≥ 0 frames, got {window}")
-    check_grid_size(len(pa), len(pb), max_cells)
+    rows = np.arange(len(pa)) if frames_a is None else np.asarray(frames_a, dtype=int)
+    cols = np.arange(len(pb)) if frames_b is None else np.asarray(frames_b, dtype=int)
+    check_grid_size(len(rows), len(cols), max_cells)
     w = np.ones(pa.shape[1]) if weights is None else np.asarray(weights, dtype=float)
-    keep = w > 0  # joints of weight zero add nothing but work
-    ca, cb = _window_clouds(pa[:, keep], window, w[keep]), _window_clouds(pb[:, keep], window, w[keep])
-    # a and b from one product: [[x, y], [y, −x]]_A · [x, y]_Bᵀ
-    right = np.concatenate([cb["x"], cb["y"]], axis=1)
-    left = np.block([[ca["x"], ca["y"]], [ca["y"], -ca["x"]]])
-    ab = left @ right.T
-    a, b = ab[: len(pa)], ab[len(pa) :]
-    zz = ca["z"] @ cb["z"].T
-    cost = ca["hh"][:, None] + cb["hh"][None, :] - 2.0 * np.hypot(a, b)
-    cost += ca["zz"][:, None] + cb["zz"][None, :] - 2.0 * zz
+    left, right, left_z, right_z = grid_operands(pa, pb, w, window)  # joints of weight zero left out
+    if frames_a is not None or frames_b is not None:  # rows and columns picked after the windows
+        left = left.reshape(2, len(pa), -1)[:, rows].reshape(2 * len(rows), -1)
+        left_z, right, right_z = left_z[rows], right[cols], right_z[cols]
+    ab = left @ right.T  # (2nA, nB): 2a over 2b
+    cost = left_z @ right_z.T  # Σw|c|² + Σw|c'|² + heights, before the rotation term
+    a2, b2 = ab[: len(rows)], ab[len(rows) :]
+    np.multiply(a2, a2, out=a2)  # in place: 2√(a² + b²) in four passes (np.hypot is slower)
+    np.multiply(b2, b2, out=b2)
+    a2 += b2
+    cost -= np.sqrt(a2, out=a2)
     np.maximum(cost, 0.0, out=cost)  # round-off can dip a hair below zero
     return Grid(cost=cost, window=window)
 

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from ..errors import MjmotionError
 from ..skeleton import Motion
 from .align import alignment_curve
+from .blendability import Blendability, blendability
 from .curves import TimewarpCurve, discrete_timewarp, timewarp_curve
 from .grid import DEFAULT_WINDOW, MAX_CELLS, Grid, check_grid_size, distance_grid, joint_weights
 from .paths import Path, find_path
@@ -24,6 +26,7 @@ class PairRegistration:
     curve: TimewarpCurve
     alignment: np.ndarray  # (N, 3) theta, tx, ty per curve sample: applied to B to match A
     timing_s: dict[str, float] = field(default_factory=dict)
+    blendability: Blendability | None = None
 
     def to_json(self) -> dict:
         """The JSON record of ``mjmotion register`` (keys documented in the issue/CLI help)."""
@@ -33,10 +36,38 @@ class PairRegistration:
             "path_cost": self.path.cost,
             "mean_cost": self.path.mean_cost,
             "method": self.path.method,
-            "timewarp": np.round(self.curve.samples, 4).tolist(),
-            "alignment": np.round(self.alignment, 6).tolist(),
+            "timewarp": self.curve.samples.tolist(),
+            "alignment": self.alignment.tolist(),
             "timing_s": self.timing_s,
+            **({"blendability": self.blendability.to_json()} if self.blendability is not None else {}),
         }
+
+    def __repr__(self) -> str:
+        """``PairRegistration(240 × 180 grid, 231-cell path, mean_cost=0.01737, ...)``: no arrays."""
+        from ..summary import fields
+
+        na, nb = self.grid.cost.shape
+        score = self.blendability.score if self.blendability is not None else None
+        cells = f"{len(self.path.cells)}-cell path"
+        return fields("PairRegistration", f"{na} × {nb} grid", cells, method=self.path.method, mean_cost=self.path.mean_cost, blendability=score)
+
+    def to_markdown(self) -> str:
+        """The registration's numbers as a two-column Markdown table (the arrays are in :meth:`to_json`)."""
+        from ..summary import markdown_table
+
+        rows: dict[str, object] = {
+            "frames (A, B)": tuple(int(n) for n in self.grid.cost.shape),
+            "method": self.path.method,
+            "path cells": len(self.path.cells),
+            "path cost (m²)": self.path.cost,
+            "mean cost (m²)": self.path.mean_cost,
+            "timewarp samples": len(self.curve.samples),
+        }
+        if self.blendability is not None:
+            rows["blendability"] = self.blendability.score
+            rows["blendable"] = self.blendability.blendable
+        rows.update({f"{k} (ms)": 1e3 * v for k, v in self.timing_s.items()})
+        return markdown_table(rows, header=("registration", "value"))
 
 
 def positions_of(motion: Motion) -> np.ndarray:
@@ -70,12 +101,18 @@ def register(
     weights: dict[str, float] | None = None,
     positions: tuple[np.ndarray, np.ndarray] | None = None,
     max_cells: int = MAX_CELLS,
+    rule: str = "per-end",
+    path_options: dict[str, Any] | None = None,
 ) -> PairRegistration:
     """Register clip B to clip A: grid, path, timewarp curve and alignment (seed 000 §3.1).
 
     ``start="auto"`` starts a free-end path at the best cell of the first third of the first row
     or column (seed 004 §5.3), so clips need not begin in phase; ``loop`` pins both corners.
-    ``positions`` may pass precomputed ``(T, J, 3)`` joint positions of both clips.
+    Also scores how blendable the pair is (:mod:`.blendability`, seed 004 §7.2).
+    ``positions`` may pass precomputed ``(T, J, 3)`` joint positions of both clips. ``weights``:
+    joint name → weight of the distance (:func:`.grid.joint_weights`); ``rule``: the free-end
+    objective (:func:`.paths.dp_path`); ``path_options``: more options of the path search
+    (``time_limit_s`` for brute force, ``area_threshold`` for threshold).
     Clips shorter than the window still work (windows repeat edge frames); a clip of one
     frame cannot be registered.
     """
@@ -88,7 +125,7 @@ def register(
     t0 = time.perf_counter()
     grid = distance_grid(pa, pb, w, window, max_cells)
     t1 = time.perf_counter()
-    path = find_path(grid.cost, method, slope_limit, loop, start)
+    path = find_path(grid.cost, method, slope_limit, loop, start, rule, **(path_options or {}))
     t2 = time.perf_counter()
     if curve == "bspline":
         tw = timewarp_curve(path)
@@ -98,4 +135,7 @@ def register(
         raise MjmotionError(f"unknown timewarp curve {curve!r}; expected bspline or discrete")
     align = alignment_curve(pa, pb, tw.samples, w, window)
     t3 = time.perf_counter()
-    return PairRegistration(grid, path, tw, align, {"grid": t1 - t0, "path": t2 - t1, "curve": t3 - t2})
+    blend = blendability(pa, pb, path.mean_cost, w, window)
+    t4 = time.perf_counter()
+    timing = {"grid": t1 - t0, "path": t2 - t1, "curve": t3 - t2, "blendability": t4 - t3}
+    return PairRegistration(grid, path, tw, align, timing, blend)

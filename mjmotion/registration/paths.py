@@ -1,8 +1,12 @@
 """Minimal-cost paths through the registration grid (seed 000 Eq. 6, seed 004 §4.3 and §5.2).
 
-Continuity, monotonicity and a slope limit; fixed corners or a fixed start with a free end on
-the boundary (least average cell cost). ``dp`` (dynamic programming over (cell, run) states) is
-exact; ``brute``, ``greedy`` and ``threshold`` are Sako's alternatives.
+Continuity, monotonicity and a slope limit; fixed corners (least total cost) or a fixed start
+with a free end on the boundary, by one of two objectives (:data:`FREE_END_RULES`): Kovar &
+Gleicher's — the least-total path to each boundary cell, then the one of least average cell cost —
+or the least average cell cost over every path. ``dp`` (dynamic programming over (cell, run)
+states; for the second objective Dinkelbach's parametric search over DP passes) solves each
+exactly, as ``brute`` (every path, within a time budget) does by enumeration; ``greedy`` and
+``threshold`` are Sako's alternatives (threshold exact over the cells under its threshold).
 """
 
 from __future__ import annotations
@@ -10,17 +14,21 @@ from __future__ import annotations
 import functools
 import heapq
 import math
-import sys
+import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from .. import compiled
 from ..errors import MjmotionError
 
 METHODS = ("dp", "greedy", "threshold", "brute")
-#: Grids from this size use the Numba DP kernel by default (below it NumPy's is quicker than loading Numba).
-NUMBA_MIN_CELLS = 2_000_000
+#: The NumPy DP's time per grid cell (``benchmarks/bench_compiled.py``: 80–100 ns at slope limit 2).
+NUMPY_SECONDS_PER_CELL = 1.0e-7
+#: Grids from this size use the Numba DP kernel by default even in a fresh process: NumPy's DP
+#: would take longer than the kernel's first call on a machine (:data:`mjmotion.compiled.COLD_START_S`).
+NUMBA_MIN_CELLS = int(compiled.COLD_START_S / NUMPY_SECONDS_PER_CELL)
 
 
 @dataclass(frozen=True)
@@ -224,56 +232,60 @@ def _dp_tables_numba():
     return tables
 
 
-def dp_path(
-    cost: np.ndarray,
-    slope: SlopeLimit,
-    free_end: bool = True,
-    start: tuple[int, int] = (0, 0),
-    backend: str = "auto",
-) -> Path:
-    """Exact minimal-cost path by dynamic programming over (cell, run) states.
+#: Free-end objectives of :func:`dp_path`: Kovar & Gleicher's rule (the least-total path to each
+#: boundary cell, then the least mean of those), or the least mean cell cost over every path.
+FREE_END_RULES = ("per-end", "mean")
+#: Dinkelbach passes before :func:`least_mean_path` gives up (each pass lowers the mean; 2–5 suffice).
+MAX_RATIO_PASSES = 100
 
-    States at a cell: arrived diagonally (``D``), by the r-th consecutive A-only step
-    (``V_r``, r ≤ W_v) or by the r-th consecutive B-only step (``H_r``, r ≤ W_h); the slope
-    limit is part of the state, so the optimum is exact. ``free_end``: end on the last row or
-    column, at the boundary cell whose cheapest path has the least average cost (seed 004 §4.3);
-    otherwise end at the far corner. ``backend``: ``"numpy"`` (one vectorised pass per row: ``D``
-    and ``V`` from the previous row, ``H_r`` by shifts within the row), ``"numba"`` (a compiled
-    loop over cells, measured faster in benchmarks/bench_registration.py) or ``"auto"`` (Numba
-    when installed and the grid has at least :data:`NUMBA_MIN_CELLS` cells or Numba is loaded).
-    """
-    c = np.ascontiguousarray(np.asarray(cost, dtype=float)[start[0] :, start[1] :])
-    n_a, n_b = c.shape
-    wv, wh = slope.vertical, slope.horizontal
-    bp_dtype = np.int8 if 1 + wv + wh <= 127 else np.int32
-    # Numba's import and cache load cost ~0.3–1 s once, so "auto" takes it only where it pays:
-    # big grids, or a process that has loaded it already
-    use_numba = backend == "numba" or (backend == "auto" and (c.size >= NUMBA_MIN_CELLS or "numba" in sys.modules))
+
+def _check_rule(rule: str) -> None:
+    if rule not in FREE_END_RULES:
+        raise MjmotionError(f"unknown free-end rule {rule!r}; expected {' or '.join(FREE_END_RULES)}")
+
+
+def _dp_backend(size: int, backend: str):
+    """The Numba DP kernel, or ``None`` for NumPy's (see :func:`dp_path`)."""
+    if backend not in ("auto", "numba", "numpy"):
+        raise MjmotionError(f"unknown DP backend {backend!r}; expected auto, numba or numpy")
+    # Numba's import and cache load cost ~0.5 s once (~2 s compiling on a cold cache), so "auto"
+    # takes it only where it pays end to end: grids that big, or a process that has loaded it already
+    loaded = _dp_tables_numba.cache_info().currsize > 0 and compiled.ready(_dp_tables_numba())
+    use_numba = backend == "numba" or (backend == "auto" and (size >= NUMBA_MIN_CELLS or loaded))
     kernel = _dp_tables_numba() if use_numba else None
     if backend == "numba" and kernel is None:
         raise MjmotionError("the numba DP backend needs numba (pip install numba)")
-    if backend not in ("auto", "numba", "numpy"):
-        raise MjmotionError(f"unknown DP backend {backend!r}; expected auto, numba or numpy")
+    return kernel
+
+
+def _dp_pass(c: np.ndarray, slope: SlopeLimit, free_end: bool, rule: str, kernel) -> tuple[np.ndarray, float]:
+    """One DP over ``c`` (the grid from the start cell): the path's cells and the value it minimises.
+
+    ``rule``: ``"sum"`` ends where the total is least (the far corner without ``free_end``, else
+    any boundary cell and state); ``"per-end"`` takes each boundary cell's cheapest total, then
+    the least average of those (Kovar & Gleicher).
+    """
+    n_a, n_b = c.shape
+    wv, wh = slope.vertical, slope.horizontal
+    bp_dtype = np.int8 if 1 + wv + wh <= 127 else np.int32
     if kernel is not None:
         bp_d, bp_v, bp_h = (np.zeros((n_a, n_b), dtype=bp_dtype) for _ in range(3))
         prev, prev_len, last_col, last_col_len = kernel(c, wv, wh, bp_d, bp_v, bp_h)
     else:
         bp_d, bp_v, bp_h, prev, prev_len, last_col, last_col_len = _dp_tables_numpy(c, wv, wh, bp_dtype)
-    if free_end:
-        # per boundary cell its cheapest path (any state), then the least average (seed 004 §4.3)
+    if not free_end:
+        s = int(np.argmin(prev[:, -1]))
+        i, j, value = n_a - 1, n_b - 1, float(prev[s, -1])
+    else:
         cands = []
         for vals, lens, cell in ((prev.T, prev_len.T, lambda k: (n_a - 1, k)), (last_col, last_col_len, lambda k: (k, n_b - 1))):
-            s_best = np.argmin(vals, axis=1)
+            s_best = np.argmin(vals, axis=1)  # per boundary cell its cheapest path (any state)
             tot = vals[np.arange(len(vals)), s_best]
-            obj = _end_objective(tot, lens[np.arange(len(vals)), s_best])
+            obj = _end_objective(tot, lens[np.arange(len(vals)), s_best]) if rule == "per-end" else tot
             k = int(np.argmin(obj))
-            cands.append((obj[k], cell(k), int(s_best[k]), tot[k]))
-        _, (i, j), s, total = min(cands, key=lambda c: c[0])
-    else:
-        s = int(np.argmin(prev[:, -1]))
-        i, j = n_a - 1, n_b - 1
-        total = prev[s, -1]
-    if not np.isfinite(total):
+            cands.append((float(obj[k]), cell(k), int(s_best[k])))
+        value, (i, j), s = min(cands, key=lambda c: c[0])
+    if not np.isfinite(value):
         raise MjmotionError(
             f"no path joins the corners of a {n_a} × {n_b}-frame grid within the slope limit "
             f"(W_h={wh}, W_v={wv}: at most {wv + 1} frames of A per frame of B and {wh + 1} of B per frame of A); "
@@ -288,8 +300,70 @@ def dp_path(
         else:
             s, j = (int(bp_h[i, j]) if s == 1 + wv else s - 1), j - 1
         cells.append((i, j))
-    cells_arr = np.array(cells[::-1], dtype=int) + np.asarray(start, dtype=int)
-    return Path(cells=cells_arr, cost=float(total), method="dp")
+    return np.array(cells[::-1], dtype=int), value
+
+
+def least_mean_path(cost: np.ndarray, solve, first: np.ndarray) -> tuple[np.ndarray, float, int]:
+    """The path of least mean cell cost, by Dinkelbach's parametric search.
+
+    ``solve(lam)`` returns ``(cells, value)``: a path minimising ``Σ (cost − lam)`` over its cells,
+    and that minimum. With ``lam`` the mean of the best path so far, a negative minimum is a path
+    of lower mean (``Σ c − lam·len < 0``); a minimum of zero proves no path has a lower mean
+    (every path has ``Σ c ≥ lam·len``). Each pass lowers ``lam`` and the paths are finite, so it
+    ends, in 2–5 passes on our grids. ``first``: a path to start from. Returns ``(cells, total,
+    passes)``.
+    """
+    cells = first
+    total = float(cost[cells[:, 0], cells[:, 1]].sum())
+    for passes in range(1, MAX_RATIO_PASSES + 1):
+        lam = total / len(cells)
+        cand, value = solve(lam)
+        # zero within round-off of the sums: no path is cheaper on average
+        if value >= -1e-12 * max(abs(lam), 1e-300) * (cost.shape[0] + cost.shape[1]):
+            return cells, total, passes
+        cells = cand
+        total = float(cost[cells[:, 0], cells[:, 1]].sum())
+    raise MjmotionError(f"the least-mean path search did not settle in {MAX_RATIO_PASSES} passes")  # pragma: no cover
+
+
+def dp_path(
+    cost: np.ndarray,
+    slope: SlopeLimit,
+    free_end: bool = True,
+    start: tuple[int, int] = (0, 0),
+    backend: str = "auto",
+    rule: str = "per-end",
+) -> Path:
+    """Exact minimal-cost path by dynamic programming over (cell, run) states.
+
+    States at a cell: arrived diagonally (``D``), by the r-th consecutive A-only step
+    (``V_r``, r ≤ W_v) or by the r-th consecutive B-only step (``H_r``, r ≤ W_h); the slope
+    limit is part of the state, so the optimum is exact. Without ``free_end`` the path ends at
+    the far corner with the least total cost. With ``free_end`` it ends on the last row or column
+    and ``rule`` says which path, both exact: ``"per-end"`` (default; seed 004 §4.3, Kovar &
+    Gleicher) the least-total path to each boundary cell, then of those the one of least mean
+    cell cost — one pass; ``"mean"`` the least mean cell cost over every path to the boundary
+    (:func:`least_mean_path`: a DP per pass on the grid less the current mean). A path's mean
+    drops when it trades a diagonal step for two straight ones through cells cheaper than its
+    mean, so ``"mean"`` paths stair-step along the valley (on the daz walks and runs 18–46 %
+    more cells) and recover known warps a little less well (experiments/path_search.py).
+    ``backend``: ``"numpy"`` (one vectorised pass per row: ``D`` and ``V`` from the previous row,
+    ``H_r`` by shifts within the row), ``"numba"`` (a compiled loop over cells, measured faster
+    in benchmarks/bench_registration.py) or ``"auto"`` (Numba when installed and the kernel is
+    loaded in this process already or the grid has at least :data:`NUMBA_MIN_CELLS` cells: the
+    rule of :mod:`mjmotion.compiled`).
+    """
+    _check_rule(rule)
+    c = np.ascontiguousarray(np.asarray(cost, dtype=float)[start[0] :, start[1] :])
+    kernel = _dp_backend(c.size, backend)
+    offset = np.asarray(start, dtype=int)
+    if not free_end:
+        cells, total = _dp_pass(c, slope, False, "sum", kernel)
+        return Path(cells=cells + offset, cost=total, method="dp")
+    cells, _ = _dp_pass(c, slope, True, "per-end", kernel)
+    if rule == "mean":
+        cells, _, _ = least_mean_path(c, lambda lam: _dp_pass(c - lam, slope, True, "sum", kernel), cells)
+    return Path(cells=cells + offset, cost=float(c[cells[:, 0], cells[:, 1]].sum()), method="dp")
 
 
 def _moves(run_h: int, run_v: int, slope: SlopeLimit) -> list[tuple[int, int, int, int]]:
@@ -302,55 +376,126 @@ def _moves(run_h: int, run_v: int, slope: SlopeLimit) -> list[tuple[int, int, in
     return out
 
 
-def _search(
-    cost: np.ndarray,
-    slope: SlopeLimit,
-    free_end: bool,
-    start: tuple[int, int],
-) -> Path:
+def count_paths(shape: tuple[int, int], slope: SlopeLimit, free_end: bool = True, start: tuple[int, int] = (0, 0)) -> float:
+    """How many paths :func:`brute_path` enumerates on a grid of ``shape`` (float; ``inf`` past 1e308).
+
+    The DP of :func:`dp_path` with sums of counts for minima: paths from ``start`` to the far corner,
+    or with ``free_end`` every path that ends on the last row or column (a path along the boundary
+    counts at each cell it ends on, as the search records it).
+    """
+    n_a, n_b = shape[0] - start[0], shape[1] - start[1]
+    wv, wh = slope.vertical, slope.horizontal
+    prev = np.zeros((1 + wv + wh, n_b))
+    boundary = 0.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i in range(n_a):
+            cur = np.zeros_like(prev)
+            if i == 0:
+                cur[0, 0] = 1.0
+            else:
+                cur[0, 1:] = prev.sum(axis=0)[:-1]  # a diagonal step from any state
+                if wv:
+                    cur[1] = prev[0] + prev[1 + wv :].sum(axis=0)  # the first A-only step: from D or H
+                    cur[2 : 1 + wv] = prev[1:wv]
+            if wh:
+                cur[1 + wv, 1:] = cur[: 1 + wv].sum(axis=0)[:-1]  # the first B-only step: from D or V
+                for r in range(2, wh + 1):
+                    cur[wv + r, 1:] = cur[wv + r - 1, :-1]
+            if free_end:
+                boundary += float(cur[:, -1].sum()) if i < n_a - 1 else float(cur.sum())
+            prev = cur
+    return boundary if free_end else float(prev[:, -1].sum())
+
+
+def _search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[int, int], rule: str, time_limit_s: float | None) -> Path:
     """Depth-first enumeration of every path (Sako's brute-force recursion, seed 004 Fig. 13).
 
-    Tracks, per end cell, the cheapest path; ``free_end`` then picks the least average cost like
-    :func:`dp_path`.
+    Keeps the least total (fixed corners); with a free end, per boundary cell the least-total
+    path (``rule="per-end"``, then the least mean of those) or the least mean over every path
+    (``"mean"``): the objectives of :func:`dp_path`. Stops with an error once ``time_limit_s``
+    is spent, or earlier when the rate so far says the remaining paths (:func:`count_paths`)
+    would take longer.
     """
     n_a, n_b = cost.shape
-    end_best: dict[tuple[int, int], tuple[float, tuple]] = {}
     si, sj = start
-    stack: list[tuple[int, int, int, int, float, tuple]] = [(si, sj, 0, 0, float(cost[si, sj]), ((si, sj),))]
+    total_paths = count_paths(cost.shape, slope, free_end, start)
+    end_best: dict[tuple[int, int], tuple[float, list]] = {}
+    best_mean, best_mean_path = math.inf, None
+    path: list[tuple[int, int]] = []
+    stack: list[tuple[int, int, int, int, float, int]] = [(si, sj, 0, 0, float(cost[si, sj]), 0)]
+    done = nodes = 0
+    t0 = time.perf_counter()
     while stack:
-        i, j, rh, rv, total, path = stack.pop()
-        on_end = (i == n_a - 1 or j == n_b - 1) if free_end else (i == n_a - 1 and j == n_b - 1)
-        if on_end:
+        i, j, rh, rv, total, depth = stack.pop()
+        del path[depth:]
+        path.append((i, j))
+        nodes += 1
+        if time_limit_s is not None and nodes % 65536 == 0:
+            _check_budget(time.perf_counter() - t0, done, total_paths, time_limit_s, cost.shape)
+        if (i == n_a - 1 or j == n_b - 1) if free_end else (i == n_a - 1 and j == n_b - 1):
+            done += 1
             old = end_best.get((i, j))
             if old is None or total < old[0]:
-                end_best[(i, j)] = (total, path)
-        children: list[tuple[int, int, int, int, float, tuple]] = []
+                end_best[(i, j)] = (total, list(path))
+            if total / len(path) < best_mean:
+                best_mean, best_mean_path = total / len(path), (total, list(path))
+        children: list[tuple[int, int, int, int, float, int]] = []
         for di, dj, nrh, nrv in _moves(rh, rv, slope):
             ni, nj = i + di, j + dj
             if ni >= n_a or nj >= n_b:
                 continue
             if not free_end and not _reachable(n_a - 1 - ni, n_b - 1 - nj, nrh, nrv, slope):
                 continue
-            children.append((ni, nj, nrh, nrv, total + float(cost[ni, nj]), path + ((ni, nj),)))
+            children.append((ni, nj, nrh, nrv, total + float(cost[ni, nj]), depth + 1))
         stack.extend(reversed(children))  # pop order: diagonal, then the straight steps
     if not end_best:
         raise MjmotionError(f"no path joins the corners of a {n_a} × {n_b} grid within the slope limit")
-    best = min(end_best.values(), key=lambda v: v[0] / len(v[1]) if free_end else v[0])
+    if not free_end:
+        best = end_best[(n_a - 1, n_b - 1)]
+    elif rule == "mean":
+        assert best_mean_path is not None
+        best = best_mean_path
+    else:
+        best = min(end_best.values(), key=lambda v: v[0] / len(v[1]))
     return Path(cells=np.array(best[1], dtype=int), cost=best[0])
 
 
-def _pruned_search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[int, int], prune_above: float, max_nodes: int) -> Path:
+def _check_budget(elapsed: float, done: int, total: float, limit: float, shape: tuple[int, int]) -> None:
+    """Stop brute force past its time budget, or once its rate shows it cannot finish within it."""
+    rate = done / max(elapsed, 1e-9)
+    left = (total - done) / rate if rate > 0 else math.inf
+    if elapsed <= limit and (elapsed < min(1.0, 0.05 * limit) or elapsed + left <= limit):
+        return
+    eta = "more than the age of the universe" if left > 4e17 else f"about {_duration(elapsed + left)}"
+    raise MjmotionError(
+        f"brute force on a {shape[0]} × {shape[1]} grid: {total:.3g} paths within the slope limit; {done:,} enumerated in "
+        f"{elapsed:.1f} s ({rate:.3g} paths/s), so all of them would take {eta}, over the {limit:g} s budget; "
+        "raise the budget (--time-limit), register shorter excerpts, or use --method dp (exact)"
+    )
+
+
+def _duration(seconds: float) -> str:
+    for unit, size in (("years", 3.156e7), ("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
+
+
+def _pruned_search(
+    cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[int, int], allowed: np.ndarray, max_nodes: int, rule: str = "per-end"
+) -> Path:
     """Sako's recursion with an area threshold, expanding partial paths in order of progress.
 
-    Cells costlier than ``prune_above`` are never entered. Partial paths are expanded by
-    increasing ``i + j`` (ties: diagonal-first, Sako's shorter-path preference) and a path
-    reaching a (cell, run) state no cheaper than an earlier one is dropped, so every state is
-    expanded once with its cheapest cost; Sako's depth-first order re-expands states and is
-    exponential in the worst case (her Table 4: 21–36 s).
+    Only ``allowed`` cells are entered. Partial paths are expanded by increasing ``i + j``
+    (ties: diagonal-first, Sako's shorter-path preference) and a path reaching a (cell, run)
+    state no cheaper than an earlier one is dropped, so every state is expanded once with its
+    cheapest cost; Sako's depth-first order re-expands states and is exponential in the worst
+    case (her Table 4: 21–36 s). Ends like :func:`_dp_pass`: ``rule`` ``"per-end"`` or ``"sum"``
+    (the least total over the boundary; costs may be negative).
     """
     n_a, n_b = cost.shape
     si, sj = start
-    if cost[si, sj] > prune_above:
+    if not allowed[si, sj]:
         raise MjmotionError("the start cell is above the area threshold; raise the threshold")
     best: dict[tuple[int, int, int, int], tuple[float, int, tuple | None]] = {(si, sj, 0, 0): (float(cost[si, sj]), 1, None)}
     heap = [(si + sj, si, sj, 0, 0)]
@@ -371,7 +516,7 @@ def _pruned_search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: t
             end_best[(i, j)] = (total, length, key)
         for di, dj, nrh, nrv in _moves(rh, rv, slope):
             ni, nj = i + di, j + dj
-            if ni >= n_a or nj >= n_b or cost[ni, nj] > prune_above:
+            if ni >= n_a or nj >= n_b or not allowed[ni, nj]:
                 continue
             if not free_end and not _reachable(n_a - 1 - ni, n_b - 1 - nj, nrh, nrv, slope):
                 continue
@@ -385,7 +530,7 @@ def _pruned_search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: t
             best[nkey] = (nt, length + 1, key)
     if not end_best:
         raise MjmotionError("no path reaches the end under the area threshold; raise the threshold or use --method dp")
-    total, length, last = min(end_best.values(), key=lambda v: v[0] / v[1] if free_end else v[0])
+    total, length, last = min(end_best.values(), key=lambda v: v[0] / v[1] if free_end and rule == "per-end" else v[0])
     cells = []
     node: tuple | None = last
     while node is not None:
@@ -394,11 +539,29 @@ def _pruned_search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: t
     return Path(cells=np.array(cells[::-1], dtype=int), cost=total)
 
 
-def brute_path(cost: np.ndarray, slope: SlopeLimit, free_end: bool = True, start: tuple[int, int] = (0, 0)) -> Path:
-    """Every path enumerated (seed 004 §5.2 method 1); only for grids of at most 100 cells."""
-    if cost.size > 100:
-        raise MjmotionError(f"brute force enumerates exponentially many paths; a {cost.shape} grid is too big (≤ 100 cells)")
-    p = _search(np.asarray(cost, dtype=float), slope, free_end, start)
+#: Default time budget of :func:`brute_path` (seconds).
+BRUTE_TIME_LIMIT_S = 60.0
+
+
+def brute_path(
+    cost: np.ndarray,
+    slope: SlopeLimit,
+    free_end: bool = True,
+    start: tuple[int, int] = (0, 0),
+    rule: str = "per-end",
+    time_limit_s: float | None = BRUTE_TIME_LIMIT_S,
+) -> Path:
+    """Every path enumerated (seed 004 §5.2 method 1), within a time budget; ``rule`` as :func:`dp_path`'s.
+
+    The number of paths grows exponentially (:func:`count_paths`: 10 × 10 cells at W = 2 have
+    1.1 million to the boundary, 13 × 13 117 million); the search stops with an error saying how
+    long all of them would take once ``time_limit_s`` is spent or its rate shows it cannot finish
+    in time (``None``: no limit).
+    """
+    _check_rule(rule)
+    if time_limit_s is not None and not time_limit_s > 0:
+        raise MjmotionError(f"the brute-force time budget must be a positive number of seconds, got {time_limit_s}")
+    p = _search(np.asarray(cost, dtype=float), slope, free_end, start, rule, time_limit_s)
     return Path(p.cells, p.cost, "brute")
 
 
@@ -409,14 +572,27 @@ def threshold_path(
     start: tuple[int, int] = (0, 0),
     area_threshold: float = 0.35,
     max_nodes: int = 5_000_000,
+    rule: str = "per-end",
 ) -> Path:
     """Sako's recursion with thresholds (seed 004 §5.2 method 3), see :func:`_pruned_search`.
 
     Cells above ``area_threshold × max cost`` are never entered (Sako found 0.30–0.35 best).
-    With ``area_threshold ≥ 1`` nothing is pruned and the result is the DP optimum.
+    Its objective is :func:`dp_path`'s (``rule="mean"``: by :func:`least_mean_path` over searches
+    of ``cost − mean``), so with ``area_threshold ≥ 1`` nothing is pruned and the result is the
+    DP optimum.
     """
+    _check_rule(rule)
     c = np.asarray(cost, dtype=float)
-    p = _pruned_search(c, slope, free_end, start, area_threshold * float(c.max()), max_nodes)
+    allowed = c <= area_threshold * float(c.max())
+    p = _pruned_search(c, slope, free_end, start, allowed, max_nodes)
+    if free_end and rule == "mean":
+
+        def solve(lam: float) -> tuple[np.ndarray, float]:
+            q = _pruned_search(c - lam, slope, True, start, allowed, max_nodes, rule="sum")
+            return q.cells, q.cost
+
+        cells, total, _ = least_mean_path(c, solve, p.cells)
+        p = Path(cells, total)
     return Path(p.cells, p.cost, "threshold")
 
 
@@ -457,14 +633,18 @@ def find_path(
     slope_limit: int | None = None,
     loop: bool = False,
     start: tuple[int, int] | str = (0, 0),
+    rule: str = "per-end",
     **options: Any,
 ) -> Path:
-    """Dispatch to a path search. ``loop``: fixed corners (seed 000); else free end (seed 004 §4.3).
+    """Dispatch to a path search. ``loop``: fixed corners (seed 000); else free end (seed 004 §4.3)
+    chosen by ``rule`` (:data:`FREE_END_RULES`, see :func:`dp_path`; greedy has its own).
 
-    ``start``: a cell, or ``"auto"`` for :func:`auto_start` (only with a free end).
+    ``start``: a cell, or ``"auto"`` for :func:`auto_start` (only with a free end). ``options``:
+    ``area_threshold``/``max_nodes`` for threshold, ``time_limit_s`` for brute.
     """
     c = np.asarray(cost, dtype=float)
     slope = SlopeLimit.of(slope_limit, *c.shape)
+    _check_rule(rule)
     if isinstance(start, str):
         if start != "auto":
             raise MjmotionError(f"start must be a cell (i, j) or 'auto', got {start!r}")
@@ -474,11 +654,11 @@ def find_path(
         raise MjmotionError("a looping (fixed-corner) registration starts at the corner (0, 0)")
     free = not loop
     if method == "dp":
-        return dp_path(c, slope, free, cell)
+        return dp_path(c, slope, free, cell, rule=rule)
     if method == "greedy":
         return greedy_path(c, slope, free, cell)
     if method == "threshold":
-        return threshold_path(c, slope, free, cell, **options)
+        return threshold_path(c, slope, free, cell, rule=rule, **options)
     if method == "brute":
-        return brute_path(c, slope, free, cell)
+        return brute_path(c, slope, free, cell, rule=rule, **options)
     raise MjmotionError(f"unknown path method {method!r}; expected one of {', '.join(METHODS)}")

@@ -221,7 +221,7 @@ class PoseBuilder:
     """Fills a clip's local rotations top-down: torso first, then limbs from world-space goals.
 
     ``local`` starts at the identity; set torso rotations with :meth:`set_local`, call
-    :meth:`torso` to get world frames, then place legs and arms with :meth:`leg`/:meth:`arm`.
+    :meth:`update` to get world frames, then place legs and arms with :meth:`leg`/:meth:`arm`.
     """
 
     def __init__(self, n_frames: int, root_positions: np.ndarray):

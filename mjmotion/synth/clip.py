@@ -152,8 +152,11 @@ class SynthClip:
                 None
                 if w is None
                 else Warp(
-                    str(w["source"]), np.asarray(w["source_frames"], dtype=float), float(w["rotation"]), tuple(float(x) for x in w["translation"])
-                )  # type: ignore[arg-type]
+                    str(w["source"]),
+                    np.asarray(w["source_frames"], dtype=float),
+                    float(w["rotation"]),
+                    (float(w["translation"][0]), float(w["translation"][1])),
+                )
             )
             p = entry.get("prop")
             prop = None if p is None else mjcf.Prop(**{**p, "pos": tuple(p["pos"]), "quat": tuple(p["quat"])})

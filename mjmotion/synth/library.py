@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from collections.abc import Callable
@@ -12,7 +13,7 @@ import numpy as np
 
 from .. import bvh
 from ..errors import MjmotionError
-from ..outputs import check_output, write_text_atomic
+from ..outputs import check_output, staged_folder, write_text_atomic
 from ..skeleton import CM
 from . import actions
 from .clip import MANIFEST_VERSION, SynthClip, smooth_warp, warp
@@ -158,19 +159,39 @@ def library() -> dict[str, SynthClip]:
 
 def write_library(directory: str | os.PathLike[str], force: bool = False, clips: dict[str, SynthClip] | None = None) -> dict[str, SynthClip]:
     """Write every clip as ``NAME.bvh`` and the ground truth as ``manifest.json`` into ``directory``
-    (created if missing). Existing files are refused unless ``force``. Returns the clips."""
+    (created if missing). Existing files are refused unless ``force``. Returns the clips.
+
+    A new folder is written under a temporary name and renamed when complete, so a failure (a
+    full disk) leaves no folder behind; into an existing folder each file is published on its own.
+    """
     d = Path(directory)
     if d.exists() and not d.is_dir():
         raise MjmotionError(f"{d}: exists and is not a directory")
-    d.mkdir(parents=True, exist_ok=True)
     clips = library() if clips is None else clips
-    paths = {name: d / f"{name}.bvh" for name in clips}
-    for p in [*paths.values(), d / "manifest.json"]:
-        check_output(p, force=force)
+    files = [*(f"{name}.bvh" for name in clips), "manifest.json"]
+    if d.is_dir():
+        for f in files:
+            check_output(d / f, force=force)
+        _write_library_files(d, clips)
+        return clips
+    made = [p for p in reversed(d.parents) if not p.exists()]
+    d.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        with staged_folder(d) as tmp:
+            _write_library_files(tmp, clips)
+    except BaseException:
+        for p in reversed(made):  # folders made for it, innermost first, if still empty
+            with contextlib.suppress(OSError):
+                p.rmdir()
+        raise
+    return clips
+
+
+def _write_library_files(d: Path, clips: dict[str, SynthClip]) -> None:
     entries: dict[str, Any] = {}
     for name, clip in clips.items():
-        write_text_atomic(paths[name], bvh.format_motion(clip.motion))
-        entries[name] = clip.to_manifest(paths[name].name)
+        write_text_atomic(d / f"{name}.bvh", bvh.format_motion(clip.motion))
+        entries[name] = clip.to_manifest(f"{name}.bvh")
     manifest = {
         "version": MANIFEST_VERSION,
         "generator": "mjmotion.synth",
@@ -178,7 +199,6 @@ def write_library(directory: str | os.PathLike[str], force: bool = False, clips:
         "clips": entries,
     }
     write_text_atomic(d / "manifest.json", json.dumps(manifest, indent=1) + "\n")
-    return clips
 
 
 def load_library(directory: str | os.PathLike[str]) -> dict[str, SynthClip]:

@@ -15,6 +15,7 @@ from .measure import effector_path_length, first_hand_for, fitted_club, grip_err
 from .paths import (
     DEFAULT_VARIANCE,
     END_FADE,
+    MAX_SCORE,
     SEGMENT_TAPER,
     ScorePath,
     aborted_path,
@@ -32,6 +33,7 @@ from .paths import (
 __all__ = [
     "DEFAULT_VARIANCE",
     "END_FADE",
+    "MAX_SCORE",
     "FEET_METHODS",
     "SEGMENT_TAPER",
     "CleanupReport",

@@ -305,7 +305,7 @@ def _root_shift_for_reach(
     peak = np.linalg.norm(need, axis=-1)
     if not peak.any():
         return need
-    half = max(1, min(round(0.5 * ROOT_WINDOW_S * fps), (t - 1) // 2))  # np.convolve 'same' keeps the longer length
+    half = max(0, min(round(0.5 * ROOT_WINDOW_S * fps), (t - 1) // 2))  # np.convolve 'same' keeps the longer length
     kernel = np.hanning(2 * half + 3)[1:-1]
     kernel /= kernel.sum()
     smooth = np.stack([np.convolve(need[:, i], kernel, mode="same") for i in range(3)], axis=1)

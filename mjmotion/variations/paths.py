@@ -289,33 +289,102 @@ def explicit_path(space: PoseSpace, scores: np.ndarray, detail: bool = True) -> 
     return ScorePath(full, k, fa, fb, pos - fa, "scores")
 
 
+#: Largest score a score file may hold (standard deviations of the pose space: a shot's own
+#: path stays within a few tens).
+MAX_SCORE = 1e4
+
+
 def read_scores(path: str | Path) -> np.ndarray:
-    """A score path from ``.npy`` (a ``(T, k)`` array) or ``.csv`` (one row per frame, commas; a header row is skipped)."""
+    """A score path from ``.npy`` (a ``(T, k)`` array) or ``.csv`` (one row per frame, commas; a header row is skipped).
+
+    The file is read through :func:`mjmotion.inputs.open_input` (a regular file within
+    :data:`mjmotion.caps.MAX_FILE_BYTES`); an ``.npy`` header is read first (``allow_pickle``
+    off) and its dtype and shape checked before any data is; every value must be finite and
+    within ±:data:`MAX_SCORE`. Returns ``(T, k)`` float64 with 2 ≤ T ≤ MAX_FRAMES, k ≤ MAX_COMPONENTS.
+    """
+    from ..caps import MAX_FILE_BYTES
+    from ..inputs import read_text
+
     p = Path(path)
-    if not p.is_file():
-        raise MjmotionError(f"{p}: score file not found")
     suffix = p.suffix.lower()
-    try:
-        if suffix == ".npy":
-            arr = np.load(p, allow_pickle=False)
-        elif suffix in (".csv", ".txt"):
-            text = p.read_text(encoding="utf-8").splitlines()
-            rows = [r for r in text if r.strip() and not r.lstrip().startswith("#")]
+    if suffix == ".npy":
+        arr = _read_npy(p)
+    elif suffix in (".csv", ".txt"):
+        text = read_text(p, MAX_FILE_BYTES, "a score file (.csv)").splitlines()
+        rows = [(i, r) for i, r in enumerate(text, 1) if r.strip() and not r.lstrip().startswith("#")]
+        try:
+            float(rows[0][1].split(",")[0])
+        except (ValueError, IndexError):
+            rows = rows[1:]
+        _check_score_shape(p, (len(rows), len(rows[0][1].split(",")) if rows else 0))
+        values = []
+        for i, r in rows:
             try:
-                float(rows[0].split(",")[0])
-            except (ValueError, IndexError):
-                rows = rows[1:]
-            arr = np.array([[float(v) for v in r.split(",")] for r in rows])
-        else:
-            raise MjmotionError(f"{p}: expected a .npy or .csv score path")
-    except ValueError as exc:
-        raise MjmotionError(f"{p}: cannot read scores ({exc}); expected rows of numbers, one column per component") from None
-    arr = np.asarray(arr, dtype=float)
+                values.append([float(v) for v in r.split(",")])
+            except ValueError:
+                raise MjmotionError(f"{p}:{i}: cannot read scores ({_short(r)}); expected numbers separated by commas") from None
+            if len(values[-1]) != len(values[0]):
+                raise MjmotionError(f"{p}:{i}: {len(values[-1])} scores; expected {len(values[0])} like the first row")
+        arr = np.array(values, dtype=float)
+    else:
+        raise MjmotionError(f"{p}: expected a .npy or .csv score path")
     if arr.ndim == 1:
         arr = arr[:, None]
-    if arr.ndim != 2 or arr.shape[0] < 2:
-        raise MjmotionError(f"{p}: expected a (frames, components) table with at least 2 rows, got shape {arr.shape}")
+    _check_score_shape(p, arr.shape)
+    bad = ~(np.abs(arr) <= MAX_SCORE)  # NaN is bad too
+    if bad.any():
+        row, col = map(int, np.argwhere(bad)[0])
+        raise MjmotionError(f"{p}: score at frame {row}, component {col + 1} is {arr[row, col]:g}; expected a finite score within ±{MAX_SCORE:g}")
     return arr
+
+
+def _short(text: str) -> str:
+    return repr(text if len(text) <= 40 else text[:40] + "…")
+
+
+def _check_score_shape(p: Path, shape: tuple[int, ...]) -> None:
+    from ..caps import MAX_COMPONENTS, MAX_FRAMES
+
+    if len(shape) not in (1, 2) or shape[0] < 2:
+        raise MjmotionError(f"{p}: expected a (frames, components) table with at least 2 rows, got shape {shape}")
+    if shape[0] > MAX_FRAMES or (len(shape) == 2 and not 1 <= shape[1] <= MAX_COMPONENTS):
+        raise MjmotionError(f"{p}: a score path of shape {shape}; expected at most {MAX_FRAMES:,} frames and 1 to {MAX_COMPONENTS} components")
+
+
+def _read_npy(p: Path) -> np.ndarray:
+    """An ``.npy`` array of real numbers, its header checked before its data is read."""
+    from numpy.lib import format as npy
+
+    from ..caps import MAX_FILE_BYTES
+    from ..inputs import open_input
+
+    with open_input(p, MAX_FILE_BYTES, "a score file (.npy)") as (fh, size):
+        head = fh.read(6)
+        if head != b"\x93NUMPY":
+            kind = "a zip archive (an .npz saved as .npy?)" if head.startswith(b"PK") else "not an .npy file"
+            raise MjmotionError(f"{p}: {kind}; expected an .npy array (numpy.save) of frames × components")
+        fh.seek(0)
+        try:
+            version = npy.read_magic(fh)
+            if version == (1, 0):
+                shape, fortran, dtype = npy.read_array_header_1_0(fh)
+            elif version == (2, 0):
+                shape, fortran, dtype = npy.read_array_header_2_0(fh)
+            else:
+                raise MjmotionError(f"{p}: .npy format version {version[0]}.{version[1]}; expected 1.0 or 2.0")
+        except ValueError as e:
+            raise MjmotionError(f"{p}: a damaged .npy header ({e})") from None
+        if dtype.kind not in "fiu" or dtype.hasobject or dtype.fields is not None or dtype.subdtype is not None:
+            raise MjmotionError(f"{p}: an array of {dtype}; expected real numbers (float or int)")
+        _check_score_shape(p, tuple(shape))
+        need = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+        if need > size - fh.tell():
+            raise MjmotionError(f"{p}: its header says shape {tuple(shape)} ({need} bytes) but the file holds {size - fh.tell()}; truncated?")
+        data = fh.read(need)
+    if len(data) != need:
+        raise MjmotionError(f"{p}: shorter than its header says (truncated while read?)")
+    arr = np.frombuffer(data, dtype=dtype).reshape(shape, order="F" if fortran else "C")
+    return arr.astype(float)
 
 
 def synthesise(space: PoseSpace, path: ScorePath, name: str = "") -> Motion:

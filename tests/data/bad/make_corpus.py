@@ -266,8 +266,8 @@ def cases() -> list[Case]:
             "frames_huge",
             "Frames: 10^13 (must not allocate for it)",
             _edit(FRAMES, "Frames: 10000000000000"),
-            DATA + 4,
-            "but the motion section has 3",
+            FRAMES + 1,
+            "more than the limit of 1,000,000 frames",
         ),  # fmt: skip
         _err(
             "frames_zero",
@@ -285,6 +285,36 @@ def cases() -> list[Case]:
         ),  # fmt: skip
         _err("frame_time_nan", "Frame Time: nan", _edit(FRAME_TIME, "Frame Time: nan"), FRAME_TIME + 1, "not a finite number"),
         _err("frame_time_word", "Frame Time: fast", _edit(FRAME_TIME, "Frame Time: fast"), FRAME_TIME + 1, "not a number"),
+        # --- valid text, extreme values (issue 17) -------------------------------------------
+        _err(
+            "frame_time_tiny", "Frame Time: 1e-300 (10^300 fps)", _edit(FRAME_TIME, "Frame Time: 1e-300"), FRAME_TIME + 1, "seconds per frame"
+        ),  # fmt: skip
+        _err("frame_time_huge", "Frame Time: 1e300", _edit(FRAME_TIME, "Frame Time: 1e300"), FRAME_TIME + 1, "seconds per frame"),
+        _err(
+            "frame_time_denormal", "Frame Time: 5e-324 (1/x overflows)", _edit(FRAME_TIME, "Frame Time: 5e-324"), FRAME_TIME + 1, "seconds per frame"
+        ),  # fmt: skip
+        _err(
+            "root_position_huge",
+            "a root position of 1e308 (frame 2)",
+            _data_line(1, lambda t: _set(t, 0, "1e308")),
+            DATA + 2,
+            "value 1 (hips xposition) is 1e+308",
+        ),  # fmt: skip
+        _err("offset_huge", "an OFFSET of 1e308", _edit(head_off, "\t\t\tOFFSET 0.00 1e308 0.00"), head_off + 1, "beyond the ±100000 m"),
+        _err(
+            "name_escape_sequence",
+            "a joint name with a terminal escape sequence (ESC [2J)",
+            _edit(head_joint, "\t\tJOINT Head\x1b[2J"),
+            head_joint + 1,
+            "control character (u+001b)",
+        ),  # fmt: skip
+        _err(
+            "name_control_char",
+            "a joint name with a C1 control character",
+            _edit(head_joint, "\t\tJOINT He\x85ad\x9b"),
+            head_joint + 1,
+            "control character",
+        ),  # fmt: skip
         # --- bytes -------------------------------------------------------------------------
         _err("binary_garbage", "4 KiB of random bytes", garbage, garbage.count(b"\n", 0, garbage.find(b"\x00")) + 1, "binary data"),
         _err("binary_png", "a PNG header", b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", 3, "binary data"),
@@ -377,6 +407,17 @@ def big_clip_bytes(target_bytes: int) -> tuple[bytes, int]:
     return data, n
 
 
+def wide_hierarchy(width: int, frames: int = 2) -> bytes:
+    """A root with ``width`` - 1 children (each with an End Site), 180 file units tall."""
+    lines = ["HIERARCHY", "ROOT j0", "{", "OFFSET 0 0 0", "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"]
+    for i in range(1, width):
+        lines += [f"JOINT j{i}", "{", "OFFSET 0 90 0", "CHANNELS 3 Zrotation Xrotation Yrotation", "End Site", "{", "OFFSET 0 90 0", "}", "}"]
+    lines += ["}", "MOTION", f"Frames: {frames}", "Frame Time: 0.0333333"]
+    n = 6 + 3 * (width - 1)
+    lines += [" ".join(["0"] * n) for _ in range(frames)]
+    return ("\n".join(lines) + "\n").encode()
+
+
 def deep_hierarchy(depth: int, frames: int = 2) -> bytes:
     """A chain ``depth`` joints deep, 180 file units tall (so the unit detected is centimetres)."""
     bone = f"OFFSET 0 {180.0 / depth:.9g} 0"  # 180 units tall in all: read as centimetres
@@ -389,6 +430,98 @@ def deep_hierarchy(depth: int, frames: int = 2) -> bytes:
     lines += ["MOTION", f"Frames: {frames}", "Frame Time: 0.0333333"]
     lines += [" ".join(["0"] * n) for _ in range(frames)]
     return ("\n".join(lines) + "\n").encode()
+
+
+# --- stream scripts and score files (issue 17), made at test time -------------------------------
+@dataclass(frozen=True)
+class FileCase:
+    """A hostile input that is not a BVH file: its bytes and a phrase the one error line must hold."""
+
+    name: str
+    what: str
+    data: bytes
+    match: str
+
+
+def _script(**change) -> dict:
+    data = {
+        "duration": 0.2,
+        "loop_blend": 0.05,
+        "clips": {"a": {"file": "CLIP"}},
+        "locomotion": ["a"],
+        "commands": [{"time": 0, "weights": {"a": 1}}],
+    }
+    data.update(change)
+    return data
+
+
+def script_cases() -> list[FileCase]:
+    """Stream scripts of the wrong shape; ``CLIP`` stands for a valid clip's path."""
+    import json
+
+    def case(name: str, what: str, match: str, text: str | None = None, **change) -> FileCase:
+        return FileCase(name, what, (text if text is not None else json.dumps(_script(**change))).encode(), match)
+
+    w = {"time": 0, "weights": {"a": 1}}
+    return [
+        case(
+            "weights_word", 'weights {"a": "abc"}', "commands[0].weights.a: expected a finite number", commands=[{"time": 0, "weights": {"a": "abc"}}]
+        ),
+        case("weights_list", "weights [1]", "commands[0].weights: expected an object", commands=[{"time": 0, "weights": [1]}]),
+        case("weights_null", "weights null", "commands[0].weights: expected an object", commands=[{"time": 0, "weights": None}]),
+        case("frames_number", '"frames": 5', "clips.a.frames: expected a string", clips={"a": {"file": "CLIP", "frames": 5}}),
+        case("frames_list", '"frames": [0, 10]', "clips.a.frames: expected a string", clips={"a": {"file": "CLIP", "frames": [0, 10]}}),
+        case("play_list", '"play" as a list', "commands[1].play: expected a string", commands=[w, {"time": 0.1, "play": ["a"]}]),
+        case("play_object", '"play" as an object', "commands[1].play: expected a string", commands=[w, {"time": 0.1, "play": {"a": 1}}]),
+        case("commands_object", '"commands" as an object', "commands: expected a list", commands={"time": 0}),
+        case("long_number", "a 5000-digit duration", "duration: expected a finite number", text='{"duration": ' + "9" * 5000 + "}"),
+        case("nan", "duration NaN", "duration: expected a finite number", text='{"duration": NaN}'),
+        case("overflow", "duration 1e999", "duration: expected a finite number", text='{"duration": 1e999}'),
+        case("return_word", '"return": "yes"', "commands[1].return: expected true", commands=[w, {"time": 0.1, "return": "yes"}]),
+        case("escape_name", "a clip name with a terminal escape", "is not 1 to 256 printable characters", clips={"a\x1b[2J": {"file": "CLIP"}}),
+        case("deep", "JSON nested 100,000 deep", "nested too deeply", text="[" * 100_000),
+        FileCase("binary", "every byte value", bytes(range(256)) * 4, "not a text file"),
+    ]
+
+
+def _npy_header(shape: tuple[int, ...], descr: str = "<f8") -> bytes:
+    """An .npy version 1.0 header, as numpy.save writes it (padded to 64 bytes)."""
+    head = f"{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}"
+    pad = 64 - (10 + len(head) + 1) % 64
+    text = (head + " " * pad + "\n").encode("latin-1")
+    return b"\x93NUMPY\x01\x00" + len(text).to_bytes(2, "little") + text
+
+
+def score_cases() -> list[FileCase]:
+    """Score files for ``vary --scores`` (the name's suffix is the case's: .npy or .csv)."""
+    import io
+
+    import numpy as np
+
+    def npy(arr: np.ndarray) -> bytes:
+        buf = io.BytesIO()
+        np.save(buf, arr, allow_pickle=True)
+        return buf.getvalue()
+
+    npz = io.BytesIO()
+    np.savez(npz, scores=np.zeros((10, 2)))
+    good = np.zeros((10, 2))
+    return [
+        FileCase("npz.npy", "an .npz archive named .npy", npz.getvalue(), "zip archive"),
+        FileCase("strings.npy", "an array of strings", npy(np.array([["a", "b"], ["c", "d"]])), "expected real numbers"),
+        FileCase("objects.npy", "an object array (pickled)", npy(np.array([[None, 1], [2, 3]], dtype=object)), "expected real numbers"),
+        FileCase("huge_values.npy", "scores of 1e300", npy(np.full((10, 2), 1e300)), "expected a finite score within"),
+        FileCase("nan.npy", "a NaN score", npy(np.where(np.eye(10, 2) > 0, np.nan, good)), "expected a finite score"),
+        FileCase("rows_1e11.npy", "a header claiming 10^11 rows", _npy_header((10**11, 2)) + b"\x00" * 160, "at most 1,000,000 frames"),
+        FileCase("truncated.npy", "a header for 1000 rows, data for 10", _npy_header((1000, 2)) + b"\x00" * 160, "truncated"),
+        FileCase("one_row.npy", "one frame", npy(np.zeros((1, 2))), "at least 2 rows"),
+        FileCase("3d.npy", "a 3-D array", npy(np.zeros((4, 2, 2))), "at least 2 rows"),
+        FileCase("not_npy.npy", "text named .npy", b"1,2\n3,4\n", "not an .npy file"),
+        FileCase("word.csv", "a word among the scores", b"0,0\n0,abc\n0,0\n", "cannot read scores"),
+        FileCase("ragged.csv", "rows of different lengths", b"0,0\n0,0,0\n0,0\n", "expected 2 like the first row"),
+        FileCase("huge.csv", "1e300 in a CSV", b"0,0\n0,1e300\n0,0\n", "expected a finite score within"),
+        FileCase("binary.csv", "binary data", bytes(range(256)), "not a text file"),
+    ]
 
 
 # --- writing the committed corpus ---------------------------------------------------------------
@@ -425,7 +558,26 @@ def readme(all_cases: list[Case]) -> str:
         "| 100,000-frame clip | memory | loads with a tracemalloc peak under 5x the motion arrays (3.5x measured) |",
         "| 10,000-level hierarchy | a chain 10,000 joints deep | loads and writes (no RecursionError); `mjcf.compile` raises a clear MjmotionError above `mjcf.MAX_DEPTH` = 256 nested joints (MuJoCo's compile time grows with the cube of the depth: 1,000 deep takes 21 s) |",
         "| 50 MB on one line | a single line of garbage | BvhError on line 1 |",
+        "| 10,001 joints | a skeleton one joint wider than `caps.MAX_JOINTS` (one root with 10,000 children) | BvhError on the line of joint 10,001, in seconds |",
+        "| 1,001 joints | a skeleton one joint wider than `caps.MAX_MODEL_JOINTS` | loads; `mjcf.compile` (compile, fk, render, …) refuses it at once |",
+        "| 100,000-deep chain | the hierarchy that made `convert` use 7 GB (indentation growing with depth²) | BvhError (more than 10,000 joints); the writer's indentation stops at 32 levels |",
+        "| a FIFO with no writer, `/dev/zero`, a folder | not regular files | refused before they are opened (`mjmotion.inputs`), every verb |",
+        "| a 2 GB sparse file | larger than `caps.MAX_FILE_BYTES` | refused from its size, nothing read |",
+        "| a symbolic-link loop | `a.bvh -> b.bvh -> a.bvh` | BvhError: too many levels of symbolic links, every verb |",
         "| random mutations | hypothesis (`tests/test_fuzz.py`) | loads or BvhError, never another exception |",
+        "",
+        "Stream scripts (`script_cases()`, run through `mjmotion stream` by `tests/test_cli_contract.py`;",
+        "each gives one `error:` line naming the script and the key path; `tests/test_script.py` has more):",
+        "",
+        "| case | what | message contains |",
+        "|---|---|---|",
+        *(f"| `{c.name}` | {c.what} | {c.match} |" for c in script_cases()),
+        "",
+        "Score files for `vary --scores` (`score_cases()`; each refused naming the file, before its data is read):",
+        "",
+        "| case | what | message contains |",
+        "|---|---|---|",
+        *(f"| `{c.name}` | {c.what} | {c.match} |" for c in score_cases()),
         "",
     ]
     return "\n".join(rows)

@@ -1,0 +1,671 @@
+"""Whole-database audits: every clip of a folder through the judge, one row each, streamed to disk.
+
+- :func:`find_clips` lists the ``.bvh`` files under a folder (recursively; links that lead out of it
+  are not followed); :func:`sha256_file` hashes one.
+- :func:`judge_options` are ``mjmotion evaluate``'s options with their defaults (the judge's own
+  parser, so new judge options arrive by themselves); :func:`audit_clip` evaluates one clip on a
+  worker through the same one-file evaluation as ``evaluate`` and returns its row.
+- :func:`metric_columns` flattens a report's ``to_dict()`` into columns (nothing hard-coded: the
+  columns are whatever the judge reports); :func:`flavour` names a skeleton's naming convention.
+- :class:`Table` is the output: ``audit.csv`` appended and flushed row by row (the journal a resume
+  reads) and ``audit.parquet`` rewritten atomically every few seconds and at the end, so a crash
+  leaves a complete CSV up to its last line and a valid Parquet file at most
+  :data:`PARQUET_EVERY` seconds old.
+- :func:`run` is the whole audit (resume, fan-out on :mod:`mjmotion.executor`, summary).
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import math
+import os
+import socket
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from . import __version__
+from .errors import MjmotionError
+from .executor import one_line
+from .outputs import write_text_atomic, write_with
+
+#: Columns every row has, before the metrics (``status`` is ``ok`` or ``error``).
+META = (
+    "path", "size", "sha256", "status", "error", "error_kind", "frames", "fps", "flavour", "joints",
+    "skipped_frames", "seconds", "source_files", "options", "mjmotion_version", "params",
+)  # fmt: skip
+_TYPES = {"size": int, "frames": int, "joints": int, "skipped_frames": int, "fps": float, "seconds": float}
+#: Seconds between rewrites of ``audit.parquet`` while an audit runs.
+PARQUET_EVERY = 10.0
+#: A file changed less than this many seconds before it was hashed is hashed again by its worker: Linux
+#: stamps files from a clock of a few milliseconds' resolution (some file systems keep whole seconds).
+RACY = 3.0
+#: Evaluate options that only shape the verb's own output (not the numbers).
+_OUTPUT_OPTIONS = ("path", "json", "csv", "force", "jobs")
+#: Error kinds whose rows a resume keeps (the same input gives the same error); others are retried.
+_FINAL_ERRORS = ("input",)
+#: The files an audit writes in its output folder.
+OUTPUTS = ("audit.csv", "audit.parquet", "summary.md", "histograms.png")
+#: Clips listed per metric among the worst in the summary.
+WORST = 5
+#: Naming conventions by joints that must all be present (lower case); the first match names the flavour.
+FLAVOURS = (
+    ("cmu-asf", ("root", "lfemur", "ltibia")),
+    ("cgspeed-daz", ("hip", "abdomen", "lshin")),
+    ("cgspeed-max", ("hips", "lhipjoint", "leftknee")),
+    ("cc-rig", ("cc_base_hip",)),
+    ("mixamo", ("mixamorig:hips",)),
+    ("mixamo-style", ("hips", "spine1", "leftupleg")),
+)
+
+
+def flavour(names: Sequence[str]) -> str:
+    """The skeleton's naming convention (:data:`FLAVOURS`), else ``ROOT/N joints``."""
+    low = {n.lower() for n in names}
+    for label, needed in FLAVOURS:
+        if all(n in low for n in needed):
+            return label
+    return f"{names[0]}/{len(names)} joints"
+
+
+def find_clips(root: str | os.PathLike[str]) -> list[Path]:
+    """Every ``.bvh`` under ``root`` (any case), sorted; linked folders are not entered and linked
+    files count only if they resolve inside ``root``."""
+    base = Path(root).resolve()
+    out = []
+    for folder, dirs, files in os.walk(base, followlinks=False):
+        dirs.sort()
+        for name in files:
+            p = Path(folder) / name
+            if p.suffix.lower() != ".bvh":
+                continue
+            if p.is_symlink() and not p.resolve().is_relative_to(base):
+                continue
+            if p.is_file():
+                out.append(p)
+    return sorted(out)
+
+
+def sha256_file(path: str | os.PathLike[str]) -> str:
+    return fingerprint(path)[0]
+
+
+@dataclass(frozen=True)
+class Listed:
+    """How a file looked while it was hashed: ``stat`` (device, inode, size, modification and change
+    times in ns), the ``host`` and when hashing began (``hashed_at``, seconds since the epoch)."""
+
+    stat: tuple[int, int, int, int, int]
+    host: str
+    hashed_at: float
+
+
+def _signature(st: os.stat_result) -> tuple[int, int, int, int, int]:
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+
+
+def fingerprint(path: str | os.PathLike[str]) -> tuple[str, Listed]:
+    """The SHA-256 of a file and how it looked while read (the same before and after; a file written to
+    meanwhile is read again, up to three times)."""
+    for _ in range(3):
+        began = time.time()
+        h = hashlib.sha256()
+        with open(path, "rb") as f:
+            before = _signature(os.fstat(f.fileno()))
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+            after = _signature(os.fstat(f.fileno()))
+        if before == after:
+            break
+    return h.hexdigest(), Listed(after, socket.gethostname(), began)
+
+
+def unchanged(path: str | os.PathLike[str], listed: Listed) -> bool:
+    """Whether ``path`` is beyond doubt still the file hashed as ``listed``: on the same host, with the same
+    device, inode, size and modification and change times (no write or rename leaves those as they were:
+    writing sets both times, and the change time cannot be set back), last changed more than
+    :data:`RACY` seconds before it was hashed (a write within the same clock tick would keep the times)."""
+    if listed.host != socket.gethostname():
+        return False
+    try:
+        st = os.stat(path)
+    except OSError:
+        return False
+    return _signature(st) == listed.stat and max(st.st_mtime_ns, st.st_ctime_ns) < (listed.hashed_at - RACY) * 1e9
+
+
+def judge_options(**overrides: Any) -> dict[str, Any]:
+    """``mjmotion evaluate``'s options with their defaults (read from its parser), minus those that only
+    shape its output, with ``overrides`` applied."""
+    import argparse
+
+    from .commands import evaluate
+
+    p = argparse.ArgumentParser()
+    evaluate.add_arguments(p)
+    opts = vars(p.parse_args(["-"]))
+    for k in _OUTPUT_OPTIONS:
+        opts.pop(k, None)
+    unknown = set(overrides) - set(opts)
+    if unknown:
+        raise ValueError(f"not options of evaluate: {sorted(unknown)}")
+    opts.update(overrides)
+    return opts
+
+
+def metric_columns(report: Mapping[str, Any]) -> dict[str, Any]:
+    """A report's ``to_dict()`` as flat columns: scalars by name, dicts as ``name.key``, lists of dicts as
+    ``name[first=value].key`` (labelled by each entry's first item, e.g. ``sensitivity[h_c=0.03].skate_mm_per_s``).
+    ``name``, ``n_frames``, ``fps`` (row columns of their own), ``params`` (a column of its own) and ``None``
+    values (a metric that does not apply) are left out."""
+    out: dict[str, Any] = {}
+
+    def put(prefix: str, value: Any) -> None:
+        if isinstance(value, Mapping):
+            for k, v in value.items():
+                put(f"{prefix}.{k}", v)
+        elif isinstance(value, (list, tuple)) and value and all(isinstance(v, Mapping) and v for v in value):
+            for entry in value:
+                (k0, v0), *rest = entry.items()
+                for k, v in rest:
+                    put(f"{prefix}[{k0}={v0}].{k}", v)
+        elif isinstance(value, (list, tuple)):
+            out[prefix] = json.dumps(list(value))
+        elif value is None:
+            pass  # a metric that does not apply (``hit`` without a ball): no cell
+        elif isinstance(value, (bool, int, float, str)):
+            out[prefix] = value
+        else:
+            out[prefix] = float(value)  # NumPy scalars
+
+    for k, v in report.items():
+        if k not in ("name", "n_frames", "fps", "params"):
+            put(k, v)
+    return out
+
+
+def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str, ...] = (), listed: Listed | None = None) -> dict[str, Any]:
+    """One clip, on a worker: its row's frames, fps, flavour, metrics (or ``error``), of exactly the bytes
+    listed. The worker hashes the file again unless it is :func:`unchanged` since it was ``listed`` (the
+    same file on the same host, so hashing it again would read the same bytes); after the evaluation the
+    file must still look as it did before (a file written to meanwhile is an error row)."""
+    from . import bvh
+    from . import evaluate as ev
+    from .commands._common import load
+    from .commands.evaluate import evaluate_one
+
+    if listed is not None and unchanged(path, listed):
+        looked = listed.stat
+    else:
+        try:
+            seen, here = fingerprint(path)
+        except OSError as e:  # a worker on another machine without the file at this path
+            raise MjmotionError(f"{path}: cannot be read on this worker ({e.strerror or e})") from None
+        if seen != sha256:
+            raise MjmotionError(f"{path}: not the file that was listed (changed since, or this worker sees another file at the path)")
+        looked = here.stat
+
+    def same_file(row: dict[str, Any]) -> dict[str, Any]:
+        try:
+            still = _signature(os.stat(path)) == looked
+        except OSError:
+            still = False
+        if not still:
+            raise MjmotionError(f"{path}: changed while it was evaluated (the row would not be of the bytes listed)")
+        return row
+
+    import argparse
+
+    if sources and "source" in opts:  # a judge that takes --source SRC.bvh judges the clip against them too
+        opts = {**opts, "source": list(sources)}
+    try:
+        motion, offset, report = evaluate_one(path, opts)
+    except MjmotionError as e:
+        row: dict[str, Any] = {"error": one_line(str(e))}
+        try:  # the flavour of a clip that reads but cannot be judged
+            m = bvh.read(path)
+            row.update(frames=m.n_frames, fps=float(m.fps), flavour=flavour(m.skeleton.names), joints=m.skeleton.n_joints)
+        except MjmotionError:
+            pass
+        return same_file(row)
+    d = report.to_dict()
+    row = {
+        "frames": motion.n_frames,
+        "fps": float(motion.fps),
+        "flavour": flavour(motion.skeleton.names),
+        "joints": motion.skeleton.n_joints,
+        "skipped_frames": offset,
+        "params": json.dumps(d.get("params"), sort_keys=True, default=float),
+        **metric_columns(d),
+    }
+    if sources:
+        # Against the clips this one was made from (--source-map): the judge's source-relative measures.
+        src = [load(s, argparse.Namespace(**opts)) for s in sources]
+        row["vs_source.max_joint_speed_ratio"] = ev.max_joint_speed_ratio(motion, src)
+        row["vs_source.root_jump_m"] = ev.root_jump_m(motion, src)
+    return same_file(row)
+
+
+def warm_up() -> None:
+    """Evaluate a short synthetic walk in this process through the tasks' own one-file evaluation, so
+    that whatever the judge loads on first use (SciPy's signal package alone takes about a second to
+    import) is loaded once here, before local workers are forked, instead of once in every worker."""
+    import tempfile
+
+    from . import bvh
+    from .commands.evaluate import evaluate_one
+    from .synth import walk
+
+    with tempfile.TemporaryDirectory(prefix="mjmotion-warm-up-") as tmp:
+        path = Path(tmp) / "walk.bvh"
+        bvh.write(walk(seconds=0.5).motion, path)
+        evaluate_one(str(path), judge_options())
+
+
+#: What local workers share from the moment they are forked (:func:`mjmotion.executor.load`).
+PRELOAD = (warm_up,)
+
+
+# --------------------------------------------------------------------------- the table on disk
+
+
+def _cell(v: Any) -> Any:
+    return "" if v is None else v
+
+
+def _parse(column: str, text: str) -> Any:
+    """A CSV cell back to its value (metrics: bool, int, float or text)."""
+    if text == "":
+        return None
+    if column in _TYPES:
+        return _TYPES[column](float(text)) if _TYPES[column] is int else float(text)
+    if column in META:
+        return text
+    if text in ("True", "False"):
+        return text == "True"
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _kind(value: Any) -> str:
+    """A cell's Parquet kind: ``bool``, ``int``, ``float`` or ``str``."""
+    if isinstance(value, bool):
+        return "bool"
+    if isinstance(value, int):
+        return "int"
+    if isinstance(value, float):
+        return "float"
+    return "str"
+
+
+def _join(kind: str | None, value: Any) -> str | None:
+    """The kind of a column of ``kind`` after one more cell: ints and floats make floats; any other mix is text."""
+    if value is None:
+        return kind
+    k = _kind(value)
+    if kind is None or kind == k:
+        return k
+    return "float" if {kind, k} == {"int", "float"} else "str"
+
+
+class Table:
+    """``audit.csv`` (appended and flushed per row) and ``audit.parquet`` (rewritten atomically from it).
+
+    Each column's Parquet type follows its values (``META`` columns have fixed types): all booleans →
+    bool, all integers → int64, numbers → float64, anything else (or nothing yet) → string.
+    """
+
+    def __init__(self, out_dir: Path, rows: Iterable[dict[str, Any]] = ()):
+        self.csv = out_dir / "audit.csv"
+        self.parquet = out_dir / "audit.parquet"
+        self.rows: list[dict[str, Any]] = []
+        self.columns: list[str] = list(META)
+        self.kinds: dict[str, str | None] = {c: None for c in META}
+        for r in rows:
+            self._take(r)
+        self._rewrite_csv()
+        self.written = time.monotonic()
+
+    def _take(self, row: dict[str, Any]) -> bool:
+        new = [k for k in row if k not in self.kinds]
+        self.columns += new
+        for k, v in row.items():
+            self.kinds[k] = _join(self.kinds.get(k), v)
+        self.rows.append(row)
+        return bool(new)
+
+    def _rewrite_csv(self) -> None:
+        def write(tmp: Path) -> None:
+            with open(tmp, "w", newline="", encoding="utf-8") as f:
+                w = csv.writer(f)
+                w.writerow(self.columns)
+                for r in self.rows:
+                    w.writerow([_cell(r.get(c)) for c in self.columns])
+
+        write_with(self.csv, write)
+        self._file = open(self.csv, "a", newline="", encoding="utf-8")
+        self._writer = csv.writer(self._file)
+
+    def add(self, row: dict[str, Any]) -> None:
+        if self._take(row):
+            self._file.close()
+            self._rewrite_csv()  # a new column (the first metrics after only errors): the header grows
+        else:
+            self._writer.writerow([_cell(row.get(c)) for c in self.columns])
+            self._file.flush()
+        if time.monotonic() - self.written >= PARQUET_EVERY:
+            self.write_parquet()
+
+    def write_parquet(self) -> None:
+        """``audit.parquet`` from ``audit.csv`` (flushed up to its last row), read by Arrow's CSV reader with
+        every column's type given (building Arrow arrays from Python lists would import pandas: a third of a second)."""
+        import pyarrow as pa
+        import pyarrow.csv as pc
+        import pyarrow.parquet as pq
+
+        self._file.flush()
+        arrow = {"bool": pa.bool_(), "int": pa.int64(), "float": pa.float64(), "str": pa.string()}
+        types = {c: arrow[("int" if _TYPES[c] is int else "float") if c in _TYPES else (self.kinds[c] or "str")] for c in self.columns}
+        table = pc.read_csv(
+            self.csv,
+            read_options=pc.ReadOptions(block_size=max(1 << 20, self.csv.stat().st_size + 1)),  # one block: no type guessed per block
+            parse_options=pc.ParseOptions(newlines_in_values=True),  # a path may hold a line break (quoted by the csv module)
+            convert_options=pc.ConvertOptions(
+                column_types=types, null_values=[""], strings_can_be_null=True, true_values=["True"], false_values=["False"]
+            ),
+        )
+        write_with(self.parquet, lambda tmp: pq.write_table(table, tmp))
+        self.written = time.monotonic()
+
+    def close(self) -> None:
+        self.write_parquet()
+        self._file.close()
+
+    @staticmethod
+    def read(path: Path) -> list[dict[str, Any]]:
+        """Rows of an ``audit.csv``; a last line cut short by a crash is dropped."""
+        text = path.read_text(encoding="utf-8")
+        records = list(csv.reader(text.splitlines(keepends=True)))
+        if not records:
+            return []
+        if not text.endswith("\n"):
+            records = records[:-1]
+        header, body = records[0], records[1:]
+        if header[: len(META)] != list(META):
+            raise MjmotionError(f"{path}: not an audit table of this version (columns {header[:4]}…); use --force to start over")
+        return [{c: _parse(c, v) for c, v in zip(header, rec)} for rec in body if len(rec) == len(header)]
+
+
+# --------------------------------------------------------------------------- the audit
+
+
+@dataclass(frozen=True)
+class Clip:
+    """A file to audit: ``rel`` (its path under the folder, with ``/``), the absolute ``path``, ``size``
+    in bytes, ``sha256``, and the ``sources`` it was made from (absolute paths, with their hashes)."""
+
+    rel: str
+    path: str
+    size: int
+    sha256: str
+    sources: tuple[str, ...] = ()
+    source_sha256: tuple[str, ...] = ()
+    listed: Listed | None = None
+
+
+def read_source_map(path: str | os.PathLike[str], clips: Iterable[str]) -> dict[str, tuple[str, ...]]:
+    """``--source-map FILE``: a JSON object from a clip's path under DIR to the clip (or list of clips) it
+    was made from; sources are relative to the map file's folder unless absolute."""
+    p = Path(path)
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise MjmotionError(f"--source-map {p}: no such file") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise MjmotionError(f"--source-map {p}: not JSON ({e})") from None
+    if not isinstance(data, dict):
+        raise MjmotionError(f'--source-map {p}: expected a JSON object {{"clip.bvh": "source.bvh" or [sources]}}')
+    known = set(clips)
+    out = {}
+    for key, value in data.items():
+        if key not in known:
+            raise MjmotionError(f"--source-map {p}: {key!r} is not a .bvh file under the audited folder")
+        names = [value] if isinstance(value, str) else value
+        if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+            raise MjmotionError(f"--source-map {p}: {key!r}: expected a source path or a non-empty list of them")
+        resolved = []
+        for n in names:
+            s = Path(n) if Path(n).is_absolute() else p.parent / n
+            if not s.is_file():
+                raise MjmotionError(f"--source-map {p}: {key!r}: source {n} not found (looked for {s})")
+            resolved.append(str(s.resolve()))
+        out[key] = tuple(resolved)
+    return out
+
+
+def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = None) -> list[Clip]:
+    """The clips under ``root`` with sizes and hashes (and their sources' hashes)."""
+    out = []
+    for p in find_clips(root):
+        rel = p.relative_to(root.resolve()).as_posix()
+        src = tuple(source_map.get(rel, ())) if source_map else ()
+        sha, listed = fingerprint(p)
+        out.append(Clip(rel, str(p), listed.stat[2], sha, src, tuple(sha256_file(s) for s in src), listed))
+    return out
+
+
+def options_text(opts: Mapping[str, Any], clip: Clip) -> str:
+    """What a row's numbers depend on besides the file: the judge's options and the sources' hashes."""
+    d = {k: v for k, v in sorted(opts.items())}
+    if clip.sources:
+        d["source_sha256"] = list(clip.source_sha256)
+    return json.dumps(d, sort_keys=True, default=list, separators=(",", ":"))
+
+
+def reusable(row: Mapping[str, Any], clip: Clip, options: str) -> bool:
+    """Whether a resumed row already answers for this clip: same bytes, options and version, and not an
+    error that might go away (a time limit, a worker lost, an internal error)."""
+    return (
+        row.get("sha256") == clip.sha256
+        and row.get("options") == options
+        and row.get("mjmotion_version") == __version__
+        and (row.get("status") == "ok" or row.get("error_kind") in _FINAL_ERRORS)
+    )
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What an audit of a folder will do, decided before any work: every clip (path order), each one's
+    options text, the rows of a previous table that are kept, and the clips to evaluate (largest first:
+    the long clips do not all end up at the tail of the run). ``started`` is when planning began."""
+
+    clips: list[Clip]
+    options: dict[str, str]
+    kept: list[dict[str, Any]]
+    todo: list[Clip]
+    started: float
+
+
+def plan(
+    root: Path, out_dir: Path, *, resume: bool = False, source_map: Mapping[str, tuple[str, ...]] | None = None, opts: dict[str, Any] | None = None
+) -> Plan:
+    """List and hash the clips under ``root`` and, with ``resume``, read ``out_dir/audit.csv`` to keep the
+    rows that still answer. Reads only (so it can run while the workers start)."""
+    started = time.perf_counter()
+    opts = opts if opts is not None else judge_options()
+    clips = list_clips(root, source_map)
+    previous = {r["path"]: r for r in Table.read(out_dir / "audit.csv")} if resume and (out_dir / "audit.csv").is_file() else {}
+    options = {c.rel: options_text(opts, c) for c in clips}
+    kept = [previous[c.rel] for c in clips if c.rel in previous and reusable(previous[c.rel], c, options[c.rel])]
+    done = {r["path"] for r in kept}
+    todo = sorted((c for c in clips if c.rel not in done), key=lambda c: -c.size)
+    return Plan(clips, options, kept, todo, started)
+
+
+@dataclass(frozen=True)
+class Result:
+    """What :func:`run` did: every row (one per clip, in path order), how many were computed now, the
+    wall time, the executor's description and the files written."""
+
+    rows: list[dict[str, Any]]
+    computed: int
+    seconds: float
+    executor: str
+    files: list[str]
+
+
+def _load_drawing() -> None:
+    """Import what the summary's histograms need (Matplotlib's figure and its Agg canvas: half a second)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.backends.backend_agg
+    import matplotlib.figure
+
+
+def run(
+    root: Path,
+    out_dir: Path,
+    ex: Any,
+    *,
+    resume: bool = False,
+    timeout: float | None = None,
+    source_map: Mapping[str, tuple[str, ...]] | None = None,
+    opts: dict[str, Any] | None = None,
+    progress: bool = True,
+    planned: Plan | None = None,
+) -> Result:
+    """Audit every clip under ``root`` into ``out_dir`` on the executor ``ex`` (see the module doc);
+    ``planned``: the :func:`plan` of the same arguments, made already (e.g. while the workers started)."""
+    opts = opts if opts is not None else judge_options()
+    work = planned if planned is not None else plan(root, out_dir, resume=resume, source_map=source_map, opts=opts)
+    out_dir.mkdir(exist_ok=True)
+    table = Table(out_dir, work.kept)
+    todo, options = work.todo, work.options
+    by_rel = {c.rel: c for c in todo}
+    tasks = [(c.rel, (c.path, c.sha256, opts, c.sources, c.listed)) for c in todo]
+
+    def meanwhile() -> None:
+        # While the first clips run, this process is idle: the Parquet writer and the summary's
+        # Matplotlib are loaded now rather than after the last row (where nothing runs beside them).
+        table.write_parquet()
+        _load_drawing()
+
+    try:
+        for out in ex.run(audit_clip, tasks, timeout=timeout, desc="audit", unit="clip", progress=progress, meanwhile=meanwhile):
+            c = by_rel[out.key]
+            value = out.value if out.ok else {"error": out.error}
+            err = value.get("error")
+            kind = (out.kind or "input") if err is not None else None
+            table.add(
+                {
+                    "path": c.rel, "size": c.size, "sha256": c.sha256, "status": "ok" if err is None else "error",
+                    "error": err, "error_kind": kind, "seconds": out.seconds if math.isfinite(out.seconds) else None,
+                    "source_files": json.dumps(list(c.sources)) if c.sources else None, "options": options[c.rel],
+                    "mjmotion_version": __version__, **{k: v for k, v in value.items() if k != "error"},
+                }
+            )  # fmt: skip
+    finally:
+        table.close()
+    rows = sorted(table.rows, key=lambda r: r["path"])
+    seconds = time.perf_counter() - work.started
+    files = [str(table.csv), str(table.parquet)]
+    files += write_summary(out_dir, rows, root=root, executor=ex.describe(), computed=len(todo), seconds=seconds, timeout=timeout)
+    return Result(rows, len(todo), seconds, ex.describe(), files)
+
+
+# --------------------------------------------------------------------------- the summary
+
+
+def numeric_metrics(rows: Sequence[Mapping[str, Any]]) -> dict[str, list[tuple[float, str]]]:
+    """Every metric column with numbers: ``{column: [(value, path), ...]}`` over the ok rows (finite values)."""
+    cols: dict[str, list[tuple[float, str]]] = {}
+    for r in rows:
+        if r.get("status") != "ok":
+            continue
+        for k, v in r.items():
+            if k in META or isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                continue
+            cols.setdefault(k, []).append((float(v), r["path"]))
+    return cols
+
+
+def write_summary(
+    out_dir: Path, rows: Sequence[Mapping[str, Any]], *, root: Path, executor: str, computed: int, seconds: float, timeout: float | None
+) -> list[str]:
+    """``summary.md`` and ``histograms.png``: counts by flavour, distributions, worst clips, errors, parameters."""
+    import numpy as np
+
+    from . import plots
+
+    ok = [r for r in rows if r.get("status") == "ok"]
+    lines = [
+        f"# Audit of {root}",
+        "",
+        f"{len(rows)} clips: {len(ok)} ok, {len(rows) - len(ok)} error; {computed} evaluated in this run "
+        f"({len(rows) - computed} kept from the previous table) in {seconds:.1f} s on {executor}.",
+        "",
+        "## Clips by skeleton flavour",
+        "",
+        "| flavour | clips | ok | error |",
+        "|---|---|---|---|",
+    ]
+    by: dict[str, list[int]] = {}
+    for r in rows:
+        n = by.setdefault(str(r.get("flavour") or "unreadable"), [0, 0])
+        n[0 if r.get("status") == "ok" else 1] += 1
+    lines += [f"| {f} | {a + b} | {a} | {b} |" for f, (a, b) in sorted(by.items())]
+    metrics = numeric_metrics(rows)
+    files = []
+    varying = {k: [v for v, _ in vals] for k, vals in metrics.items() if len({v for v, _ in vals}) > 1}
+    # Histograms of the report's own fields (a breakdown like sensitivity[h_c=…].x or hit.x is in the tables).
+    headline = {k: v for k, v in varying.items() if not any(c in k for c in ".[")}
+    if headline:
+        png = out_dir / "histograms.png"
+        plots.histograms(headline, png, title=f"{len(ok)} clips of {root.name}")
+        files.append(str(png))
+    if metrics:
+        lines += [
+            "",
+            "## Distributions (ok clips, finite values)",
+            "",
+            "![histograms of the report's metrics that vary](histograms.png)" if headline else "",
+            "",
+            "| metric | clips | min | median | p90 | max |",
+            "|---|---|---|---|---|---|",
+        ]
+        for k, vals in metrics.items():
+            a = np.array([v for v, _ in vals])
+            lines.append(f"| {k} | {a.size} | {a.min():.4g} | {np.median(a):.4g} | {np.percentile(a, 90):.4g} | {a.max():.4g} |")
+        lines += ["", f"## Worst clips per metric (the {WORST} highest values)", "", "| metric | clips |", "|---|---|"]
+        for k, vals in metrics.items():
+            if k in varying:
+                worst = sorted(vals, key=lambda t: -t[0])[:WORST]
+                lines.append(f"| {k} | " + "; ".join(f"`{p}` {v:.4g}" for v, p in worst) + " |")
+    errors = [r for r in rows if r.get("status") != "ok"]
+    if errors:
+        lines += ["", "## Errors", "", "| clip | kind | message |", "|---|---|---|"]
+        lines += [f"| `{r['path']}` | {r.get('error_kind')} | {str(r.get('error')).replace('|', '/')} |" for r in errors]
+    params = next((r["params"] for r in ok if r.get("params")), None)
+    opts = next((r["options"] for r in rows if r.get("options")), None)
+    lines += [
+        "",
+        "## Parameters",
+        "",
+        f"- mjmotion {__version__}; per-clip time limit: {f'{timeout:g} s' if timeout else 'none'}",
+        f"- judge options (`mjmotion evaluate`'s defaults unless given): `{opts}`",
+        f"- report thresholds: `{params}`",
+        "- metric definitions: the report fields of mjmotion/evaluate.py (see `mjmotion evaluate --help`)",
+    ]
+    write_text_atomic(out_dir / "summary.md", "\n".join(lines) + "\n")
+    return [str(out_dir / "summary.md"), *files]

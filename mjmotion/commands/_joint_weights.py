@@ -1,0 +1,101 @@
+"""``--joint-weights FILE``: per-joint weights of the registration distance (Macleod 2006, §3.1), for
+register, blend and stream.
+
+Seed 000 reads them from an XML file; ours is JSON or TOML, a table of joint name → non-negative
+weight. Joints the file does not name keep their default weight (1, and 0 for fingers, thumbs,
+eyes and end nubs: :func:`mjmotion.registration.joint_weights`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import math
+import os
+import stat
+from pathlib import Path
+
+from ..errors import MjmotionError
+from ..skeleton import Skeleton
+
+#: A weight table is small; a bigger file is refused before it is read.
+MAX_BYTES = 1 << 20
+
+
+def add_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--joint-weights",
+        metavar="FILE",
+        help="JSON or TOML table of joint name -> non-negative weight in the frame distance (Macleod 2006, §3.1); "
+        "joints not named keep 1 (fingers, thumbs, eyes 0)",
+    )
+
+
+def read_small_text(path: str, what: str, max_bytes: int = MAX_BYTES) -> str:
+    """The UTF-8 text of a small regular file; a FIFO, device or folder, a file over ``max_bytes``
+    or bytes that are not UTF-8 are refused naming the file. (Issue 17's input layer will replace
+    this; it is the one place the weight file is opened.)"""
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))  # a FIFO must not block the open
+    except FileNotFoundError:
+        raise MjmotionError(f"{path}: no such file; expected {what}") from None
+    except OSError as e:
+        raise MjmotionError(f"{path}: cannot be read ({e.strerror}); expected {what}") from None
+    with os.fdopen(fd, "rb") as f:
+        st = os.fstat(f.fileno())
+        if not stat.S_ISREG(st.st_mode):
+            raise MjmotionError(f"{path}: not a regular file; expected {what}")
+        if st.st_size > max_bytes:
+            raise MjmotionError(f"{path}: {st.st_size:,} bytes, over the {max_bytes:,}-byte limit for {what}")
+        data = f.read(max_bytes + 1)
+    if len(data) > max_bytes:
+        raise MjmotionError(f"{path}: over the {max_bytes:,}-byte limit for {what}")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise MjmotionError(f"{path}: not a text file (invalid UTF-8 at byte {e.start}); expected {what}") from None
+
+
+def parse(text: str, path: str) -> dict[str, float]:
+    """Joint name → weight from the text of ``path`` (TOML for a ``.toml`` file, else JSON)."""
+    what = "a table of joint name -> non-negative weight"
+    if Path(path).suffix.lower() == ".toml":
+        try:  # (by name: the type checker targets Python 3.10, which has no tomllib)
+            tomllib = importlib.import_module("tomllib")
+        except ImportError:  # Python 3.10
+            raise MjmotionError(f"{path}: reading TOML needs Python 3.11 or later; write the weights as JSON") from None
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as e:
+            raise MjmotionError(f"{path}: not valid TOML ({e}); expected {what}") from None
+    else:
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as e:
+            raise MjmotionError(f"{path}:{e.lineno}: not valid JSON ({e.msg}); expected {what}") from None
+        except RecursionError:
+            raise MjmotionError(f"{path}: JSON nested too deeply; expected {what}") from None
+    if not isinstance(data, dict) or not data:
+        raise MjmotionError(f'{path}: expected {what}, e.g. {{"lfemur": 2, "lhand": 0}}')
+    out = {}
+    for name, value in data.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+            raise MjmotionError(f"{path}: joint {name!r}: expected a non-negative number, got {value!r}")
+        out[str(name)] = float(value)
+    return out
+
+
+def load(args: argparse.Namespace, skeleton: Skeleton) -> dict[str, float] | None:
+    """The weights of ``--joint-weights`` (``None`` without it), every name checked against ``skeleton``."""
+    path = getattr(args, "joint_weights", None)
+    if not path:
+        return None
+    from ..registration import joint_weights
+
+    weights = parse(read_small_text(path, "a joint-weight table (JSON or TOML)"), path)
+    try:
+        joint_weights(skeleton, weights)
+    except MjmotionError as e:
+        raise MjmotionError(f"{path}: {e}") from None
+    return weights

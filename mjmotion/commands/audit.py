@@ -1,0 +1,148 @@
+"""``mjmotion audit``: every clip of a folder through the judge on Dask, streamed, resumable."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from ..errors import MjmotionError
+from ..executor import add_options
+from ._common import add_input_options
+from ._options import number
+
+NAME = "audit"
+HELP = "judge every .bvh under a folder on Dask workers into one table (CSV + Parquet), resumable, with a summary"
+DESCRIPTION = """Evaluate every .bvh file under DIR (recursively; links out of DIR are not followed) with
+the judge's defaults (the same one-file evaluation as 'mjmotion evaluate', so the numbers are the
+same) and write to OUT_DIR:
+
+  audit.csv      one row per file as it finishes (path, size, SHA-256, status ok/error, the error
+                 message, frames, fps, skeleton flavour, every metric of the report), appended and
+                 flushed row by row: a crash or Ctrl-C loses at most the clips in flight
+  audit.parquet  the same table, rewritten atomically every few seconds and at the end
+  summary.md     counts by flavour, the distribution of each metric (histograms.png), the worst
+                 clips per metric, the errors and the parameters used
+
+Work runs on a Dask LocalCluster on this machine (--workers N, bound to 127.0.0.1) or on an existing
+Dask cluster (--scheduler tcp://HOST:8786, started with 'dask scheduler' and 'dask worker'; its
+workers need mjmotion installed and DIR at the same path). A bad file is a row with status=error
+and its message; a worker that dies is replaced and its clips rerun by Dask; a clip running longer
+than --timeout is an error row. Nothing in DIR is written. The exit status is 0 when every file has
+its row, error rows included.
+
+With --resume, rows whose file (SHA-256), judge options, sources and mjmotion version are
+unchanged are kept and not recomputed (errors that might go away -- a time limit, a lost worker --
+are retried); a changed or new file is evaluated.
+
+--source-map FILE is a JSON object from a clip's path under DIR to the clip (or list of clips) it
+was made from, relative to FILE's folder: those rows add the source-relative measures
+(vs_source.max_joint_speed_ratio, vs_source.root_jump_m) and a change to a source reruns them.
+
+examples:
+  mjmotion audit "$MJMOTION_DATA" -o results/audit
+  mjmotion audit "$MJMOTION_DATA" -o results/audit --resume
+  mjmotion audit grid/ -o results/grid_audit --source-map grid/sources.json --timeout 120
+  mjmotion audit /data/cmu -o /data/cmu_audit --scheduler tcp://10.0.0.5:8786
+"""
+
+
+def _default_workers() -> int:
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("dir", metavar="DIR", help="folder of .bvh files (searched recursively)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT_DIR", help="folder for audit.csv, audit.parquet, summary.md (not inside DIR)")
+    add_options(p, default="default: one per core of this machine")
+    again = p.add_mutually_exclusive_group()
+    again.add_argument("--resume", action="store_true", help="continue an audit in OUT_DIR: keep the rows whose file and options are unchanged")
+    again.add_argument("--force", action="store_true", help="start over in an existing OUT_DIR (its audit files are replaced)")
+    p.add_argument("--source-map", metavar="FILE", help="JSON: clip path under DIR -> the source clip(s) it was made from")
+    p.add_argument(
+        "--dashboard",
+        action="store_true",
+        help="with --workers: run the LocalCluster's Dask dashboard on a free port of 127.0.0.1 and print its address (needs bokeh)",
+    )
+    p.add_argument(
+        "--timeout",
+        type=number(0, 1e6, lo_open=True, what="a number of seconds"),
+        metavar="S",
+        help="per-clip time limit in seconds: a clip still running after S is an error row",
+    )
+    p.add_argument(
+        "--connect-timeout",
+        type=number(0, 3600, lo_open=True, what="a number of seconds"),
+        default=10.0,
+        metavar="S",
+        help="seconds to wait for --scheduler to answer (default 10)",
+    )
+    add_input_options(p)
+
+
+def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
+    """DIR and OUT_DIR, checked before any work (each error names the path)."""
+    from ..audit import find_clips
+
+    root = Path(args.dir)
+    if not root.is_dir():
+        raise MjmotionError(f"{root}: no such folder" if not root.exists() else f"{root}: not a folder; audit takes a folder of .bvh files")
+    out = Path(args.output)
+    if out.resolve() == root.resolve() or out.resolve().is_relative_to(root.resolve()):
+        raise MjmotionError(f"-o {out}: is inside {root}; nothing is written in the audited folder, choose an output folder outside it")
+    if out.exists() and not out.is_dir():
+        raise MjmotionError(f"-o {out}: exists and is not a folder; an audit writes a folder of results")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not out.exists() and not parent.is_dir():
+        raise MjmotionError(f"-o {out}: folder {parent} does not exist")
+    if out.exists() and any(out.iterdir()) and not (args.resume or args.force):
+        raise MjmotionError(f"-o {out}: already exists; pass --resume to continue its audit or --force to start over")
+    if not find_clips(root):
+        raise MjmotionError(f"{root}: no .bvh files found (searched recursively)")
+    return root, out
+
+
+def run(args: argparse.Namespace) -> int:
+    import atexit
+    import gc
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .. import audit
+    from ..errors import require_number
+    from ..executor import check_options, start
+    from ._common import units_scale
+
+    if args.timeout is not None:
+        require_number("--timeout", args.timeout, what="a time limit in seconds")
+    require_number("--connect-timeout", args.connect_timeout, what="seconds")
+    units_scale(args.units)
+    check_options(args.workers, args.scheduler)
+    root, out = check_paths(args)
+    opts = audit.judge_options(units=args.units, up=args.up)
+    source_map = None
+    if args.source_map:
+        rels = [p.relative_to(root.resolve()).as_posix() for p in audit.find_clips(root)]
+        source_map = audit.read_source_map(args.source_map, rels)
+    workers = args.workers if args.workers is not None or args.scheduler else _default_workers()
+    # The files are listed and hashed (and a resumed table read) in a thread while the workers start:
+    # hashing and reading release the interpreter's lock, the start-up is mostly imports and forks.
+    with ThreadPoolExecutor(1, thread_name_prefix="audit-plan") as pool:
+        planned = pool.submit(audit.plan, root, out, resume=args.resume, source_map=source_map, opts=opts)
+        ex = start(workers=workers, scheduler=args.scheduler, connect_timeout=args.connect_timeout, preload=audit.PRELOAD, dashboard=args.dashboard)
+        with ex:
+            if args.force:  # only once the workers answer: a refused start leaves the old audit as it was
+                for name in audit.OUTPUTS:
+                    (out / name).unlink(missing_ok=True)
+            print(f"auditing {root} on {ex.describe()}" + (f"; dashboard {ex.dashboard}" if ex.dashboard else ""), flush=True)
+            if args.dashboard and ex.dashboard is None and args.scheduler is None:
+                print("note: --dashboard: Dask started no dashboard (it needs bokeh: pip install bokeh)", flush=True)
+            res = audit.run(root, out, ex, timeout=args.timeout, opts=opts, planned=planned.result())
+    n_err = sum(r["status"] != "ok" for r in res.rows)
+    rate = f" ({res.computed / res.seconds:.2f} clips/s)" if res.computed and res.seconds > 0 else ""
+    print(f"{len(res.rows)} clips: {len(res.rows) - n_err} ok, {n_err} error; {res.computed} evaluated in {res.seconds:.1f} s{rate}")
+    print("wrote " + ", ".join(res.files))
+    # At exit the interpreter's last garbage collection walks every object Dask, Matplotlib, Arrow and the
+    # judge left (a second or more on the shared clips, longer than the evaluation of many of them);
+    # everything is written and closed by now, so that walk is skipped (in-process callers exit later).
+    atexit.register(gc.freeze)
+    return 0

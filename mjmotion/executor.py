@@ -1,0 +1,474 @@
+"""Where a batch of independent tasks runs: this process, a process pool, a Dask ``LocalCluster``, or
+an existing Dask cluster. The one place that decides how work is sent out.
+
+Every backend has the same interface; outcomes stream back as tasks finish, in any order::
+
+    with executor.start(workers=2) as ex:          # or scheduler="tcp://host:8786", jobs=2, or nothing (serial)
+        for out in ex.run(fn, [(key, args), ...], timeout=60, desc="audit", unit="clip"):
+            out.key, out.ok, out.value, out.error, out.kind
+
+``fn(*args)`` runs on a worker (a module-level function, so it pickles by reference). An
+:class:`~mjmotion.errors.MjmotionError` it raises is an outcome of kind ``"input"`` with the
+error's one-line message (bad input: not retried). Anything else is retried by Dask
+(``Client.submit(..., retries=)``) and then becomes kind ``"internal"``; a task whose worker died
+more than ``distributed.scheduler.allowed-failures`` times (killed, out of memory) is kind
+``"worker"`` (Dask reschedules it before that: every key still comes back exactly once); a task that
+runs longer than ``timeout`` seconds is kind ``"timeout"``: its future is cancelled and its worker
+restarted through its nanny (a Python thread cannot be interrupted). Scheduling, retries and worker
+management are Dask's; this module only streams the outcomes, enforces the time limit and shows
+progress (a tqdm bar on a terminal, a plain line every few seconds otherwise).
+
+The serial and process-pool backends have no retries and no time limit (``timeout`` is refused).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+import time
+import uuid
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any, TextIO
+
+from .errors import MjmotionError
+
+#: Seconds to wait for ``--scheduler`` to answer.
+CONNECT_TIMEOUT = 10.0
+#: Dask retries of a task that raised something other than an ``MjmotionError``.
+RETRIES = 1
+#: Seconds between plain progress lines when standard error is not a terminal.
+PLAIN_EVERY = 5.0
+#: Seconds between checks of running tasks against the time limit.
+POLL = 0.5
+#: Dask settings of a LocalCluster. The workers' statistical profiler (a stack sample every 10 ms, for the
+#: dashboard) cost a quarter of the CPU time of evaluating the shared clips. The event-loop ticks (every
+#: 20 ms in the scheduler, each nanny and each worker, only to notice a blocked loop), the nannies' memory
+#: checks (every 100 ms) and the system monitors (every 500 ms) kept an idle two-worker cluster at 0.07 CPU
+#: seconds per second, 0.015 with these intervals: about the cost of scheduling the 42 shared clips over
+#: their few seconds. Our tasks are whole clips; the nanny still restarts a worker that outgrows its memory.
+LOCAL_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.worker.memory.monitor-interval": "500ms",
+    "distributed.admin.system-monitor.interval": "2s",
+}
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What came back for one task.
+
+    Attributes:
+        key: the key the task was submitted with.
+        value: ``fn``'s return value (``None`` on error).
+        error: the one-line message, ``None`` on success.
+        kind: ``None`` on success, else ``"input"``, ``"internal"``, ``"worker"`` or ``"timeout"``.
+        seconds: the task's run time on its worker (``nan`` when it did not finish).
+        exception: the exception of an ``"internal"`` outcome (for :meth:`unwrap`).
+    """
+
+    key: Any
+    value: Any = None
+    error: str | None = None
+    kind: str | None = None
+    seconds: float = float("nan")
+    exception: BaseException | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+    def unwrap(self) -> Any:
+        """The value, or raise: the original exception of an internal error, else an ``MjmotionError``."""
+        if self.ok:
+            return self.value
+        if self.exception is not None:
+            raise self.exception
+        raise MjmotionError(self.error if self.kind == "input" else f"task {self.key}: {self.error}")
+
+
+def one_line(text: str) -> str:
+    return " ".join(str(text).split()) or "(no message)"
+
+
+def _call(fn: Callable[..., Any], args: tuple) -> tuple[Any, str | None, float]:
+    """Runs on the worker: ``(value, input-error message, seconds)``; other exceptions propagate (Dask retries them)."""
+    start = time.perf_counter()
+    try:
+        return fn(*args), None, time.perf_counter() - start
+    except MjmotionError as e:
+        return None, one_line(str(e)), time.perf_counter() - start
+
+
+def _nothing() -> None:
+    pass
+
+
+def _internal(key: Any, e: BaseException) -> Outcome:
+    return Outcome(key, error=one_line(f"internal error: {type(e).__name__}: {e}"), kind="internal", exception=e)
+
+
+def _finished(key: Any, result: tuple[Any, str | None, float]) -> Outcome:
+    value, err, seconds = result
+    return Outcome(key, value, err, "input" if err is not None else None, seconds)
+
+
+class _Progress:
+    """A tqdm bar on a terminal; otherwise a plain line every ``every`` seconds and one at the end."""
+
+    def __init__(self, total: int, desc: str, unit: str, enabled: bool, stream: TextIO | None = None, every: float = PLAIN_EVERY):
+        self.total, self.desc, self.unit, self.every = total, desc, unit, every
+        self.stream = stream if stream is not None else sys.stderr
+        self.enabled = enabled and total > 0
+        self.done = self.shown = 0
+        self.start = self.last = time.perf_counter()
+        self.bar = None
+        if self.enabled and self.stream.isatty():
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, desc=desc, unit=unit, file=self.stream, dynamic_ncols=True)
+
+    def update(self) -> None:
+        self.done += 1
+        if self.bar is not None:
+            self.bar.update()
+        elif self.enabled and time.perf_counter() - self.last >= self.every:
+            self._line()
+
+    def _line(self) -> None:
+        from tqdm import tqdm
+
+        self.last = time.perf_counter()
+        self.shown = self.done
+        dt = self.last - self.start
+        rate = self.done / dt if dt > 0 else float("nan")
+        eta = tqdm.format_interval((self.total - self.done) / rate) if rate > 0 else "?"
+        print(f"{self.desc}: {self.done}/{self.total} {self.unit}s, {rate:.2f} {self.unit}/s, ETA {eta}", file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+        elif self.enabled and self.shown != self.done:
+            self._line()
+
+
+class Executor:
+    """The common interface (see the module doc). Use as a context manager; :meth:`close` ends what it started."""
+
+    kind = "serial"
+    #: Worker processes (or threads in all) the backend runs tasks on.
+    workers = 1
+    #: The Dask dashboard's address, when one runs.
+    dashboard: str | None = None
+
+    def run(
+        self,
+        fn: Callable[..., Any],
+        tasks: Iterable[tuple[Any, tuple]],
+        *,
+        timeout: float | None = None,
+        retries: int = RETRIES,
+        desc: str = "tasks",
+        unit: str = "task",
+        progress: bool = True,
+        meanwhile: Callable[[], object] | None = None,
+    ) -> Iterator[Outcome]:
+        """Run ``fn(*args)`` for every ``(key, args)``; yield one :class:`Outcome` per key as each finishes.
+
+        ``meanwhile()`` is called once, in this thread, as soon as every task is sent out: the caller's
+        chance to prepare what it needs after the last outcome while the first tasks run (outcomes that
+        finish meanwhile wait for it). Stopping early (``break``, an exception, Ctrl-C) cancels what has
+        not finished.
+        """
+        tasks = list(tasks)
+        keys = [k for k, _ in tasks]
+        if len(set(keys)) != len(keys):
+            raise ValueError("task keys must be unique")
+        if timeout is not None and not timeout > 0:
+            raise MjmotionError(f"--timeout {timeout:g}: expected a time limit in seconds > 0")
+        bar = _Progress(len(tasks), desc, unit, progress)
+        try:
+            for out in self._run(fn, tasks, timeout, retries, meanwhile or _nothing):
+                bar.update()
+                yield out
+        finally:
+            bar.close()
+
+    def describe(self) -> str:
+        return f"{self.kind}, {self.workers} worker(s)"
+
+    def _run(
+        self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int, meanwhile: Callable[[], object]
+    ) -> Iterator[Outcome]:
+        if timeout is not None:
+            raise MjmotionError("a time limit needs Dask workers (--workers N or --scheduler ADDRESS)")
+        meanwhile()
+        for key, args in tasks:
+            try:
+                yield _finished(key, _call(fn, args))
+            except Exception as e:
+                yield _internal(key, e)
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self) -> Executor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class ProcessPool(Executor):
+    """``concurrent.futures.ProcessPoolExecutor`` with ``jobs`` processes."""
+
+    kind = "process pool"
+
+    def __init__(self, jobs: int):
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.workers = jobs
+        self.pool = ProcessPoolExecutor(max_workers=jobs)
+
+    def _run(
+        self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int, meanwhile: Callable[[], object]
+    ) -> Iterator[Outcome]:
+        from concurrent.futures import as_completed
+
+        if timeout is not None:
+            raise MjmotionError("a time limit needs Dask workers (--workers N or --scheduler ADDRESS)")
+        futures = {self.pool.submit(_call, fn, args): key for key, args in tasks}
+        try:
+            meanwhile()
+            for f in as_completed(futures):
+                try:
+                    yield _finished(futures[f], f.result())
+                except Exception as e:
+                    yield _internal(futures[f], e)
+        finally:
+            for f in futures:
+                f.cancel()
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _executing(dask_worker: Any) -> dict[str, float]:
+    """Runs on each Dask worker's event loop: seconds each of its executing tasks has been running."""
+    now = time.time()
+    return {str(ts.key): now - ts.start_time for ts in list(dask_worker.state.executing) if ts.start_time}
+
+
+class Dask(Executor):
+    """A Dask ``Client``: on a new ``LocalCluster`` of ``workers`` one-thread worker processes (bound to
+    127.0.0.1; its dashboard on a free port if ``dashboard``), or on the scheduler at ``scheduler``."""
+
+    kind = "dask"
+
+    def __init__(
+        self,
+        workers: int | None = None,
+        scheduler: str | None = None,
+        connect_timeout: float = CONNECT_TIMEOUT,
+        preload: Sequence[str | Callable[[], object]] = (),
+        dashboard: bool = False,
+    ):
+        import logging
+
+        import dask
+        from distributed import Client, LocalCluster
+
+        # Task errors and worker deaths come back as outcomes; Dask's own log lines would bury the one-line errors.
+        logging.getLogger("distributed").setLevel(logging.CRITICAL)
+        self.cluster = None
+        self.address = scheduler
+        if scheduler is not None:
+            try:
+                self.client = Client(scheduler, timeout=connect_timeout, set_as_default=False)
+            except Exception as e:  # OSError, TimeoutError, ValueError for a malformed address
+                raise MjmotionError(
+                    f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout:g} s ({one_line(str(e))})"
+                ) from None
+        else:
+            # Workers forked from this process start in a quarter of a second with ``preload`` already
+            # loaded (spawned ones take a second or more each to import Dask, NumPy and MuJoCo again).
+            method = "fork" if sys.platform.startswith("linux") else "spawn"
+            if method == "fork":
+                load(preload)
+            # Held until close: a nanny reads the start method each time it (re)starts its worker, and a
+            # worker restarted after a death or a time limit should be forked, warm, like the first.
+            self._settings = dask.config.set({**LOCAL_CONFIG, "distributed.worker.multiprocessing-method": method})
+            try:
+                # The scheduler's web server (health and metrics routes) always runs, on a free port of
+                # 127.0.0.1; the dashboard on it only when asked (Bokeh's import and its plots cost time).
+                self.cluster = LocalCluster(
+                    n_workers=workers or 1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                    dashboard_address="127.0.0.1:0", scheduler_kwargs={"dashboard": dashboard}, silence_logs=logging.CRITICAL,
+                )  # fmt: skip
+            except BaseException:
+                self._settings.__exit__(None, None, None)
+                raise
+            self.client = Client(self.cluster, set_as_default=False)
+            self.address = self.cluster.scheduler_address
+        info = self.client.scheduler_info()
+        self.workers = sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values()) or (workers or 0)
+        # A local scheduler runs in this process: its dashboard is up if Dask could load it (it needs Bokeh).
+        running = "dashboard" in info.get("services", {}) and (self.cluster is None or "distributed.dashboard.scheduler" in sys.modules)
+        self.dashboard = self.client.dashboard_link if running else None
+
+    def describe(self) -> str:
+        where = "a LocalCluster" if self.cluster is not None else f"the scheduler at {self.address}"
+        return f"dask on {where}, {self.workers} worker thread(s)"
+
+    def _run(
+        self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int, meanwhile: Callable[[], object]
+    ) -> Iterator[Outcome]:
+        from distributed import KilledWorker, as_completed
+
+        batch = uuid.uuid4().hex[:8]
+        futures: dict[Any, tuple[Any, Any]] = {}  # Dask key -> (our key, its future; None once yielded)
+        for i, (key, args) in enumerate(tasks):
+            f = self.client.submit(_call, fn, args, key=f"mjmotion-{batch}-{i}", retries=retries, pure=False)
+            futures[f.key] = (key, f)
+        done: set[Any] = set()
+        stream = as_completed([f for _, f in futures.values()], loop=self.client.loop)
+        polled = time.perf_counter()
+        lost: list[Any] = []
+        try:
+            meanwhile()
+            while not stream.is_empty() or lost:
+                for f in [f for f in lost if f.status != "lost"]:
+                    lost.remove(f)
+                    stream.add(f)
+                if stream.has_ready():
+                    f = next(stream)
+                    if f.key in done:
+                        continue  # a future this loop cancelled on its time limit
+                    if f.status == "lost":
+                        lost.append(f)  # its result died with a worker before we fetched it: Dask computes it again
+                        continue
+                    done.add(f.key)
+                    key = futures[f.key][0]
+                    futures[f.key] = (key, None)  # drop our reference: the cluster may free the result
+                    if f.status == "finished":
+                        yield _finished(key, f.result())
+                        continue
+                    e = f.exception() if f.status == "error" else None
+                    if isinstance(e, KilledWorker):
+                        yield Outcome(key, error="its worker died every time it ran it (killed or out of memory)", kind="worker")
+                    elif e is not None:
+                        yield _internal(key, e)
+                    else:
+                        yield Outcome(key, error=f"cancelled by the cluster ({f.status})", kind="worker")
+                    continue
+                if timeout is not None and time.perf_counter() - polled >= POLL:
+                    polled = time.perf_counter()
+                    yield from self._expire(futures, done, timeout)
+                time.sleep(0.02)
+        finally:
+            pending = [f for k, (_, f) in futures.items() if k not in done and f is not None]
+            if pending:
+                self.client.cancel(pending)
+
+    def _expire(self, futures: dict[Any, tuple[Any, Any]], done: set[Any], timeout: float) -> Iterator[Outcome]:
+        """Tasks running longer than ``timeout``: an outcome each, the future cancelled, the worker restarted."""
+        running = self.client.run(_executing, on_error="return")
+        restart = []
+        for address, since in running.items():
+            if not isinstance(since, dict):
+                continue  # the worker went away mid-call
+            for k, elapsed in since.items():
+                f = futures[k][1] if k in futures and k not in done else None
+                if f is not None and elapsed > timeout and not f.done():
+                    done.add(k)
+                    f.cancel()
+                    restart.append(address)
+                    yield Outcome(futures[k][0], error=f"still running after the time limit of {timeout:g} s", kind="timeout")
+        if restart:
+            # Only a nanny can stop the stuck thread; a worker without one keeps computing but gets no more of our tasks' results.
+            self.client.restart_workers(sorted(set(restart)), raise_for_error=False)
+
+    def close(self) -> None:
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+            self._settings.__exit__(None, None, None)
+
+
+def load(preload: Iterable[str | Callable[[], object]]) -> None:
+    """Import each module named in ``preload`` and call each callable (what forked workers then share)."""
+    import importlib
+
+    for item in preload:
+        if callable(item):
+            item()
+        else:
+            importlib.import_module(item)
+
+
+def check_options(workers: int | None = None, scheduler: str | None = None, jobs: int | None = None) -> None:
+    """Refuse worker counts below 1 and ``--scheduler`` with ``--workers`` (before any work)."""
+    for option, n in (("--workers", workers), ("--jobs", jobs)):
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+            raise MjmotionError(f"{option} {n}: expected a number of worker processes ≥ 1")
+    if scheduler is not None and workers is not None:
+        raise MjmotionError(f"--scheduler {scheduler} and --workers {workers}: the scheduler's cluster has its own workers; give one of them")
+
+
+def start(
+    workers: int | None = None,
+    scheduler: str | None = None,
+    jobs: int | None = None,
+    connect_timeout: float = CONNECT_TIMEOUT,
+    preload: Sequence[str | Callable[[], object]] = (),
+    dashboard: bool = False,
+) -> Executor:
+    """The executor the options ask for: ``scheduler`` (an existing Dask cluster), else ``workers``
+    (a Dask LocalCluster of that many processes, with its dashboard if ``dashboard``), else ``jobs`` > 1
+    (a process pool), else serial. ``preload``: modules the tasks need and warm-up functions, imported
+    and called before local workers are forked (so they share them; a remote cluster's workers load their own)."""
+    check_options(workers, scheduler, jobs)
+    if scheduler is not None:
+        return Dask(scheduler=scheduler, connect_timeout=connect_timeout)
+    if workers is not None:
+        return Dask(workers=workers, preload=preload, dashboard=dashboard)
+    if jobs is not None and jobs > 1:
+        return ProcessPool(jobs)
+    return Executor()
+
+
+def add_options(p: argparse.ArgumentParser, default: str = "") -> None:
+    """``--workers N`` and ``--scheduler ADDRESS`` (the experiments and ``audit`` share them); ``default``
+    says in the help what runs without them."""
+    from .commands._options import integer
+
+    p.add_argument(
+        "--workers",
+        type=integer(1, 4096, what="a number of worker processes"),
+        metavar="N",
+        help="run on a Dask LocalCluster of N worker processes on this machine (bound to 127.0.0.1)" + (f" ({default})" if default else ""),
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on an existing Dask cluster, e.g. tcp://HOST:8786 (started with 'dask scheduler' and 'dask worker'; "
+        "its workers need mjmotion installed and the input files at the same paths)",
+    )
+
+
+@contextlib.contextmanager
+def using(ex: Executor | None, jobs: int | None = None) -> Iterator[Executor]:
+    """``ex`` as is (the caller closes it), or a new serial/process-pool executor for ``jobs``, closed after."""
+    if ex is not None:
+        yield ex
+        return
+    with start(jobs=jobs) as own:
+        yield own
+
+
+def in_order(outcomes: Iterable[Outcome], keys: Sequence[Any]) -> list[Outcome]:
+    """Outcomes sorted back into the order of ``keys`` (for tables that list tasks as submitted)."""
+    by = {o.key: o for o in outcomes}
+    return [by[k] for k in keys]

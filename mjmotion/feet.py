@@ -1,0 +1,415 @@
+"""Feet as the judge sees them: sole points, heights above the floor, speeds, contact labels.
+
+``docs/METRICS.md`` "Foot contact". A foot is a set of **sole points**: two heel points behind
+the ankle, two at the ball of the foot and, where the skeleton has a toe joint, two at the toe
+tip riding on the toe (:class:`Soles`). Their placement is *calibrated* from the clip (or the
+sources a result is judged against): the sole's normal, in the ankle's (and toe's) frame, is the
+mean world "up" seen from that frame over the foot's quiet stance frames (slowest quarter of
+ankle speeds within its lowest 40 % of heights), so the sole lies flat on the floor at mid-stance
+whatever the rig's rest pose (iClone's rest is no standing pose; CMU ASF's foot rests rolled 25°
+from its stance). The sole sits ``mjcf.ANKLE_HEIGHT`` × stature below the ankle (at least as deep
+as the foot's own joints and End Sites), the heel ``mjcf.HEEL_BACK`` × stature behind it. Clips
+too short to calibrate use the rest pose, as :func:`mjmotion.mjcf.compile` does for its boxes.
+
+A foot's *height* is its lowest sole point above the floor (:mod:`mjmotion.floor`); its *speed*
+is the horizontal speed of that point, the slope of a local quadratic over 0.1 s
+(:func:`mjmotion.filters.velocity`, ``Params.speed_window``). :func:`contacts` labels a foot in contact with hysteresis.
+
+Reusable pieces:
+
+- :func:`geom_frames`, :func:`box_corners`, :func:`lowest_points`, :func:`lowest_heights`, :func:`lowest_body_point`
+- :func:`calibrate_soles` ``(skeleton, poses) -> Soles``, :func:`sole_points` ``(soles, pose)``
+- :class:`FootTrack`, :func:`foot_track`, :func:`foot_heights_speeds`
+- :func:`low_both`, :func:`contacts`, :func:`flight_frames`
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import mujoco
+import numpy as np
+
+from . import floor as floors
+from . import kinematics, mjcf
+from . import rotations as rot
+from .errors import MjmotionError
+from .filters import lowpass, velocity
+from .kinematics import Pose
+from .mjcf import CompiledModel
+from .skeleton import Motion, Skeleton
+from .thresholds import CUTOFF_HZ, H_C, HYSTERESIS, SPEED_WINDOW, V_C
+
+# The 8 corner sign patterns of a box, (8, 3).
+_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+#: Half width of a sole, × stature / 1.75 m (the compiled foot boxes' width).
+SOLE_HALF_WIDTH = 0.045
+#: Quiet stance frames for the sole calibration: the slowest quarter of ankle speeds among the
+#: frames in the lowest 40 % of ankle heights.
+QUIET_SPEED_QUANTILE = 0.25
+QUIET_HEIGHT_QUANTILE = 0.4
+#: Fewest frames a clip needs to calibrate its soles (else the rest pose is used).
+MIN_CALIBRATION_FRAMES = 20
+
+
+# --------------------------------------------------------------------------- geometry
+
+
+def geom_frames(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World pose of character geoms from the joints' world poses.
+
+    Returns ``pos: (T, G, 3)`` metres and ``mat: (T, G, 3, 3)`` (columns are the geom's axes).
+    Only geoms on skeleton bodies (not the ball or world geoms).
+    """
+    m = compiled.model
+    gids = np.asarray(geom_ids, dtype=int)
+    body_to_joint = {int(b): j for j, b in enumerate(compiled.body_ids)}
+    try:
+        joints = np.array([body_to_joint[int(m.geom_bodyid[g])] for g in gids], dtype=int)
+    except KeyError:
+        raise MjmotionError("geom_frames: a geom is not on a skeleton body") from None
+    bq = pose.joint_rotations[:, joints]  # (T, G, 4)
+    bp = pose.joint_positions[:, joints]
+    pos = bp + rot.rotate(bq, np.broadcast_to(m.geom_pos[gids], bq.shape[:-1] + (3,)))
+    wq = rot.multiply(bq, np.broadcast_to(m.geom_quat[gids], bq.shape))
+    return pos, rot.to_matrix(wq)
+
+
+def box_corners(pos: np.ndarray, mat: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """``(T, G, 8, 3)`` world corners of boxes with centres ``pos (T, G, 3)``, axes ``mat (T, G, 3, 3)``
+    and half-sizes ``half (G, 3)``."""
+    local = _CORNERS[None, :, :] * half[:, None, :]  # (G, 8, 3)
+    return pos[:, :, None, :] + np.einsum("tgij,gkj->tgki", mat, local)
+
+
+def lowest_points(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int] | np.ndarray) -> np.ndarray:
+    """``(T, G, 3)`` lowest world point of each geom (boxes, capsules, spheres; exact for a plane floor)."""
+    m = compiled.model
+    gids = np.asarray(geom_ids, dtype=int)
+    pos, mat = geom_frames(compiled, pose, gids)
+    size = m.geom_size[gids]
+    gtype = m.geom_type[gids]
+    out = np.empty_like(pos)
+    down = np.array([0.0, 0.0, -1.0])
+    box = gtype == mujoco.mjtGeom.mjGEOM_BOX
+    if box.any():
+        # The corner whose signs point each axis downwards: c - Σ sign(R[2,i]) h_i R[:, i].
+        r = mat[:, box]
+        s = -np.sign(r[:, :, 2, :])  # (T, B, 3)
+        s[s == 0] = 1.0
+        out[:, box] = pos[:, box] + np.einsum("tbij,tbj->tbi", r, s * size[box])
+    cap = gtype == mujoco.mjtGeom.mjGEOM_CAPSULE
+    if cap.any():
+        axis = mat[:, cap][..., 2] * size[cap, 1][None, :, None]
+        ends = np.stack([pos[:, cap] + axis, pos[:, cap] - axis], axis=2)  # (T, C, 2, 3)
+        k = np.argmin(ends[..., 2], axis=2)
+        low = np.take_along_axis(ends, k[:, :, None, None], axis=2)[:, :, 0]
+        out[:, cap] = low + down * size[cap, 0][None, :, None]
+    sph = gtype == mujoco.mjtGeom.mjGEOM_SPHERE
+    if sph.any():
+        out[:, sph] = pos[:, sph] + down * size[sph, 0][None, :, None]
+    other = ~(box | cap | sph)
+    if other.any():
+        raise MjmotionError(f"lowest_points: unsupported geom types {sorted(set(gtype[other].tolist()))}")
+    return out
+
+
+def _support_points(compiled: CompiledModel, geom_ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each geom as points in its body's frame whose lowest, minus a radius, is the geom's lowest:
+    ``points (G, 8, 3)`` (a box's corners; a capsule's two axis ends, a sphere's centre, repeated),
+    ``radius (G,)`` and the joint ``(G,)`` of each geom's body."""
+    m = compiled.model
+    body_to_joint = {int(b): j for j, b in enumerate(compiled.body_ids)}
+    try:
+        joints = np.array([body_to_joint[int(m.geom_bodyid[g])] for g in geom_ids], dtype=int)
+    except KeyError:
+        raise MjmotionError("lowest point: a geom is not on a skeleton body") from None
+    gids = np.asarray(geom_ids, dtype=int)
+    size, kind = m.geom_size[gids], m.geom_type[gids]
+    box = kind == mujoco.mjtGeom.mjGEOM_BOX
+    cap = kind == mujoco.mjtGeom.mjGEOM_CAPSULE
+    sph = kind == mujoco.mjtGeom.mjGEOM_SPHERE
+    if not (box | cap | sph).all():
+        raise MjmotionError(f"lowest point: unsupported geom types {sorted(set(kind[~(box | cap | sph)].tolist()))}")
+    # In the geom's frame: a box's corners; a capsule's two axis ends (repeated); a sphere's centre.
+    ends = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])[[0, 1, 0, 1, 0, 1, 0, 1]]
+    local = np.where(box[:, None, None], _CORNERS[None] * size[:, None, :], ends[None] * size[:, None, 1:2] * cap[:, None, None])
+    radius = np.where(cap | sph, size[:, 0], 0.0)
+    pts = m.geom_pos[gids][:, None, :] + np.einsum("gij,gkj->gki", rot.to_matrix(m.geom_quat[gids]), local)
+    return pts, radius, joints
+
+
+def lowest_heights(compiled: CompiledModel, pose: Pose, geom_ids: Sequence[int] | np.ndarray) -> np.ndarray:
+    """``(T, G)`` world height of the lowest point of each geom (boxes, capsules, spheres; exact
+    for a plane floor) — only heights, from the third row of each body's rotation, so it costs a
+    fraction of :func:`lowest_points`."""
+    gids = np.asarray(geom_ids, dtype=int)
+    pts, radius, joints = _support_points(compiled, gids)
+    q = pose.joint_rotations[:, joints]  # (T, G, 4)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    row = np.stack([2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)], axis=-1)  # (T, G, 3)
+    heights = pose.joint_positions[:, joints, 2][..., None] + np.einsum("tgi,gki->tgk", row, pts)
+    return heights.min(axis=2) - radius
+
+
+def lowest_body_point(compiled: CompiledModel, pose: Pose, sole_z: np.ndarray | None = None) -> np.ndarray:
+    """``(T,)`` height (m, world z) of the lowest point of the character.
+
+    Without ``sole_z``: the lowest point of all the character's geoms (bone capsules and the
+    compiled foot boxes). With ``sole_z: (T,)`` (the lowest sole point, :class:`FootTrack`): the
+    foot boxes are left out and the soles stand in for them — what the judge measures.
+    """
+    gids = compiled.body_geom_ids
+    if sole_z is not None:
+        feet = {int(g) for side in compiled.foot_geoms.values() for g in side}
+        gids = np.array([g for g in gids if int(g) not in feet], dtype=int)
+    low = lowest_heights(compiled, pose, gids).min(axis=1) if len(gids) else np.full(pose.joint_positions.shape[0], np.inf)
+    return low if sole_z is None else np.minimum(low, sole_z)
+
+
+# --------------------------------------------------------------------------- soles
+
+
+@dataclass(frozen=True, eq=False)
+class Soles:
+    """Where each foot meets the floor.
+
+    Attributes:
+        sides: ``(F,)`` foot names (``"left"``, ``"right"``).
+        joints: ``(F, P)`` the joint each sole point rides on (ankle or toe).
+        local: ``(F, P, 3)`` each point in its joint's frame, metres.
+        normals: ``(F, 3)`` the sole's normal in the ankle's frame.
+        calibrated: True when placed from stance frames, False from the rest pose.
+    """
+
+    sides: tuple[str, ...]
+    joints: np.ndarray
+    local: np.ndarray
+    normals: np.ndarray
+    calibrated: bool
+
+
+def _rest_up(skeleton: Skeleton) -> np.ndarray:
+    """The rest pose's "up" (from the ankles to the head), world = every joint's frame at rest."""
+    rest = skeleton.rest_positions()
+    feet = skeleton.feet()
+    ankles = np.array([rest[a] for a, _ in feet.values()])
+    head = next((j for j, n in enumerate(skeleton.names) if "head" in n.lower() and "end" not in n.lower()), None)
+    top = rest[head] if head is not None else rest[int(np.argmax(np.linalg.norm(rest - rest[0], axis=1)))]
+    up = top - ankles.mean(axis=0)
+    n = np.linalg.norm(up)
+    return up / n if n > 1e-9 else np.array([0.0, 0.0, 1.0])
+
+
+def _quiet_up(poses: Sequence[tuple[Pose, float]], joint: int, ankle: int) -> np.ndarray | None:
+    """Mean world up seen from ``joint``'s frame over the quiet stance frames of ``ankle``, or None."""
+    ups = []
+    for pose, fps in poses:
+        p = pose.joint_positions[:, ankle]
+        if len(p) < MIN_CALIBRATION_FRAMES:
+            continue
+        v = np.linalg.norm(np.gradient(lowpass(p[:, :2], fps, CUTOFF_HZ), axis=0), axis=1)
+        low = p[:, 2] <= np.quantile(p[:, 2], QUIET_HEIGHT_QUANTILE)
+        quiet = low & (v <= np.quantile(v[low], QUIET_SPEED_QUANTILE))
+        r = pose.joint_rotations[quiet, joint]
+        ups.append(rot.rotate(rot.conjugate(r), np.broadcast_to([0.0, 0.0, 1.0], r.shape[:-1] + (3,))))
+    if not ups:
+        return None
+    u = np.concatenate(ups).mean(axis=0)
+    n = np.linalg.norm(u)
+    return u / n if n > 1e-6 else None
+
+
+def _tip(points: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """The point of ``points (N, 3)`` farthest from the origin across ``normal`` (the foot's tip)."""
+    across = points - np.outer(points @ normal, normal)
+    return points[int(np.argmax(np.linalg.norm(across, axis=1)))]
+
+
+def _onto_sole(p: np.ndarray, normal: np.ndarray, depth: float) -> np.ndarray:
+    """``p (3,)`` moved along ``normal`` onto the plane ``depth`` below the origin."""
+    return p - (np.dot(p, normal) + depth) * normal
+
+
+def calibrate_soles(skeleton: Skeleton, poses: Sequence[tuple[Pose, float]] = ()) -> Soles:
+    """Sole points of each foot, placed from the quiet stance frames of ``poses``
+    (``(Pose, fps)`` of clips of this skeleton); from the rest pose when none is long enough."""
+    feet = skeleton.feet()
+    if not feet:
+        raise MjmotionError(f"{skeleton.names[0]}…: no feet found by name (need e.g. lfoot/LeftFoot/CC_Base_L_Foot)")
+    rest = skeleton.rest_positions()
+    ends = skeleton.rest_end_positions()
+    height = float(np.clip(skeleton.stature(), 0.3, 3.0))
+    half_w = SOLE_HALF_WIDTH * height / 1.75
+    up_rest = _rest_up(skeleton)
+    sides = tuple(s for s in ("left", "right") if s in feet)
+    joints, local, normals = [], [], []
+    calibrated = True
+    for side in sides:
+        ankle, toe = feet[side]
+        n_a = _quiet_up(poses, ankle, ankle)
+        if n_a is None:
+            n_a, calibrated = up_rest, False
+        below = skeleton.descendants(ankle)
+        pts = np.array(
+            [rest[c] - rest[ankle] for c in below] + [ends[e] - rest[ankle] for e in range(len(ends)) if skeleton.end_parents[e] in [*below, ankle]]
+        )
+        if len(pts) == 0:
+            pts = np.array([[0.0, 0.0, -0.05 * height]])
+        tip = _tip(pts, n_a)
+        fwd = tip - np.dot(tip, n_a) * n_a
+        fwd = fwd / max(np.linalg.norm(fwd), 1e-9)
+        lat = np.cross(n_a, fwd)
+        # The sole: ANKLE_HEIGHT below the ankle, never above one of the foot's own joints or End Sites.
+        depth = max(mjcf.ANKLE_HEIGHT * height, float(-(pts @ n_a).min()))
+        heel = _onto_sole(-mjcf.HEEL_BACK * height * fwd, n_a, depth)
+        ball = _onto_sole(rest[toe] - rest[ankle] if toe is not None else tip, n_a, depth)
+        j_pts = [ankle] * 4
+        p_pts = [heel + half_w * lat, heel - half_w * lat, ball + half_w * lat, ball - half_w * lat]
+        if toe is not None:
+            n_t = _quiet_up(poses, toe, ankle) if calibrated else None
+            n_t = n_a if n_t is None else n_t
+            t_pts = [rest[c] - rest[toe] for c in skeleton.descendants(toe)]
+            t_pts += [ends[e] - rest[toe] for e in range(len(ends)) if skeleton.end_parents[e] in [*skeleton.descendants(toe), toe]]
+            b_t = ball - (rest[toe] - rest[ankle])  # the ball point from the toe joint
+            if t_pts:
+                t_tip = _tip(np.asarray(t_pts), n_t)
+                t_tip = t_tip - np.dot(t_tip - b_t, n_t) * n_t  # onto the toe's sole, through the ball
+                lat_t = np.cross(n_t, t_tip - b_t)
+                lat_t = lat_t / max(np.linalg.norm(lat_t), 1e-9) * half_w
+                j_pts += [toe, toe]
+                p_pts += [t_tip + lat_t, t_tip - lat_t]
+        joints.append(j_pts)
+        local.append(p_pts)
+        normals.append(n_a)
+    p_max = max(len(j) for j in joints)
+    # Pad with repeats so feet stack (a repeated point adds nothing).
+    joints = [j + [j[0]] * (p_max - len(j)) for j in joints]
+    local = [p + [p[0]] * (p_max - len(p)) for p in local]
+    return Soles(sides, np.array(joints, dtype=int), np.array(local, dtype=float), np.array(normals), calibrated)
+
+
+def sole_points(soles: Soles, pose: Pose) -> np.ndarray:
+    """``(T, F, P, 3)`` world sole points of ``pose``."""
+    j = soles.joints  # (F, P)
+    r = pose.joint_rotations[:, j]  # (T, F, P, 4)
+    return pose.joint_positions[:, j] + rot.rotate(r, np.broadcast_to(soles.local, r.shape[:-1] + (3,)))
+
+
+# --------------------------------------------------------------------------- tracks
+
+
+@dataclass(frozen=True, eq=False)
+class FootTrack:
+    """The feet of a clip (``docs/METRICS.md`` "Foot contact").
+
+    Attributes:
+        sides: ``(F,)`` foot names (``"left"``, ``"right"``).
+        fps: frames per second.
+        points: ``(T, F, P, 3)`` world sole points, metres.
+        heights: ``(T, F)`` lowest sole point above the floor, metres.
+        lowest: ``(T, F, 3)`` the lowest sole point (world).
+        speeds: ``(T, F)`` horizontal speed of the lowest point (that material point's velocity,
+            smoothed: :func:`mjmotion.filters.velocity`), m/s.
+        floor: the floor height the heights are measured from (m, world z).
+        soles: the sole points' placement, when the track came from a skeleton.
+        climb: ``(T, F)`` vertical speed of the lowest point (m/s, signed), or None.
+    """
+
+    sides: tuple[str, ...]
+    fps: float
+    points: np.ndarray
+    heights: np.ndarray
+    lowest: np.ndarray
+    speeds: np.ndarray
+    floor: float = 0.0
+    soles: Soles | None = None
+    climb: np.ndarray | None = None
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.heights.shape[0])
+
+    def at_floor(self, floor: float) -> FootTrack:
+        """The same track measured from another floor height."""
+        return replace(self, heights=self.heights + self.floor - float(floor), floor=float(floor))
+
+    def detected_floor(self) -> float:
+        """This clip's own stance floor (:func:`mjmotion.floor.detect`; a foot moving up or down is not still)."""
+        still = self.speeds if self.climb is None else np.hypot(self.speeds, self.climb)
+        return floors.detect(self.heights + self.floor, still)
+
+
+def foot_track(sides: tuple[str, ...], points: np.ndarray, fps: float, floor: float = 0.0, speed_window: float | None = None) -> FootTrack:
+    """A :class:`FootTrack` from foot points ``(T, F, P, 3)``, heights above ``floor``; velocities
+    from :func:`mjmotion.filters.velocity` over ``speed_window`` seconds (None: raw central differences)."""
+    if points.shape[0] < 2:
+        raise MjmotionError("a clip needs at least 2 frames for foot speeds")
+    z = points[..., 2]
+    k = np.argmin(z, axis=2)  # (T, F) lowest point index
+    heights = np.take_along_axis(z, k[..., None], axis=2)[..., 0] - float(floor)
+    lowest = np.take_along_axis(points, k[..., None, None], axis=2)[:, :, 0]
+    vel = velocity(points, fps, speed_window)  # (T, F, P, 3), per second
+    v_low = np.take_along_axis(vel, k[..., None, None], axis=2)[:, :, 0]
+    return FootTrack(sides, float(fps), points, heights, lowest, np.linalg.norm(v_low[..., :2], axis=-1), float(floor), climb=v_low[..., 2])
+
+
+def foot_heights_speeds(
+    compiled: CompiledModel | None,
+    motion: Motion,
+    pose: Pose | None = None,
+    floor: float | None = None,
+    soles: Soles | None = None,
+    speed_window: float | None = SPEED_WINDOW,
+) -> FootTrack:
+    """The :class:`FootTrack` of ``motion``.
+
+    ``compiled`` defaults to its skeleton's model, ``pose`` to its forward kinematics, ``soles``
+    to :func:`calibrate_soles` on this clip, ``floor`` to the clip's own stance floor.
+    """
+    if pose is None:
+        compiled = compiled if compiled is not None else mjcf.compile(motion.skeleton)
+        pose = kinematics.forward(compiled, motion)
+    soles = soles if soles is not None else calibrate_soles(motion.skeleton, [(pose, motion.fps)])
+    tr = foot_track(soles.sides, sole_points(soles, pose), motion.fps, 0.0, speed_window)
+    tr = replace(tr, soles=soles)
+    return tr.at_floor(tr.detected_floor() if floor is None else floor)
+
+
+def _track(x: Motion | FootTrack) -> FootTrack:
+    return x if isinstance(x, FootTrack) else foot_heights_speeds(None, x)
+
+
+# --------------------------------------------------------------------------- contacts
+
+
+def low_both(track: FootTrack, h_c: float = H_C) -> np.ndarray:
+    """``(T, F)``: foot height below ``h_c`` at t and at t-1 (frame 0 uses itself as t-1)."""
+    low = track.heights < h_c
+    prev = np.concatenate([low[:1], low[:-1]], axis=0)
+    return low & prev
+
+
+def contacts(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C, hysteresis: float = HYSTERESIS) -> np.ndarray:
+    """``(T, F)`` contact labels with hysteresis.
+
+    A foot *enters* contact at a frame where its height is below ``(1 - hysteresis)·h_c`` there
+    and at the frame before and its speed below ``(1 - hysteresis)·v_c``; it stays in contact
+    until a frame where its height reaches ``h_c`` or its speed ``v_c``. Every contact frame is
+    therefore below ``h_c`` and slower than ``v_c``; ``hysteresis=0`` is the plain threshold.
+    """
+    tr = _track(track)
+    k = 1.0 - hysteresis
+    enter = low_both(tr, k * h_c) & (tr.speeds < k * v_c)
+    leave = (tr.heights >= h_c) | (tr.speeds >= v_c)
+    event = np.where(enter, 1, np.where(leave, -1, 0))  # (T, F)
+    t = np.arange(event.shape[0])[:, None]
+    last = np.maximum.accumulate(np.where(event != 0, t, -1), axis=0)  # last frame with an event
+    state = np.take_along_axis(event, np.maximum(last, 0), axis=0)
+    return np.asarray((last >= 0) & (state == 1))
+
+
+def flight_frames(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C, hysteresis: float = HYSTERESIS) -> np.ndarray:
+    """``(T,)`` frames where no foot is in contact."""
+    return np.asarray(~contacts(track, h_c, v_c, hysteresis).any(axis=1))

@@ -1,0 +1,62 @@
+"""Vary tab (seed 003 §3): exaggerate or mute a shot with a scale, or abort it at a frame; the PCA score paths plotted."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import engine
+from . import pick, refresh, table
+
+
+class VaryTab:
+    def __init__(self, session: Any):
+        self.s = session
+        gui = session.client.gui
+        shots = session.library.shots() or session.library.names()
+        self.clip = gui.add_dropdown("Shot", tuple(shots), initial_value=pick(shots, "drive|swing|golf"))
+        self.mode = gui.add_dropdown("Variant", ("scale", "abort"), initial_value="scale")
+        self.scale = gui.add_slider("Scale", 0.3, 2.0, 0.05, 1.3, hint="> 1 exaggerates, < 1 mutes (seed 003 §3.2.3)")
+        self.abort = gui.add_slider("Abort frame", 1, 1000, 1, 60, hint="follow the shot to this frame, then return to the rest pose")
+        self.cleanup = gui.add_checkbox("Clean up feet and grip", True)
+        self.button = gui.add_button("Make variant")
+        self.plot = gui.add_image(np.zeros((2, 2, 3), np.uint8), label="scores", visible=False)
+        self.report = gui.add_markdown("")
+        self.button.on_click(lambda e: self.run())
+        session.on_library(lambda n: refresh(self.clip, session.library.shots() or n))
+
+    def run(self) -> None:
+        c = self.s.library.get(self.clip.value)
+        scale = float(self.scale.value) if self.mode.value == "scale" else None
+        abort = int(self.abort.value) if self.mode.value == "abort" else None
+        if abort is not None:
+            abort = min(abort, c.motion.n_frames - 2)
+        cleanup = bool(self.cleanup.value)
+
+        def job(progress):
+            v = engine.vary(c.motion, scale, abort, cleanup, progress)
+            return v, engine.score_image(v, v.report["variant"])
+
+        self.s.submit("vary", job, lambda out: self._done(out, c), label="Vary")
+
+    def _done(self, out: Any, clip: Any) -> None:
+        v, img = out
+        props = (clip.prop,) if clip.prop is not None else ()
+        self.s.show([(v.motion.name, v.motion, props), (clip.name, clip.motion, props)])
+        self.abort.max = max(clip.motion.n_frames - 2, 2)
+        self.plot.image = img
+        self.plot.visible = True
+        r = v.report
+        rows: list[tuple[str, Any]] = [("variant", r["variant"]), ("frames", r["n_frames"]), ("k (components)", r["k"])]
+        rows.append(("variance explained", r["variance_explained"]))
+        if "style_rmse" in r:
+            rows.append(("style error", r["style_rmse"]["rmse"]))
+        fs = r.get("footskate_mm_per_s", {})
+        if fs.get("result") is not None:
+            rows.append(("footskate (mm/s) source / variant", f"{fs['source']:.1f} / {fs['result']:.1f}"))
+        rows.append(("max joint speed ratio", r["max_joint_speed_ratio"]["result"]))
+        if "club_path_m" in r:
+            rows.append(("club path (m) source / variant", f"{r['club_path_m']['source']:.2f} / {r['club_path_m']['result']:.2f}"))
+        self.report.content = table(rows)
+        self.s.set_status(f"{v.motion.name}: variant (blue) beside the source")

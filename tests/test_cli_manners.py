@@ -1,0 +1,135 @@
+"""CLI manners (issue 20): summaries name every file written, numbers are shown for people and
+kept exact for programs, a closed pipe ends quietly, slow verbs show progress on a terminal."""
+
+from __future__ import annotations
+
+import io
+import json
+import subprocess
+import sys
+
+import pytest
+import test_cli_contract as contract
+from test_cli_contract import VERBS, _input, run, writes
+
+from mjmotion import cli
+from mjmotion.commands import _progress
+
+clip, human = contract.clip, contract.human  # the contract's fixtures: a small clip, a short real walk
+
+#: Verbs whose summary line another branch is changing (hit-point: hit and vary; the judge:
+#: evaluate, cleanup, render): their files are checked there.
+NOT_HERE = {"hit", "vary", "evaluate", "cleanup", "render"}
+
+
+@pytest.mark.parametrize("name", sorted(n for n, v in VERBS.items() if writes(v) and n not in NOT_HERE))
+def test_the_summary_names_every_file_written(name, tmp_path, clip, human, capsys):
+    spec = VERBS[name]
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    inp = _input(spec, clip, human)
+    rc, out, err = run([name, *spec.argv(str(inp), str(out_dir / f"out{spec.ext}")), *spec.extra_outputs(out_dir)], capsys)
+    assert rc == 0, err
+    written = sorted(p for p in out_dir.rglob("*") if p.is_file())
+    assert written, f"{name} wrote nothing"
+    for p in written:
+        assert str(p) in out or (p.parent != out_dir and str(p.parent) in out), f"{name}: {p} is not named in {out!r}"
+
+
+def test_info_shows_numbers_for_people_and_keeps_the_files_rate_exact(mocap, capsys):
+    walk = mocap / "cmu_asfamc_converted" / "16_15.bvh"
+    text = walk.read_text()
+    frame_time = next(ln for ln in text.splitlines() if ln.startswith("Frame Time:")).split(":")[1].strip()
+    assert cli.main(["info", str(walk), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["frame_time_s"] == float(frame_time) == 0.00833333  # as the file writes it
+    assert d["fps"] == 120.0  # the shortest rate whose frame time, to the file's digits, is the file's
+    assert f"{1 / d['fps']:.6g}" == frame_time
+    assert d["feet"]["left"] == {"ankle": "lfoot", "toe": "ltoes"}
+    assert cli.main(["info", str(walk)]) == 0
+    table = capsys.readouterr().out
+    assert "471 at 120 fps (Frame Time 0.00833333 s)" in table
+    assert "left lfoot → ltoes" in table and "left lwrist" in table
+    for python_repr in ("[", "{", "None", "'"):  # no lists, dicts or quoted strings
+        assert python_repr not in table.split("channel layouts")[0], table
+
+
+def test_info_rate_of_a_long_frame_time_is_exact(tmp_path, capsys):
+    """A frame time written to 17 digits (our writer's 1/60) reads back as exactly 60 fps."""
+    out = tmp_path / "walk.bvh"
+    assert cli.main(["synth", "walk", "--seconds", "0.5", "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert cli.main(["info", str(out), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["fps"] == 60.0 and d["frame_time_s"] == 1 / 60
+
+
+def test_a_register_plot_must_be_png_and_is_refused_before_any_work(tmp_path, clip, capsys):
+    rc, _, err = run(["register", str(clip), str(clip), "--json", str(tmp_path / "r.json"), "--plot", str(tmp_path / "g.jpg")], capsys)
+    assert rc == 2 and "expected a .png path" in err
+    assert not list(tmp_path.iterdir())
+
+
+def _closed_pipe(argv: list[str]) -> subprocess.CompletedProcess:
+    """Run ``mjmotion ARGV`` with its stdout a pipe whose reader is gone before it writes."""
+    proc = subprocess.Popen([sys.executable, "-m", "mjmotion.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # the reader leaves at once, as `head -1` does after its line
+    err = proc.stderr.read().decode()
+    proc.wait(timeout=120)
+    return subprocess.CompletedProcess(argv, proc.returncode, "", err)
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["info", "--help"], ["info", "{clip}", "--json"]], ids=["help", "verb-help", "info-json"])
+def test_a_closed_pipe_ends_quietly(argv, clip):
+    r = _closed_pipe([a.format(clip=clip) for a in argv])
+    assert r.stderr == "", r.stderr
+    assert r.returncode in (0, 141)  # 141 = 128 + SIGPIPE, as a tool killed by the signal reports
+
+
+def test_a_broken_pipe_that_is_not_stdout_is_still_an_error(monkeypatch, capsys):
+    def verb(args):
+        raise BrokenPipeError(32, "Broken pipe")  # ffmpeg gone while a video is written
+
+    monkeypatch.setattr(cli, "_stdout_closed", lambda: False)
+    parser = cli.build_parser(["info"])
+    args = parser.parse_args(["info", "x.bvh"])
+    args._run = verb
+    assert cli._run(args) == 2
+    assert capsys.readouterr().err.startswith("error: broken pipe")
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_shows_the_steps_on_a_terminal_only(monkeypatch):
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    with _progress.steps("blend", ("read", "register", "write")) as step:
+        step("read")
+        sys.stderr.write("note: a note while the bar shows\n")
+        step("register")
+        step("write")
+    assert sys.stderr is term  # restored
+    shown = term.getvalue()
+    assert "blend: 0/3, read" in shown and "blend: 1/3, register" in shown and "blend: 2/3, write" in shown
+    assert "note: a note while the bar shows\n" in shown
+    assert shown.endswith("\r")  # the bar is erased at the end: the summary line stays alone
+
+    piped = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", piped)
+    with _progress.steps("blend", ("read", "write")) as step:
+        step("read")
+        step("write")
+    assert piped.getvalue() == ""
+
+
+def test_a_slow_verb_shows_progress_on_a_terminal(monkeypatch, tmp_path, capsys):
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    out = tmp_path / "lib"
+    assert cli.main(["synth", "library", str(out)]) == 0
+    assert "synth library: 1/2, write" in term.getvalue()
+    summary = capsys.readouterr().out
+    assert all(f"{p.name}" in summary for p in out.iterdir() if p.suffix in (".bvh", ".json"))

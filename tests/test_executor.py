@@ -1,0 +1,261 @@
+"""The executor: every backend streams one outcome per key; Dask retries, survives a killed worker
+and enforces the time limit (tasks are module functions: forked workers import this module)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import signal
+import socket
+import time
+from pathlib import Path
+
+import pytest
+
+from mjmotion import executor
+from mjmotion.errors import MjmotionError
+
+
+def square(i: int) -> int:
+    return i * i
+
+
+def mixed(i: int, log: str | None = None) -> int:
+    """0..: squares; 3: bad input; 4: a bug (each attempt logged)."""
+    if log is not None:
+        with open(log, "a") as f:
+            f.write(f"{i}\n")
+    if i == 3:
+        raise MjmotionError(f"clip {i}: bad input")
+    if i == 4:
+        raise ValueError(f"bug on {i}")
+    return i * i
+
+
+def die_once(i: int, marker: str) -> int:
+    """The first attempt of task 2 kills its own worker process (as the OOM killer would)."""
+    if i == 2 and not os.path.exists(marker):
+        Path(marker).write_text(str(os.getpid()))
+        os.kill(os.getpid(), signal.SIGKILL)
+    return i * i
+
+
+def slow(i: int, seconds: float = 120.0) -> int:
+    if i == 1:
+        time.sleep(seconds)
+    return i * i
+
+
+#: Set by :func:`warm` in the process that starts the cluster; forked workers inherit it.
+WARMED: int | None = None
+
+
+def warm() -> None:
+    global WARMED
+    WARMED = os.getpid()
+
+
+def warmed() -> tuple[int | None, int]:
+    """On a worker: the pid that ran :func:`warm` before forking it, and the worker's parent."""
+    return WARMED, os.getppid()
+
+
+@pytest.fixture(scope="module")
+def dask2():
+    ex = executor.start(workers=2, preload=("json", warm))
+    yield ex
+    ex.close()
+
+
+def _check_mixed(outs: list[executor.Outcome], n: int) -> dict:
+    by = {o.key: o for o in outs}
+    assert sorted(by) == list(range(n)) and len(outs) == n  # every key exactly once
+    for i in range(n):
+        if i == 3:
+            assert by[i].kind == "input" and by[i].error == "clip 3: bad input" and by[i].value is None
+        elif i == 4:
+            assert by[i].kind == "internal" and "ValueError: bug on 4" in by[i].error
+            with pytest.raises(ValueError, match="bug on 4"):
+                by[i].unwrap()
+        else:
+            assert by[i].ok and by[i].value == i * i and by[i].unwrap() == i * i
+    return by
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_serial_and_process_pool_stream_every_outcome(jobs):
+    with executor.start(jobs=jobs) as ex:
+        assert ex.kind == ("serial" if jobs == 1 else "process pool")
+        _check_mixed(list(ex.run(mixed, [(i, (i,)) for i in range(6)], progress=False)), 6)
+        with pytest.raises(MjmotionError, match="needs Dask"):
+            list(ex.run(square, [(0, (0,))], timeout=1.0, progress=False))
+
+
+def test_dask_outcomes_and_retries(dask2, tmp_path):
+    log = tmp_path / "attempts.txt"
+    outs = list(dask2.run(mixed, [(i, (i, str(log))) for i in range(6)], retries=2, progress=False))
+    _check_mixed(outs, 6)
+    attempts = log.read_text().split()
+    assert attempts.count("4") == 3  # the bug: the first run and two retries by Dask
+    assert attempts.count("3") == 1  # bad input is not retried
+    assert dask2.workers == 2 and (dask2.dashboard is None or dask2.dashboard.startswith("http://127.0.0.1:"))
+
+
+def test_dask_worker_killed_mid_task_is_retried(dask2, tmp_path):
+    marker = tmp_path / "killed"
+    outs = list(dask2.run(die_once, [(i, (i, str(marker))) for i in range(8)], progress=False))
+    assert marker.exists()  # a worker really died in task 2
+    assert sorted(o.key for o in outs) == list(range(8))
+    assert all(o.ok and o.value == o.key**2 for o in outs), [o for o in outs if not o.ok]
+    # Its replacement was forked from this process like the first ones, the preload already run.
+    dask2.client.wait_for_workers(2, timeout=60)
+    seen = dask2.client.run(warmed)
+    assert int(marker.read_text()) not in dask2.client.run(os.getpid).values()
+    assert len(seen) == 2 and set(seen.values()) == {(os.getpid(), os.getpid())}, seen
+
+
+def _with_meanwhile(ex: executor.Executor, n: int = 5) -> tuple[list, list]:
+    """Outcomes of ``n`` squares and, for each call of ``meanwhile``, how many outcomes had been yielded
+    and (on Dask) how many of the client's futures existed."""
+    got: list = []
+    calls: list = []
+
+    def meanwhile() -> None:
+        calls.append((len(got), len(ex.client.futures) if isinstance(ex, executor.Dask) else None))
+
+    for o in ex.run(square, [(i, (i,)) for i in range(n)], progress=False, meanwhile=meanwhile):
+        got.append(o)
+    return got, calls
+
+
+def test_meanwhile_runs_once_after_every_task_is_sent(dask2):
+    for ex in (executor.Executor(), executor.start(jobs=2), dask2):
+        with contextlib.ExitStack() as stack:
+            if ex is not dask2:
+                stack.enter_context(ex)
+            got, calls = _with_meanwhile(ex)
+        assert sorted(o.value for o in got) == [0, 1, 4, 9, 16]
+        assert len(calls) == 1 and calls[0][0] == 0, (ex.kind, calls)  # once, before any outcome
+        assert calls[0][1] is None if ex is not dask2 else calls[0][1] >= 5  # with every task submitted
+
+
+def test_local_settings_last_as_long_as_the_cluster():
+    import dask
+
+    default = dask.config.get("distributed.admin.tick.interval")
+    with executor.start(workers=1) as ex:
+        on_worker = ex.client.run(lambda: __import__("dask").config.get("distributed.admin.tick.interval"))
+        assert list(on_worker.values()) == [executor.LOCAL_CONFIG["distributed.admin.tick.interval"]]
+        assert ex.dashboard is None  # not asked for
+    assert dask.config.get("distributed.admin.tick.interval") == default
+
+
+def test_dask_time_limit(dask2):
+    start = time.perf_counter()
+    outs = {o.key: o for o in dask2.run(slow, [(i, (i,)) for i in range(4)], timeout=1.0, progress=False)}
+    assert time.perf_counter() - start < 60  # not the 120 s sleep
+    assert outs[1].kind == "timeout" and "time limit of 1 s" in outs[1].error
+    assert all(outs[i].ok and outs[i].value == i * i for i in (0, 2, 3))
+    # The stuck worker was restarted: the cluster still has its two workers and runs tasks.
+    dask2.client.wait_for_workers(2, timeout=60)
+    assert sorted(o.value for o in dask2.run(square, [(i, (i,)) for i in range(4)], progress=False)) == [0, 1, 4, 9]
+
+
+def test_stopping_early_cancels_the_rest(dask2):
+    outs = dask2.run(slow, [(i, (i, 2.0)) for i in range(1, 3)], progress=False)
+    first = next(outs)  # task 2 (task 1 sleeps)
+    assert first.key == 2
+    outs.close()
+    deadline = time.time() + 30
+    while dask2.client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks)) and time.time() < deadline:
+        time.sleep(0.1)
+    assert dask2.client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks)) == 0
+
+
+def test_options_are_checked():
+    with pytest.raises(MjmotionError, match="--workers 0"):
+        executor.start(workers=0)
+    with pytest.raises(MjmotionError, match="--jobs -1"):
+        executor.start(jobs=-1)
+    with pytest.raises(MjmotionError, match="give one of them"):
+        executor.start(workers=2, scheduler="tcp://127.0.0.1:8786")
+    with pytest.raises(ValueError, match="unique"):
+        list(executor.Executor().run(square, [(1, (1,)), (1, (2,))]))
+
+
+def test_a_scheduler_that_does_not_answer_is_one_error():
+    with socket.socket() as s:  # a free port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    start = time.perf_counter()
+    with pytest.raises(MjmotionError, match=rf"--scheduler tcp://127.0.0.1:{port}: no Dask scheduler answered within 1 s"):
+        executor.start(scheduler=f"tcp://127.0.0.1:{port}", connect_timeout=1.0)
+    assert time.perf_counter() - start < 20
+
+
+def test_plain_progress_lines_when_not_a_terminal():
+    buf = io.StringIO()
+    bar = executor._Progress(3, "audit", "clip", True, stream=buf, every=0.0)
+    for _ in range(3):
+        bar.update()
+    bar.close()
+    lines = buf.getvalue().splitlines()
+    assert lines[0].startswith("audit: 1/3 clips, ") and lines[-1].startswith("audit: 3/3 clips, ") and "ETA" in lines[-1]
+    assert len(lines) == 3  # the closing line is not repeated
+
+
+def test_in_order():
+    outs = [executor.Outcome(k, k) for k in ("b", "c", "a")]
+    assert [o.key for o in executor.in_order(outs, ["a", "b", "c"])] == ["a", "b", "c"]
+
+
+# --- the experiments fan out on it ---------------------------------------------------------------
+class Spy(executor.Executor):
+    """The serial backend, recording what it was asked to run."""
+
+    def __init__(self):
+        self.calls: list[tuple] = []
+
+    def run(self, fn, tasks, **kw):
+        tasks = list(tasks)
+        self.calls.append((fn, [k for k, _ in tasks]))
+        return super().run(fn, tasks, **kw)
+
+
+def test_physics_audit_runs_its_clips_on_the_executor(tmp_path, monkeypatch):
+    from conftest import require_data
+
+    from mjmotion.commands.evaluate import evaluate_file
+    from mjmotion.experiments import physics_audit
+
+    data = require_data()
+    monkeypatch.setattr(physics_audit, "synthesized", lambda quick: {})  # only the captured clips matter here
+    monkeypatch.setattr(physics_audit, "cleanup_of_blends", lambda data_dir, out_dir: ([], []))
+    spy = Spy()
+    table = physics_audit.run(tmp_path, data, quick=True, executor=spy)
+    (fn, keys), *more = spy.calls
+    assert fn is evaluate_file and not more and len(keys) == len(table.rows) >= 4
+    assert [r[1] for r in table.rows] == [f"{Path(k).parent.name}/{Path(k).stem}" for k in keys]  # in file order
+
+
+def test_experiment_scripts_take_workers_and_scheduler(tmp_path, monkeypatch, capsys):
+    from mjmotion import experiments
+    from mjmotion.experiments import Table, hitpoint_grid
+
+    seen = {}
+
+    def fake_run(out_dir, data_dir=None, quick=False, jobs=2, executor=None):
+        seen.update(jobs=jobs, executor=executor, workers=executor.workers if executor else None)
+        return Table("fake", ["a"])
+
+    monkeypatch.setattr(hitpoint_grid, "run", fake_run)
+    assert experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--workers", "1"]) == 0
+    assert seen["executor"].kind == "dask" and seen["workers"] == 1
+    assert experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--jobs", "3"]) == 0
+    assert seen == {"jobs": 3, "executor": None, "workers": None}
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as refused:  # the option's own domain: argparse's one error line, exit 2
+        experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--workers", "0"])
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and "error: argument --workers: 0: expected a number of worker processes" in err and "Traceback" not in err

@@ -1,0 +1,103 @@
+"""Option domains (issue 17): every value is either inside its domain or refused with a message
+that quotes it; nothing else ever comes out (properties over random text and numbers)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mjmotion.caps import MAX_FRAMES
+from mjmotion.commands import _options as O
+from mjmotion.errors import MjmotionError
+
+PROPS = settings(max_examples=300, derandomize=True, database=None, deadline=None)
+
+#: Text a user can type for a number: decimal spellings, specials, junk, huge digit strings.
+NUMBER_TEXT = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.integers(-(10**40), 10**40).map(str),
+    st.sampled_from(["nan", "-nan", "inf", "-inf", "Infinity", "1e308", "-1e308", "5e-324", "1e999", "0x10", "1_000", "", " ", "١٢", "9" * 5000]),
+    st.text(max_size=20),
+)
+
+
+def _parse_or_refuse(fn, text):
+    try:
+        return fn(text), None
+    except argparse.ArgumentTypeError as e:
+        return None, str(e)
+
+
+@PROPS
+@given(text=NUMBER_TEXT, lo=st.floats(-1e6, 1e6), span=st.floats(0, 1e6), lo_open=st.booleans(), hi_open=st.booleans())
+def test_number_is_in_its_domain_or_refused_quoting_the_value(text, lo, span, lo_open, hi_open):
+    hi = lo + span
+    value, error = _parse_or_refuse(O.number(lo, hi, lo_open=lo_open, hi_open=hi_open, what="a thing"), text)
+    if error is None:
+        assert math.isfinite(value)
+        assert (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi)
+        assert value == float(text)
+    else:
+        assert "expected a thing" in error and len(error) < 200 and error.isprintable()
+        shown = text if len(text) <= 40 else text[:40]
+        assert shown[:10] in error or repr(shown)[1:10] in error
+
+
+@PROPS
+@given(text=NUMBER_TEXT, lo=st.integers(-1000, 1000), span=st.integers(0, 10**6))
+def test_integer_is_in_its_domain_or_refused(text, lo, span):
+    value, error = _parse_or_refuse(O.integer(lo, lo + span, what="a count"), text)
+    if error is None:
+        assert isinstance(value, int) and lo <= value <= lo + span and value == int(text)
+    else:
+        assert "expected a count" in error and len(error) < 200
+
+
+@PROPS
+@given(text=st.text(max_size=100))
+def test_label_is_printable_one_line_text(text):
+    value, error = _parse_or_refuse(O.label(80), text)
+    if error is None:
+        assert value == text and text.isprintable() and len(text) <= 80
+    else:
+        assert error.isprintable()  # the control character is shown escaped, never raw
+
+
+@pytest.mark.parametrize("text", ["nan", "inf", "-inf", "1e308", "-1e308", "5e-324", "0"])
+def test_frame_rates_refuse_what_would_overflow(text):
+    with pytest.raises(argparse.ArgumentTypeError, match="frame rate"):
+        O.FPS(text)
+
+
+def test_resample_checks_the_frames_before_allocating():
+    import numpy as np
+    from conftest import random_motion, random_skeleton
+
+    rng = np.random.default_rng(0)
+    m = random_motion(rng, random_skeleton(rng, 5), 121).replace(fps=120.0)  # 1 s
+    assert O.resample(m, 60.0).n_frames == 61
+    long = m.replace(fps=0.1)  # 1200 s
+    assert 1200 * 10_000 + 1 > MAX_FRAMES
+    with pytest.raises(MjmotionError, match=r"--fps 10000: a 1200 s clip at 10000 fps: 12,000,001 frames, more than the limit"):
+        O.resample(long, 10_000.0)
+
+
+def test_props_are_each_given_once():
+    p = argparse.ArgumentParser(exit_on_error=False)
+    p.add_argument("--prop", action=O.UniqueProps)
+    assert p.parse_args(["--prop", "club", "--prop", "bat:rwrist"]).prop == ["club", "bat:rwrist"]
+    for argv in (["--prop", "club:hip", "--prop", "club:hip"], ["--prop", "bat", "--prop", "bat:lwrist"], ["--prop", ":hip"], ["--prop", "bat:"]):
+        with pytest.raises((argparse.ArgumentError, SystemExit)):
+            p.parse_args(argv)
+
+
+def test_frames_and_actors_are_checked_against_the_clip():
+    assert O.check_frame(-1, 10, "--rest-frame", allow_negative=True) == 9
+    with pytest.raises(MjmotionError, match=r"--frame 10: outside the clip's frames 0..9"):
+        O.check_frame(10, 10, "--frame")
+    with pytest.raises(MjmotionError, match="17 clips, more than the limit of 16"):
+        O.check_actors(17)

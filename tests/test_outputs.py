@@ -1,0 +1,210 @@
+"""Publishing outputs (issue 17): never over an existing file without ``force``, never over anything
+but a regular file or a link, never half-written."""
+
+from __future__ import annotations
+
+import errno
+import os
+import stat
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from mjmotion import outputs
+from mjmotion.errors import MjmotionError, OutputExistsError
+from mjmotion.outputs import atomic_path, check_output, rename_noreplace, staged_folder, write_text_atomic
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(autouse=True)
+def _fresh_claims():
+    outputs.reset_claims()
+    yield
+    outputs.reset_claims()
+
+
+def test_trailing_slash_is_a_folder_not_a_file(tmp_path):
+    for raw in (f"{tmp_path}/out.bvh/", f"{tmp_path}/.", f"{tmp_path}/..", ""):
+        with pytest.raises(OutputExistsError, match="names a folder"):
+            check_output(raw)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_dangling_symlink_exists(tmp_path):
+    link = tmp_path / "out.bvh"
+    link.symlink_to(tmp_path / "nowhere.bvh")
+    with pytest.raises(OutputExistsError, match=r"already exists \(a symbolic link\); pass --force"):
+        check_output(link)
+    check_output(link, force=True)
+    write_text_atomic(link, "new")
+    assert not link.is_symlink() and link.read_text() == "new"  # the link replaced, nothing made where it pointed
+    assert not (tmp_path / "nowhere.bvh").exists()
+
+
+def test_force_replaces_a_link_never_its_target(tmp_path):
+    target = tmp_path / "precious.bvh"
+    target.write_text("precious")
+    link = tmp_path / "out.bvh"
+    link.symlink_to(target)
+    check_output(link, force=True)
+    write_text_atomic(link, "new")
+    assert target.read_text() == "precious" and link.read_text() == "new" and not link.is_symlink()
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes")
+@pytest.mark.parametrize("force", [False, True])
+def test_a_fifo_or_device_is_never_replaced(tmp_path, force):
+    fifo = tmp_path / "out.bvh"
+    os.mkfifo(fifo)
+    with pytest.raises(OutputExistsError, match=r"is a named pipe \(FIFO\); an output must be a new file \(--force replaces only a regular file\)"):
+        check_output(fifo, force=force)
+    with pytest.raises(OutputExistsError, match="is a character device"):
+        check_output("/dev/null", force=force)
+    # Not even through the write step on its own (a path nobody claimed).
+    with pytest.raises(OutputExistsError, match="is a named pipe"):
+        write_text_atomic(fifo, "x")
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode) and sorted(os.listdir(tmp_path)) == ["out.bvh"]
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+
+
+def test_a_link_to_a_folder_is_refused(tmp_path):
+    (tmp_path / "d").mkdir()
+    (tmp_path / "l").symlink_to(tmp_path / "d")
+    for p in (tmp_path / "d", tmp_path / "l"):
+        with pytest.raises(OutputExistsError, match="is a directory"):
+            check_output(p, force=True)
+
+
+def test_a_file_that_appears_during_the_run_is_never_replaced(tmp_path):
+    out = tmp_path / "out.json"
+    check_output(out)  # nothing there before the work
+
+    out.write_text("written by someone else meanwhile")
+    with pytest.raises(OutputExistsError, match="appeared while this command ran"):
+        write_text_atomic(out, "ours")
+    assert out.read_text() == "written by someone else meanwhile"
+    assert sorted(os.listdir(tmp_path)) == ["out.json"]  # no temporary left
+
+
+def test_with_force_it_is_replaced(tmp_path):
+    out = tmp_path / "out.json"
+    out.write_text("old")
+    check_output(out, force=True)
+    write_text_atomic(out, "new")
+    assert out.read_text() == "new"
+
+
+def test_unclaimed_paths_are_replaced_as_library_code_expects(tmp_path):
+    out = tmp_path / "table.md"
+    out.write_text("old")
+    write_text_atomic(out, "new")
+    assert out.read_text() == "new"
+
+
+@pytest.mark.parametrize("how", ["renameat2", "link", "exclusive-create"])
+def test_every_no_replace_strategy_refuses_an_existing_target(tmp_path, monkeypatch, how):
+    if how != "renameat2":
+        monkeypatch.setattr(outputs, "_renameat2", lambda: None)
+    elif outputs._renameat2() is None:
+        pytest.skip("no renameat2 here")
+    if how == "exclusive-create":
+
+        def no_links(*a, **k):
+            raise OSError(errno.EPERM, "Operation not permitted")
+
+        monkeypatch.setattr(os, "link", no_links)
+    src, dst = tmp_path / "src", tmp_path / "dst"
+    src.write_text("new")
+    dst.write_text("old")
+    with pytest.raises(FileExistsError):
+        rename_noreplace(src, dst)
+    assert dst.read_text() == "old" and src.read_text() == "new"
+    dst.unlink()
+    rename_noreplace(src, dst)
+    assert dst.read_text() == "new" and not src.exists()
+
+
+def test_a_full_disk_leaves_nothing(tmp_path, monkeypatch):
+    def full(fd):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "fsync", full)
+    check_output(tmp_path / "out.bvh")
+    with pytest.raises(OSError, match="No space left"):
+        write_text_atomic(tmp_path / "out.bvh", "x" * 1000)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_staged_folder_appears_whole_or_not_at_all(tmp_path):
+    out = tmp_path / "lib"
+    with pytest.raises(RuntimeError), staged_folder(out) as tmp:
+        (tmp / "a.bvh").write_text("a")
+        raise RuntimeError("disk full halfway")
+    assert list(tmp_path.iterdir()) == []
+    with staged_folder(out) as tmp:
+        (tmp / "a.bvh").write_text("a")
+    assert sorted(os.listdir(out)) == ["a.bvh"]
+    with pytest.raises(OutputExistsError, match="appeared while this command ran"), staged_folder(out) as tmp:
+        (tmp / "b.bvh").write_text("b")
+    assert sorted(os.listdir(out)) == ["a.bvh"] and sorted(os.listdir(tmp_path)) == ["lib"]
+
+
+def test_the_block_failing_leaves_the_old_file(tmp_path):
+    out = tmp_path / "keep.txt"
+    out.write_text("precious")
+    check_output(out, force=True)
+    with pytest.raises(MjmotionError), atomic_path(out) as tmp:
+        tmp.write_text("half")
+        raise MjmotionError("failed")
+    assert out.read_text() == "precious" and sorted(os.listdir(tmp_path)) == ["keep.txt"]
+
+
+_WRITER = textwrap.dedent(
+    """
+    import os, sys, time
+    from mjmotion import cli, outputs
+    me, other = sys.argv[1], sys.argv[2]
+    real = outputs._fsync
+
+    def both_ready(path):  # each run waits, after its work and before publishing, for the other
+        real(path)
+        open(me, "w").close()
+        deadline = time.monotonic() + 60
+        while not os.path.exists(other) and time.monotonic() < deadline:
+            time.sleep(0.01)
+
+    outputs._fsync = both_ready
+    sys.exit(cli.main(sys.argv[3:]))
+    """
+)
+
+
+def test_two_concurrent_writers_one_wins_the_other_exits_2(tmp_path):
+    """Both runs pass the "exists?" check before either writes; exactly one publishes."""
+    src = REPO / "tests" / "data" / "bad" / "base.bvh"
+    out = tmp_path / "out.bvh"
+    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-c", _WRITER, str(tmp_path / f"ready{i}"), str(tmp_path / f"ready{1 - i}"), "convert", str(src), str(out), *extra],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
+        for i, extra in enumerate(([], ["--scale", "2"]))
+    ]
+    results = [(p.wait(timeout=120), p.stderr.read()) for p in procs]
+    for p in procs:
+        p.stdout.close()
+        p.stderr.close()
+    codes = sorted(rc for rc, _ in results)
+    assert codes == [0, 2], results
+    loser = next(err for rc, err in results if rc == 2)
+    assert loser.count("error:") == 1 and "appeared while this command ran" in loser and "Traceback" not in loser
+    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith("ready")) == ["out.bvh"]
+    assert out.read_text().startswith("HIERARCHY")

@@ -1,0 +1,234 @@
+"""The Studio's engine without a browser: clips and uploads, the worker, playback, saving, the
+geoms it draws, its adapters, and the ``studio`` verb's start, URL, warning and shutdown."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+import urllib.request
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjmotion import bvh, hitpoint, kinematics, mjcf, synth
+from mjmotion import rotations as rot
+from mjmotion.errors import MjmotionError
+from mjmotion.studio import engine
+from mjmotion.studio.clips import MAX_CLIP_BYTES, ClipLibrary
+from mjmotion.studio.jobs import Worker
+from mjmotion.studio.player import Player
+from mjmotion.studio.scene import GeomLayout, Kinematics
+from mjmotion.studio.session import save_path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return synth.walk().motion.replace(name="walk")
+
+
+# --- clips ----------------------------------------------------------------------------------
+def test_upload_goes_through_the_bvh_reader_and_a_size_limit(walk):
+    lib = ClipLibrary([])
+    with pytest.raises(MjmotionError, match=r"bad\.bvh:\d+"):
+        lib.with_upload("bad.bvh", b"HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0\n")
+    with pytest.raises(MjmotionError, match="MiB limit"):
+        lib.with_upload("big.bvh", b" " * (MAX_CLIP_BYTES + 1))
+    lib2, clip = lib.with_upload("../../etc/walk.bvh", bvh.format_motion(walk).encode())
+    assert clip.name == "walk" and clip.source is None and lib.names() == [] and lib2.names() == ["walk"]
+    _, again = lib2.with_upload("walk.bvh", bvh.format_motion(walk).encode())
+    assert again.name == "walk_2"
+    np.testing.assert_allclose(clip.motion.root_positions, walk.root_positions, atol=1e-6)
+
+
+def test_library_reads_only_the_given_files_and_data_folder(tmp_path, walk):
+    (tmp_path / "sub").mkdir()
+    bvh.write(walk, tmp_path / "a.bvh")
+    bvh.write(walk, tmp_path / "sub" / "a.bvh")
+    (tmp_path / "notes.txt").write_text("not a clip")
+    lib = ClipLibrary.from_paths([], str(tmp_path))
+    assert lib.names() == ["a", "a_2"] and {p.name for p in lib.inputs()} == {"a.bvh"}
+    assert ClipLibrary.from_paths([]).names() == list(synth.library())
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(MjmotionError, match="no .bvh files"):
+        ClipLibrary.from_paths([], str(tmp_path / "empty"))
+    with pytest.raises(MjmotionError, match="not a folder"):
+        ClipLibrary.from_paths([], str(tmp_path / "missing"))
+
+
+# --- worker ---------------------------------------------------------------------------------
+def test_worker_latest_request_wins_cancel_and_errors_keep_it_running():
+    done, errors, started = [], [], threading.Event()
+    w = Worker(lambda job, f, t: None, lambda job, msg: errors.append(msg))
+    gate = threading.Event()
+
+    def slow(progress):
+        started.set()
+        while not gate.is_set():
+            progress(0.5, "waiting")  # a checkpoint: raises once cancelled
+            time.sleep(0.01)
+        return "slow"
+
+    w.submit("drag", slow, done.append)
+    started.wait(5)
+    for k in range(5):  # a drag: only the last request may be delivered
+        w.submit("drag", lambda p, k=k: k, done.append)
+    gate.set()
+    assert w.wait_idle(10)
+    assert done == [4]
+    w.submit("x", lambda p: (_ for _ in ()).throw(MjmotionError("bad input")), done.append)
+    w.submit("y", lambda p: 1 / 0, done.append)
+    assert w.wait_idle(10)
+    assert errors[0] == "bad input" and "ZeroDivisionError" in errors[1]
+    w.submit("z", lambda p: "still serving", done.append)
+    assert w.wait_idle(10) and done[-1] == "still serving"
+    # keep_running: the running job (a solve that cannot stop part-way) is delivered, the waiting one replaced
+    gate.clear()
+    started.clear()
+    w.submit("drag", slow, done.append)
+    started.wait(5)
+    w.submit("drag", lambda p: "dropped", done.append, keep_running=True)
+    w.submit("drag", lambda p: "latest", done.append, keep_running=True)
+    gate.set()
+    assert w.wait_idle(10) and done[-2:] == ["slow", "latest"]
+    w.stop()
+
+
+# --- playback and saving --------------------------------------------------------------------
+def test_player_plays_loops_steps_and_stops():
+    p = Player(10, 10.0)
+    assert p.tick(0.55) == 5
+    assert p.tick(0.6) == 1  # wrapped
+    p.loop = False
+    p.playing = True
+    assert p.tick(5.0) == 9 and not p.playing
+    assert p.step(-3) == 6 and p.seek(99) == 9
+
+
+def test_save_stays_in_its_folder_and_never_overwrites(tmp_path, walk):
+    src = tmp_path / "out" / "walk.bvh"
+    src.parent.mkdir()
+    bvh.write(walk, src)
+    assert save_path(tmp_path / "out", "result.bvh", [src]) == (tmp_path / "out" / "result.bvh").resolve()
+    for bad in ("../escape.bvh", "sub/x.bvh", "x.txt", "", ".hidden.bvh"):
+        with pytest.raises(MjmotionError, match="plain file name"):
+            save_path(tmp_path / "out", bad, [])
+    with pytest.raises(MjmotionError, match="input|exists"):
+        save_path(tmp_path / "out", "walk.bvh", [src])
+    (tmp_path / "out" / "taken.bvh").write_text("x")
+    with pytest.raises(MjmotionError, match="already exists"):
+        save_path(tmp_path / "out", "taken.bvh", [])
+
+
+# --- drawing --------------------------------------------------------------------------------
+def test_drawn_primitives_are_the_models_geoms(walk):
+    clip = synth.drive()
+    compiled = mjcf.compile(clip.motion.skeleton, (clip.prop,))
+    q = kinematics.qpos(compiled, clip.motion)[clip.hit_frame]
+    pose = Kinematics(compiled).pose(q)
+    layout = GeomLayout.of(compiled, (1, 2, 3))
+    inst = layout.instances(pose)
+    # an independent path: MuJoCo's own geom frames (mj_forward, geom_xmat)
+    d = mujoco.MjData(compiled.model)
+    d.qpos[:] = q
+    mujoco.mj_forward(compiled.model, d)
+    m = compiled.model
+    caps = np.flatnonzero(m.geom_type == mujoco.mjtGeom.mjGEOM_CAPSULE)
+    ends = np.r_[
+        d.geom_xpos[caps] + d.geom_xmat[caps].reshape(-1, 3, 3)[:, :, 2] * m.geom_size[caps, 1:2],
+        d.geom_xpos[caps] - d.geom_xmat[caps].reshape(-1, 3, 3)[:, :, 2] * m.geom_size[caps, 1:2],
+    ]
+    np.testing.assert_allclose(inst["sphere"][0][: len(ends)], ends, atol=1e-12)
+    np.testing.assert_allclose(rot.to_matrix(inst["box"][1]), d.geom_xmat[layout.boxes].reshape(-1, 3, 3), atol=1e-12)
+    np.testing.assert_allclose(inst["cylinder"][0], d.geom_xpos[layout.cylinders], atol=1e-12)
+    assert len(inst["box"][0]) == sum(len(g) for g in compiled.foot_geoms.values())
+    # every geom but the floor is drawn: capsules (bones, the bat) as cylinders, boxes, spheres
+    assert len(layout.cylinders) + len(layout.boxes) + len(layout.balls) == m.ngeom - 1
+    np.testing.assert_allclose(layout.scales()["cylinder"][:, 2], 2 * m.geom_size[layout.cylinders, 1])
+
+
+# --- adapters -------------------------------------------------------------------------------
+def test_blend_adapter_two_clips_matches_the_registered_blend(walk):
+    from mjmotion import blend
+
+    run = synth.run().motion.replace(name="run")
+    res = engine.make_blend([walk, run], [0.5, 0.5], "B-spline timewarp", "dp")
+    ref = blend.blend([walk, run], [0.5, 0.5])  # the blend verb's own registration (register_many: DP, B-spline)
+    np.testing.assert_allclose(res.motion.root_positions, ref.root_positions, atol=1e-9)
+    assert res.grid.shape == (walk.n_frames, run.n_frames) and res.input_frames.shape == (res.motion.n_frames, 2)
+    assert np.all(np.diff(res.input_frames, axis=0) > 0)  # both inputs move forward at registered frames
+    thr = engine.make_blend([walk, run], [0.5, 0.5], "discrete timewarp", "threshold", threshold=1.0)
+    np.testing.assert_array_equal(thr.path, res.path)  # a threshold of 1 prunes nothing: the DP optimum
+
+
+def test_hit_adapter_reaches_the_ball_and_simulates_its_flight():
+    clip = synth.drive()
+    s = engine.shot(clip.motion, clip.prop, clip.hit_frame)
+    target = s.source_point + np.array([0.0, 0.05, 0.08])
+    a = engine.adapt(s, target, "dls")
+    spot = kinematics.forward(mjcf.compile(a.motion.skeleton, (clip.prop,)), a.motion).site("bat/sweet_spot")[s.hit_frame]
+    assert np.linalg.norm(spot - target) < 1e-3
+    # the release at the spot the drag solved reuses that solve and adds the style error as hitpoint.adapt does
+    released = engine.adapt(s, target, "dls", style=True)
+    full = hitpoint.adapt(clip.motion, target=target, frame=s.hit_frame, effector=s.effector, solver="dls", prop=s.prop, style=True)
+    assert released.motion is a.motion and a.report["style_rmse"] is None
+    assert released.report["style_rmse"] == pytest.approx(full.report["style_rmse"], rel=1e-9) and released.report["k"] == full.report["k"]
+    np.testing.assert_allclose(released.motion.rotations, full.motion.rotations, atol=1e-12)
+    f = engine.launch(s, a.motion, target)
+    assert f.metrics["contact"] and f.metrics["launch_speed"] > 1.0
+    assert f.path[-1, 2] == pytest.approx(0.036, abs=0.01)  # it comes to rest on the floor
+    d0 = f.path[1] - f.path[0]
+    az = np.degrees(np.arctan2(d0[1], d0[0]))
+    assert az == pytest.approx(f.metrics["launch_azimuth_deg"], abs=1.0)
+
+
+# --- the verb -------------------------------------------------------------------------------
+def _studio(*args: str) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    return subprocess.Popen(
+        [sys.executable, "-m", "mjmotion.cli", "studio", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT
+    )
+
+
+def _free_port(host: str) -> int:
+    with socket.socket() as s:
+        s.bind((host, 0))
+        return s.getsockname()[1]
+
+
+def test_studio_verb_serves_its_url_and_stops_cleanly_on_ctrl_c(tmp_path):
+    port = _free_port("127.0.0.2")  # the verb takes ports 1-65535 (0 is refused)
+    p = _studio("--port", str(port), "--host", "127.0.0.2", "--out", str(tmp_path))
+    try:
+        line = p.stdout.readline()
+        assert line.startswith(f"mjmotion studio: http://127.0.0.2:{port}")
+        url = line.split()[2]
+        html = urllib.request.urlopen(url, timeout=10).read()
+        assert b"<html" in html.lower()
+        start = time.perf_counter()
+        p.send_signal(signal.SIGINT)
+        assert p.wait(10) == 0
+        assert time.perf_counter() - start < 5.0
+        err = p.stderr.read()
+        assert err.startswith("warning: listening on 127.0.0.2") and "error" not in err
+    finally:
+        p.kill()
+
+
+def test_studio_verb_port_in_use_is_one_error_line():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        p = _studio("--port", str(port))
+        out, err = p.communicate(timeout=60)
+    assert p.returncode == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith(f"error: --port {port}:")
