@@ -16,6 +16,7 @@ state where its path passes a hit point is the incoming ball of
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -133,7 +134,11 @@ def fly(delivery: Delivery, duration: float = 2.0, dt: float = 5e-4, sample: int
 
 
 def aimed(
-    point: np.ndarray, bowler: np.ndarray = (0.0, 1.0), preset: str = "medium", floor: float = 0.0, restitution: float = PITCH_RESTITUTION
+    point: np.ndarray,
+    bowler: np.ndarray | Sequence[float] = (0.0, 1.0),
+    preset: str = "medium",
+    floor: float = 0.0,
+    restitution: float = PITCH_RESTITUTION,
 ) -> Delivery:
     """A delivery of ``preset``'s pace toward ``point`` (3,) from the ``bowler`` side (a horizontal
     direction (2,) from the point to the bowler): released ``distance`` m away at ``height`` m and
@@ -190,10 +195,16 @@ def aimed(
     for a0, a1, m0, m1 in zip(angles[:-1], angles[1:], values[:-1], values[1:]):
         if np.isfinite(m0) and np.isfinite(m1) and m0 * m1 <= 0:
             angle = brentq(miss, a0, a1, xtol=1e-9)
-            return Delivery(tuple(float(x) for x in release), tuple(float(x) for x in velocity(angle)), restitution=restitution, floor=floor)
-    values = np.array(values)
-    ok = values[np.isfinite(values)] + p[2]
+            v = velocity(angle)
+            return Delivery(_xyz(release), _xyz(v), restitution=restitution, floor=floor)
+    found = np.array(values)
+    ok = found[np.isfinite(found)] + p[2]
     span = f"{ok.min():.2f}–{ok.max():.2f} m" if ok.size else "nowhere"
     raise MjmotionError(
         f"no {preset} delivery ({c['speed']:g} m/s from {c['height']:g} m) reaches the hit point at {p[2]:.2f} m after pitching; it can reach {span}"
     )
+
+
+def _xyz(v: np.ndarray) -> tuple[float, float, float]:
+    """A (3,) array as a tuple of three floats."""
+    return float(v[0]), float(v[1]), float(v[2])

@@ -719,6 +719,7 @@ def _solve_shot(problem: HitProblem, smoothness: float, goals_all: np.ndarray) -
         lo2, hi2 = second.bounds(problem.source)
         lo, hi = np.hstack([lo, lo2[frames]]), np.hstack([hi, hi2[frames]])
         cones = np.hstack([cones, second.cones(problem.source)[frames]])
+        assert problem.second_relative is not None, "setup gives a second chain its grip placement"
         rel = problem.second_relative[frames]
         goals = np.hstack([goals, rel[:, :3, 3], rel[:, :3, :3].transpose(0, 2, 1).reshape(n, 9)])
     solver = ShotSolver(c, lead, second, frames, smoothness=smoothness)

@@ -182,15 +182,15 @@ def run(args: argparse.Namespace) -> int:
     k = path.k
 
     raw = variations.synthesise(space, path)
-    first = variations.first_hand_for(source) if args.first_hand == "auto" else args.first_hand
-    first = None if first == "none" else first
+    hand = variations.first_hand_for(source) if args.first_hand == "auto" else args.first_hand
+    hand = None if hand == "none" else hand
     if args.no_cleanup:
         result, cleanup = raw, None
     else:
-        result, cleanup = variations.clean_up(source, raw, path, first_hand=first, feet=args.feet)
+        result, cleanup = variations.clean_up(source, raw, path, first_hand=hand, feet=args.feet)
     bvh.write(result, out)
 
-    report = variations.report(source, raw, result, path, space, first_hand=first)
+    report = variations.report(source, raw, result, path, space, first_hand=hand)
     report["cleanup"] = (
         None
         if cleanup is None

@@ -31,6 +31,8 @@ from . import Table, single_thread_blas
 
 if TYPE_CHECKING:
     from ..executor import Executor
+    from ..mjcf import Prop
+    from ..physics import Predictability
 
 #: Grid spacings (metres) of the 3×3 target grids (issue 5; seed §2.5 tests "left-to-right and low-to-high").
 SPACINGS = (0.1, 0.2)
@@ -89,7 +91,7 @@ class Shot:
     name: str
     motion: Motion
     effector: str
-    prop: object | None
+    prop: Prop | None
     hit_frame: int
     ball: str
     first_hand: str | None
@@ -165,7 +167,7 @@ class GridResult:
             or ``None`` without a struck geom.
         delivered: the same for a delivered ball (cricket: :data:`DELIVERY` from the bowler's end,
             :mod:`mjmotion.delivery`), or ``None``.
-        delivery: the incoming ball ``(3,)`` m/s and where it pitched ``(3,)``, or ``None``.
+        delivery: the incoming ball ``(3,)`` m/s and where it pitched ``(3,)`` (``None``: no bounce), or ``None``.
         seconds: wall time of the task.
     """
 
@@ -176,17 +178,17 @@ class GridResult:
     reports: list[dict]
     first_last_equal: np.ndarray
     untouched_equal: np.ndarray
-    predictability: object | None
+    predictability: Predictability | None
     seconds: float
-    delivered: object | None = None
-    delivery: tuple[np.ndarray, np.ndarray] | None = None
+    delivered: Predictability | None = None
+    delivery: tuple[np.ndarray, np.ndarray | None] | None = None
 
 
 def grid_offsets(shot: Shot, spacings: Sequence[float]) -> np.ndarray:
     """``(N, 3)`` distinct target offsets: the centre, then the other points of each 3×3 grid."""
     from .. import hitpoint
 
-    base = hitpoint.setup(shot.motion, offset=np.zeros(3), frame=shot.hit_frame, effector=shot.effector, prop=shot.prop)  # type: ignore[arg-type]
+    base = hitpoint.setup(shot.motion, offset=np.zeros(3), frame=shot.hit_frame, effector=shot.effector, prop=shot.prop)
     rows = [np.zeros(3)]
     for s in spacings:
         # (a grid raised off the floor shares points with the next one: each target once)
@@ -200,7 +202,7 @@ def _struck_geom(compiled, shot: Shot, q_hit: np.ndarray, point: np.ndarray) -> 
 
     m = compiled.model
     if shot.prop is not None:
-        return int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, shot.prop.name))  # type: ignore[attr-defined]
+        return int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, shot.prop.name))
     d = mujoco.MjData(m)
     d.qpos[:] = q_hit
     mujoco.mj_kinematics(m, d)
@@ -221,7 +223,7 @@ def run_grid(shot: Shot, solver: str, wrist: str, spacings: Sequence[float], lau
     for off in offsets:
         a = hitpoint.adapt(
             m, offset=off, frame=shot.hit_frame, effector=shot.effector, solver=solver,
-            wrist=wrist if wrist != "–" else "locked", prop=shot.prop,  # type: ignore[arg-type]
+            wrist=wrist if wrist != "–" else "locked", prop=shot.prop,
         )  # fmt: skip
         p = a.problem
         reports.append(a.report)
@@ -296,10 +298,10 @@ def row(g: GridResult, locked_style: float | None) -> tuple:
         _mm(max(x["max_goal_error_m"] for x in r)), style, rel, _mm(max(x["grip_error_m"] for x in r)),
         1000.0 * float(np.mean([x["solve_s_per_frame"] for x in r])),
         f"{int(g.first_last_equal.sum())}/{len(r)}", f"{int(g.untouched_equal.sum())}/{len(r)}",
-        float(pred.rho_azimuth) if pred is not None else float("nan"),  # type: ignore[attr-defined]
-        float(pred.rho_elevation) if pred is not None else float("nan"),  # type: ignore[attr-defined]
-        float(dlv.rho_azimuth) if dlv is not None else float("nan"),  # type: ignore[attr-defined]
-        float(dlv.rho_elevation) if dlv is not None else float("nan"),  # type: ignore[attr-defined]
+        float(pred.rho_azimuth) if pred is not None else float("nan"),
+        float(pred.rho_elevation) if pred is not None else float("nan"),
+        float(dlv.rho_azimuth) if dlv is not None else float("nan"),
+        float(dlv.rho_elevation) if dlv is not None else float("nan"),
         max(x["joint_speed_ratio"] for x in r), _mm(max(x["short_by_m"] for x in r)),
     )  # fmt: skip
 
@@ -329,7 +331,7 @@ def _blend_png(shot: Shot, out: Path) -> Path:
     the ends, 1 at the hit, raised cosines between), with the effector's distance to the hit point."""
     from .. import hitpoint, plots
 
-    p = hitpoint.setup(shot.motion, offset=np.zeros(3), frame=shot.hit_frame, effector=shot.effector, prop=shot.prop, weights="clip")  # type: ignore[arg-type]
+    p = hitpoint.setup(shot.motion, offset=np.zeros(3), frame=shot.hit_frame, effector=shot.effector, prop=shot.prop, weights="clip")
     n, h = shot.motion.n_frames, p.hit
     t = np.arange(n)
     time_based = np.where(t <= h, 0.5 * (1 - np.cos(np.pi * t / max(h, 1))), 0.5 * (1 + np.cos(np.pi * (t - h) / max(n - 1 - h, 1))))
@@ -350,23 +352,23 @@ def _falloff_png(shot: Shot, solver: str, offset: np.ndarray, out: Path) -> Path
     the same, the path to it is not)."""
     from .. import hitpoint, kinematics, plots
 
+    if shot.prop is None:
+        raise ValueError(f"{shot.name}: Figure 2.7 draws a prop; this shot has none")
+    name = shot.prop.name
+    p = hitpoint.setup(shot.motion, offset=offset, frame=shot.hit_frame, effector=shot.effector, prop=shot.prop, weights="clip")
+    frames = [p.hit - 2, p.hit - 1, p.hit + 1]
     segs: dict[str, np.ndarray] = {}
-    p = None
     for falloff in (None, *FALLOFFS):
         if falloff is None:
-            p = hitpoint.setup(shot.motion, offset=offset, frame=shot.hit_frame, effector=shot.effector, prop=shot.prop, weights="clip")  # type: ignore[arg-type]
             motion, label = shot.motion, "source"
         else:
             a = hitpoint.adapt(
-                shot.motion, offset=offset, frame=shot.hit_frame, effector=shot.effector, solver=solver, prop=shot.prop,  # type: ignore[arg-type]
+                shot.motion, offset=offset, frame=shot.hit_frame, effector=shot.effector, solver=solver, prop=shot.prop,
                 falloff=falloff, style=False,
             )  # fmt: skip
             motion, label = a.motion, f"falloff {falloff:g} m"
-        pose = kinematics.forward(p.compiled, motion)  # type: ignore[union-attr]
-        name = shot.prop.name  # type: ignore[attr-defined]
-        frames = [p.hit - 2, p.hit - 1, p.hit + 1]  # type: ignore[union-attr]
+        pose = kinematics.forward(p.compiled, motion)
         segs[label] = np.stack([pose.site(f"{name}/grip")[frames], pose.site(f"{name}/tip")[frames]], axis=1)
-    assert p is not None
     v = p.effector_fk[p.hit + 1] - p.effector_fk[p.hit - 1]
     along = v - v[2] * np.array([0.0, 0.0, 1.0])
     view = np.stack([along / np.linalg.norm(along), np.array([0.0, 0.0, 1.0])])
@@ -387,7 +389,7 @@ def _style_paths_png(shot: Shot, solver: str, offset: np.ndarray, out: Path) -> 
     for wrist, label in (("locked", "locked wrist"), ("swing", "2-DOF wrist")):
         a = hitpoint.adapt(
             shot.motion, offset=offset, frame=shot.hit_frame, effector=shot.effector, solver=solver, wrist=wrist, prop=shot.prop, style=False
-        )  # type: ignore[arg-type]
+        )
         paths[label] = space.scores(a.motion, k)
     return plots.score_paths(
         paths, out, dims=2, highlight=shot.hit_frame,
@@ -510,19 +512,19 @@ def _tabulate(out_dir: Path, shots: list[Shot], done: list[GridResult], quick: b
             continue
         seen.add(key)
         pr = g.predictability
-        dirs = np.array([[ln.azimuth_deg, ln.elevation_deg] for ln in pr.launches])  # type: ignore[attr-defined]
+        dirs = np.array([[ln.azimuth_deg, ln.elevation_deg] for ln in pr.launches])
         wrist = {"locked": "locked wrist", "swing": "2-DOF wrist"}.get(g.wrist, "kick")
         f = plots.hitpoint_grid(
-            pr.hit_points, dirs, out_dir / f"launch_{g.shot}_{g.wrist if g.wrist != '–' else 'foot'}.png",  # type: ignore[attr-defined]
-            title=f"{g.shot} ({g.solver}, {wrist}): ρ az {pr.rho_azimuth:.2f}, ρ el {pr.rho_elevation:.2f}",  # type: ignore[attr-defined]
+            pr.hit_points, dirs, out_dir / f"launch_{g.shot}_{g.wrist if g.wrist != '–' else 'foot'}.png",
+            title=f"{g.shot} ({g.solver}, {wrist}): ρ az {pr.rho_azimuth:.2f}, ρ el {pr.rho_elevation:.2f}",
         )  # fmt: skip
         table.files.append(str(f))
         if g.delivered is not None:
             dv = g.delivered
-            dirs = np.array([[ln.azimuth_deg, ln.elevation_deg] for ln in dv.launches])  # type: ignore[attr-defined]
+            dirs = np.array([[ln.azimuth_deg, ln.elevation_deg] for ln in dv.launches])
             f = plots.hitpoint_grid(
-                dv.hit_points, dirs, out_dir / f"launch_{g.shot}_{g.wrist}_delivered.png",  # type: ignore[attr-defined]
-                title=f"{g.shot} ({g.solver}, {wrist}), a delivered ball: ρ az {dv.rho_azimuth:.2f}, ρ el {dv.rho_elevation:.2f}",  # type: ignore[attr-defined]
+                dv.hit_points, dirs, out_dir / f"launch_{g.shot}_{g.wrist}_delivered.png",
+                title=f"{g.shot} ({g.solver}, {wrist}), a delivered ball: ρ az {dv.rho_azimuth:.2f}, ρ el {dv.rho_elevation:.2f}",
             )  # fmt: skip
             table.files.append(str(f))
     # Figure 2.3: importance- against time-based blending, on the first shot of each kind
@@ -534,13 +536,13 @@ def _tabulate(out_dir: Path, shots: list[Shot], done: list[GridResult], quick: b
     for sh in kinds.values():
         if sh.two_handed:
             # Figure 2.7: two falloffs to the same hit point 10 cm higher
-            axes = hitpoint.swing_plane_axes(hitpoint.setup(sh.motion, offset=np.zeros(3), frame=sh.hit_frame, prop=sh.prop, weights="clip"))  # type: ignore[arg-type]
+            axes = hitpoint.swing_plane_axes(hitpoint.setup(sh.motion, offset=np.zeros(3), frame=sh.hit_frame, prop=sh.prop, weights="clip"))
             table.files.append(str(_falloff_png(sh, main_solver, 0.1 * axes[1], out_dir / f"falloff_{sh.name}.png")))
     # Figure 2.12: the source and the two wrist setups in the source's principal-component space
     first = shots[0]
     if first.two_handed:
         offs = grid_offsets(first, (0.1,))
-        axes = hitpoint.swing_plane_axes(hitpoint.setup(first.motion, offset=np.zeros(3), frame=first.hit_frame, prop=first.prop, weights="clip"))  # type: ignore[arg-type]
+        axes = hitpoint.swing_plane_axes(hitpoint.setup(first.motion, offset=np.zeros(3), frame=first.hit_frame, prop=first.prop, weights="clip"))
         # (−s across, +s up): "slightly higher and to the left" (seed Fig. 2.5)
         corner = offs[int(np.argmin(np.linalg.norm(offs - 0.1 * (axes[1] - axes[0]), axis=1)))]
         table.files.append(str(_style_paths_png(first, main_solver, corner, out_dir / f"style_paths_{first.name}.png")))

@@ -82,6 +82,7 @@ def solve(
     w0 = chain.weights
     kin.set_frame(qpos)
     six = goal_rotation is not None
+    goal_r = np.eye(3) if goal_rotation is None else np.asarray(goal_rotation, dtype=float)  # used only when six
     limit = np.array([j.max_angle for j in chain.joints]) if cones is None else np.asarray(cones, dtype=float)
     coned = [(i, sl) for i, (j, sl) in enumerate(zip(chain.joints, chain.slices)) if j.dof and np.isfinite(limit[i])]
 
@@ -89,7 +90,7 @@ def solve(
         kin.set_delta(d)
         if six:
             p, r = kin.tip_frame()
-            return np.concatenate([goal - p, ORIENTATION_SCALE * rotation_error(goal_rotation, r)])
+            return np.concatenate([goal - p, ORIENTATION_SCALE * rotation_error(goal_r, r)])
         return goal - kin.effector()
 
     e = error(delta)
@@ -133,7 +134,7 @@ def solve(
     kin.set_delta(delta)
     if six:
         p, r = kin.tip_frame()
-        return IKResult(delta, float(np.linalg.norm(goal - p)), float(np.linalg.norm(rotation_error(goal_rotation, r))), it)
+        return IKResult(delta, float(np.linalg.norm(goal - p)), float(np.linalg.norm(rotation_error(goal_r, r))), it)
     return IKResult(delta, float(np.linalg.norm(e)), 0.0, it)
 
 

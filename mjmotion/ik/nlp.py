@@ -29,7 +29,8 @@ from .dls import ORIENTATION_SCALE, IKResult, rotation_error
 
 #: Penalty weight of the goal when it cannot be met exactly (per m²).
 SOFT_WEIGHT = 1e6
-_IPOPT = {
+#: IPOPT's options (the value types casadi's ``nlpsol`` takes).
+_IPOPT: dict[str, bool | int | float | str | ca.Function] = {
     "ipopt.print_level": 0,
     "ipopt.sb": "yes",
     "print_time": False,
@@ -105,11 +106,11 @@ class SymbolicFK:
             traces.append(ca.trace(local))
             frames[cj.joint] = (px + pr @ t, pr @ local)
         outs = []
-        for c in chains:
-            x, r = frames[c.tip]
+        for ch in chains:
+            x, r = frames[ch.tip]
             outs += [x, ca.reshape(r, 9, 1)]
-            if c.effector is not None:
-                outs.append(x + r @ ca.DM(np.asarray(c.effector.offset, dtype=float)))
+            if ch.effector is not None:
+                outs.append(x + r @ ca.DM(np.asarray(ch.effector.offset, dtype=float)))
         self.delta, self.p = delta, p
         self.outputs = outs
         self.traces = traces
@@ -243,10 +244,12 @@ class FrameSolver:
         """
         p = self.fk.params(qpos_fk, xpos, xmat)
         g = np.asarray(goal, dtype=float)
+        goal_r = np.eye(3)  # used only when six
         if self.six:
             if goal_rotation is None:
                 raise MjmotionError("a 6-D solver needs goal_rotation")
-            g = np.concatenate([g, np.asarray(goal_rotation).ravel(order="F")])
+            goal_r = np.asarray(goal_rotation, dtype=float)
+            g = np.concatenate([g, goal_r.ravel(order="F")])
         pars = np.concatenate([p, g])
         x0 = np.zeros(self.chain.n_dof)
         limit = np.array([j.max_angle for j in self.chain.joints]) if cones is None else np.asarray(cones, dtype=float)
@@ -262,7 +265,7 @@ class FrameSolver:
         out = self.fk.function(delta, p)
         if self.six:
             x, r = np.asarray(out[0]).ravel(), np.asarray(out[1]).reshape(3, 3, order="F")
-            return IKResult(delta, float(np.linalg.norm(x - goal)), float(np.linalg.norm(rotation_error(goal_rotation, r))), int(stats["iter_count"]))
+            return IKResult(delta, float(np.linalg.norm(x - goal)), float(np.linalg.norm(rotation_error(goal_r, r))), int(stats["iter_count"]))
         e = np.asarray(out[-1]).ravel()
         return IKResult(delta, float(np.linalg.norm(e - goal)), 0.0, int(stats["iter_count"]))
 
@@ -296,12 +299,18 @@ def _time_hessian(frames: np.ndarray, inv_w: np.ndarray, smoothness: float) -> s
     """
     n = len(frames)
     pos = {int(f): i for i, f in enumerate(frames)}
-    rows, cols, vals = [], [], []
+    rows: list[int] = []
+    cols: list[int] = []
+    vals: list[float] = []
     for i, f in enumerate(frames):
-        rows.append(i), cols.append(i), vals.append(-2.0)
+        rows.append(i)
+        cols.append(i)
+        vals.append(-2.0)
         for nb in (int(f) - 1, int(f) + 1):
             if nb in pos:
-                rows.append(i), cols.append(pos[nb]), vals.append(1.0)
+                rows.append(i)
+                cols.append(pos[nb])
+                vals.append(1.0)
     d = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
     t = sp.identity(n) + smoothness * (d.T @ d)
     return (2.0 * sp.kron(t, sp.diags(inv_w))).tocsc()
