@@ -10,6 +10,7 @@ from ..errors import MjmotionError
 from ..outputs import write_text_atomic
 from ._common import add_input_options, clip_frame, load_first, output_path
 from ._options import COORD, FRAME, VELOCITY, number
+from ._progress import steps
 
 NAME = "hit"
 HELP = "move a swing's hit point (IK with importance-based blending, keeping the style)"
@@ -117,49 +118,58 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError("--ball-release and --release-velocity go together")
     if args.target is None and args.offset is None and args.ball_release is None and args.delivery is None:
         raise MjmotionError("give --target or --offset (or a delivered ball: --ball-release with --release-velocity, or --delivery)")
-    m, first = load_first(args.file, args)
-    frame = None if args.frame is None else clip_frame(args.frame, first, "--frame")
-    prop = hitpoint.fit_club(m, args.prop) if args.effector == "club" else None
-    source_ball = None if args.source_ball is None else np.array(args.source_ball)
-    target = None if args.target is None else np.array(args.target)
-    flight = None
-    if args.ball_release is not None or args.delivery is not None:
-        from .. import delivery
+    delivered = args.ball_release is not None or args.delivery is not None
+    names = ("read", "deliver", "solve", "launch", "write") if delivered else ("read", "solve", "write")
+    with steps("hit", names) as step:
+        step("read")
+        m, first = load_first(args.file, args)
+        frame = None if args.frame is None else clip_frame(args.frame, first, "--frame")
+        prop = hitpoint.fit_club(m, args.prop) if args.effector == "club" else None
+        source_ball = None if args.source_ball is None else np.array(args.source_ball)
+        target = None if args.target is None else np.array(args.target)
+        flight = None
+        if delivered:
+            from .. import delivery
 
-        base = hitpoint.setup(m, offset=np.zeros(3), frame=frame, effector=args.effector, weights="clip", prop=prop, source_ball=source_ball)
-        source_hit = base.effector_fk[base.hit]
-        if target is None and args.offset is not None:
-            target = source_hit + np.array(args.offset)
-        if args.delivery is not None:
-            ball = delivery.aimed(source_hit if target is None else target, bowler=np.array(args.bowler), preset=args.delivery)
-        else:
-            ball = delivery.Delivery(tuple(args.ball_release), tuple(args.release_velocity))
-        flight = delivery.fly(ball)
-        if target is None:
-            # Hicks 2010, §2.5.1: the new hit point is the point of the ball's path nearest the source's
-            target = flight.nearest(source_hit)[1]
-    result = hitpoint.adapt(
-        m,
-        target=target,
-        offset=None if (args.offset is None or target is not None) else np.array(args.offset),
-        prop=prop,
-        frame=frame,
-        effector=args.effector,
-        solver=args.solver,
-        falloff=falloff,
-        wrist=args.wrist,
-        lock=tuple(args.lock),
-        source_ball=source_ball,
-    )
-    if flight is not None:
-        result.report["delivery"] = _launch(result, ball, flight, args.delivery)
-    bvh.write(result.motion, out)
-    text = json.dumps(result.report, indent=2)
-    if report_path is not None:
-        write_text_atomic(report_path, text + "\n")
+            step("deliver")
+            base = hitpoint.setup(m, offset=np.zeros(3), frame=frame, effector=args.effector, weights="clip", prop=prop, source_ball=source_ball)
+            source_hit = base.effector_fk[base.hit]
+            if target is None and args.offset is not None:
+                target = source_hit + np.array(args.offset)
+            if args.delivery is not None:
+                ball = delivery.aimed(source_hit if target is None else target, bowler=np.array(args.bowler), preset=args.delivery)
+            else:
+                ball = delivery.Delivery(tuple(args.ball_release), tuple(args.release_velocity))
+            flight = delivery.fly(ball)
+            if target is None:
+                # Hicks 2010, §2.5.1: the new hit point is the point of the ball's path nearest the source's
+                target = flight.nearest(source_hit)[1]
+        step("solve")
+        result = hitpoint.adapt(
+            m,
+            target=target,
+            offset=None if (args.offset is None or target is not None) else np.array(args.offset),
+            prop=prop,
+            frame=frame,
+            effector=args.effector,
+            solver=args.solver,
+            falloff=falloff,
+            wrist=args.wrist,
+            lock=tuple(args.lock),
+            source_ball=source_ball,
+        )
+        if flight is not None:
+            step("launch")
+            result.report["delivery"] = _launch(result, ball, flight, args.delivery)
+        step("write")
+        bvh.write(result.motion, out)
+        text = json.dumps(result.report, indent=2)
+        if report_path is not None:
+            write_text_atomic(report_path, text + "\n")
     r = result.report
+    written = f"{out} and {report_path}" if report_path is not None else str(out)
     print(
-        f"wrote {out}: hit frame {r['hit_frame']} ({r['hit_rule']}; effector {r['source_effector_height_m']:.3f} m above the floor "
+        f"wrote {written}: hit frame {r['hit_frame']} ({r['hit_rule']}; effector {r['source_effector_height_m']:.3f} m above the floor "
         f"at {r['floor_m']:.3f} m), hit error {r['hit_error_m'] * 1000:.3f} mm, "
         f"grip error {r['grip_error_m'] * 1000:.3f} mm, style_rmse {r['style_rmse']}, solver {r['solver']}"
     )
