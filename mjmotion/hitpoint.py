@@ -32,7 +32,7 @@ from dataclasses import dataclass, field, replace
 import mujoco
 import numpy as np
 
-from . import kinematics, mjcf
+from . import kinematics, limits, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
 from .ik.chains import DEFAULT_MARGIN, Chain, Effector, _coords, build_chain, factor_rates, joint_role, rotation_angle
@@ -437,8 +437,9 @@ def setup(
     goals = e_fk + blend[:, None] * np.einsum("tab,b->ta", tip_frames[:, :3, :3], local)
     start = skel.index(chain_start) if chain_start else _chain_start(skel, eff.joint)
     chain_weights = "clip" if weights == "style" else weights
-    # (the lead wires ``limits.joint_limits(skel)`` in here as the default once mjmotion.limits lands)
-    max_angles = joint_limits
+    # the judge's joint ranges (the compiled model's) unless told otherwise: an adapted shot never
+    # turns a joint past what evaluate counts as a limit violation
+    max_angles = limits.joint_limits(skel) if joint_limits is None else np.asarray(joint_limits, dtype=float)
     lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=chain_weights, max_angles=max_angles)
     # One PCA of the source for both chains' weights (the second fits it itself if the lead has none).
     space = PoseSpace.fit(motion) if weights == "style" and lead.n_dof else None
@@ -773,9 +774,11 @@ def adapt(
         prop: the club to use (default: :func:`fit_club`).
         style: compute ``style_rmse`` (PCA of the source; METRICS.md "Style").
         source_ball: ``(3,)`` metres, where the ball was in the source (for the hit frame's detection).
-        joint_limits: ``(J,)`` radians, cone limits on every joint's local rotation angle (a
-            model's joint ranges, ``inf`` for none); the chains keep within them exactly, and a
-            frame whose source is already beyond a limit does not go further.
+        joint_limits: ``(J,)`` radians, cone limits on every joint's local rotation angle
+            (default: the judge's joint ranges, :func:`mjmotion.limits.joint_limits`, which the
+            compiled model declares and ``evaluate``'s ``limit_violation_ratio`` counts; ``inf``
+            for none); the chains keep within them exactly, and a frame whose source is already
+            beyond a limit does not go further.
 
     A target the chains cannot reach at the hit frame (within their limits, with the second hand
     on the grip and the effector no lower than the floor, or than the source where it is lower)
@@ -825,6 +828,7 @@ def _pace(problem: HitProblem, ik: TwoHandIK, d1: np.ndarray, d2: np.ndarray) ->
         return rotation_angle(rot.multiply(rot.conjugate(q[:-1]), q[1:])).max(axis=0) if len(q) > 1 else np.zeros(q.shape[1])
 
     bound = [JOINT_SPEED_BOUND * peaks(q) + 1e-12 for q in q_src]
+    cones = [c.cones(src) for c in chains]
     d1, d2 = d1.copy(), d2.copy()
     # every frame's own solution, at once
     solved = [lead.apply(q_src[0], d1)] + ([second.apply(q_src[1], d2)] if second is not None else [])
@@ -840,16 +844,22 @@ def _pace(problem: HitProblem, ik: TwoHandIK, d1: np.ndarray, d2: np.ndarray) ->
     def fast(prev: list[np.ndarray], now: list[np.ndarray]) -> bool:
         return any(np.any((rotation_angle(rot.multiply(rot.conjugate(p), n)) > b) & m) for p, n, b, m in zip(prev, now, bound, moving))
 
-    state: dict[str, object] = {}
+    # the walk's last accepted frame: both chains' δ and the chain joints' rotations
+    state: dict[str, np.ndarray] = {}
+    state_rot: list[list[np.ndarray]] = [[]]
     trial: dict[float, tuple[np.ndarray, np.ndarray]] = {}
 
     def candidate(t: int, lam: float) -> tuple[np.ndarray, np.ndarray] | None:
         if lam >= 1.0:
             return None
         if lam not in trial:
-            a = state["lead"] + lam * (d1[t] - state["lead"])  # type: ignore[operator]
+            a = state["lead"] + lam * (d1[t] - state["lead"])
+            # a step between two frames' solutions can leave this frame's cones (each frame's FK
+            # differs): back toward this frame's source pose until it is within them
+            a = lead.within_cones(q_src[0][t], a, cones[0][t])
             # from the previous frame's grip (to stay on its branch), else afresh from the source's
-            warm = ik.hold(t, a, dls_only=True, start=state["second"])  # type: ignore[arg-type]
+            prev = state["second"] if second is None else second.within_cones(q_src[1][t], state["second"], cones[1][t])
+            warm = ik.hold(t, a, dls_only=True, start=prev)
             if warm.grip_error > PACED_GRIP:
                 cold = ik.hold(t, a, dls_only=True)
                 warm = cold if cold.grip_error < warm.grip_error else warm
@@ -857,11 +867,11 @@ def _pace(problem: HitProblem, ik: TwoHandIK, d1: np.ndarray, d2: np.ndarray) ->
         return trial[lam]
 
     def step_ok(t: int, lam: float) -> bool:
-        return not fast(state["rot"], rotations(t, candidate(t, lam)))  # type: ignore[arg-type]
+        return not fast(state_rot[0], rotations(t, candidate(t, lam)))
 
     def accept(t: int, lam: float) -> None:
         ab = candidate(t, lam)
-        state["rot"] = rotations(t, ab)
+        state_rot[0] = rotations(t, ab)
         if ab is not None:
             d1[t], d2[t] = ab
         state["lead"], state["second"] = d1[t].copy(), d2[t].copy()
@@ -876,7 +886,7 @@ def _pace(problem: HitProblem, ik: TwoHandIK, d1: np.ndarray, d2: np.ndarray) ->
             solved[1][h] = second.apply(q_src[1][h : h + 1], d2[h][None])[0]
     n = 0
     for step in (1, -1):
-        state["lead"], state["second"], state["rot"] = d1[h].copy(), d2[h].copy(), rotations(h, None)
+        state["lead"], state["second"], state_rot[0] = d1[h].copy(), d2[h].copy(), rotations(h, None)
         ends = np.arange(h + step, src.n_frames) if step > 0 else np.arange(h - 1, -1, -1)
         n += paced_walk(ends, step_ok, accept)
     return d1, d2, n

@@ -159,6 +159,19 @@ class Chain:
             out[..., i, : j.dof] = delta[..., s]
         return out
 
+    def within_cones(self, fk_rotations: np.ndarray, delta: np.ndarray, cones: np.ndarray) -> np.ndarray:
+        """One frame's ``delta (n_dof,)`` with each coned joint's part shortened toward 0 (the
+        frame's FK pose, ``fk_rotations (Jc, 4)``, itself within ``cones (Jc,)`` radians as
+        :meth:`cones` gives them) until the joint's rotation is within its cone."""
+        start = self.angles(np.asarray(fk_rotations, dtype=float)[None])[0]
+        step = self.padded(delta)
+        axes = self.factor_axes()
+        out = np.array(delta, dtype=float)
+        for i, (j, sl) in enumerate(zip(self.joints, self.slices)):
+            if j.dof and np.isfinite(cones[i]) and np.any(step[i] != 0.0):
+                out[sl] *= cone_step(j.q_ref, axes[i], start[i], step[i], float(cones[i]))
+        return out
+
     def angles(self, local_rotations: np.ndarray) -> np.ndarray:
         """All three limit angles ``(T, Jc, 3)`` of chain-joint rotations ``(T, Jc, 4)`` (0 for locked joints)."""
         out = np.zeros((local_rotations.shape[0], len(self.joints), 3))
@@ -328,7 +341,8 @@ def chain_joint(
     """The :class:`ChainJoint` for joint ``j`` of ``motion`` with ``freedom`` and limits from the clip.
 
     ``axis``: for a hinge, the hinge axis (default: the clip's principal rotation axis of the joint).
-    ``max_angle``: the cone limit on the joint's local rotation angle (radians).
+    ``max_angle``: the cone limit on the joint's local rotation angle (radians); ``inf`` where the
+    clip's box (its range ± ``margin``) cannot reach it.
     """
     if freedom not in FREEDOMS:
         raise MjmotionError(f"freedom must be one of {', '.join(FREEDOMS)}, got {freedom!r}")
@@ -356,6 +370,13 @@ def chain_joint(
     lower = c.min(axis=0) - margin if dof else np.zeros(0)
     upper = c.max(axis=0) + margin if dof else np.zeros(0)
     sd = np.maximum(c.std(axis=0), WEIGHT_FLOOR) if dof else np.zeros(0)
+    if np.isfinite(max_angle) and dof:
+        # The rotation angle is a metric on rotations, so within the box q_ref ⊗ P(c) turns at most
+        # angle(q_ref) + Σ|c_k| from rest: a cone that bound keeps inside cannot bind (and costs the
+        # solvers a constraint for nothing).
+        reach = float(rotation_angle(q_ref)) + float(np.sum(np.maximum(np.abs(lower), np.abs(upper))))
+        if reach <= max_angle:
+            max_angle = np.inf
     return ChainJoint(j, freedom, basis, dof, q_ref, lower, upper, sd**2, float(max_angle))
 
 
