@@ -60,6 +60,9 @@ FRACTION_RATE = 10.0
 #: the importance blend would make one, its deviation ramps in and out at that pace instead
 #: (:func:`mjmotion.ik.reach.rate_limit`; the hit frame stays exact).
 JOINT_SPEED_BOUND = 2.0
+#: Radians the default cone limits (the judge's joint ranges) are kept inside by: BVH's six-decimal
+#: Euler angles move a rotation by up to ~3e-8 rad, which would read a joint on its range as beyond it.
+CONE_CLEARANCE = 1e-6
 #: A paced frame keeps the second hand on the branch of the frame before within this grip error (m).
 PACED_GRIP = 2e-3
 #: Butt of the club above the lead hand's palm along the shaft (metres).
@@ -439,7 +442,8 @@ def setup(
     chain_weights = "clip" if weights == "style" else weights
     # the judge's joint ranges (the compiled model's) unless told otherwise: an adapted shot never
     # turns a joint past what evaluate counts as a limit violation
-    max_angles = limits.joint_limits(skel) if joint_limits is None else np.asarray(joint_limits, dtype=float)
+    # (just inside them, so a written BVH, its angles to six decimals, reads within them too)
+    max_angles = limits.joint_limits(skel) - CONE_CLEARANCE if joint_limits is None else np.asarray(joint_limits, dtype=float)
     lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=chain_weights, max_angles=max_angles)
     # One PCA of the source for both chains' weights (the second fits it itself if the lead has none).
     space = PoseSpace.fit(motion) if weights == "style" and lead.n_dof else None

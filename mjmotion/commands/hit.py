@@ -26,6 +26,8 @@ A delivered ball (Hicks 2010, §2.3.2: released, pitching on the floor in MuJoCo
 its path passes nearest the source's hit point, §2.5.1, unless --target/--offset say
 otherwise) or as --delivery PACE aimed at the target from the bowler's end (--bowler); the report
 adds how it arrives and the launch of the ball struck by the adapted shot.
+Every chain joint keeps within the clip's own range (plus a margin) and within the joint range
+the judge counts (mjmotion.limits, the compiled model's ranges: evaluate's limit_violation_ratio).
 An unreachable target is solved best-effort: the clip and report are written (with
 "reachable": false), one error line says so, and the exit status is 2.
 The report's hit_error_m is the effector's distance to the target point at the hit frame
