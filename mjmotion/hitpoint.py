@@ -440,10 +440,7 @@ def setup(
     goals = e_fk + blend[:, None] * np.einsum("tab,b->ta", tip_frames[:, :3, :3], local)
     start = skel.index(chain_start) if chain_start else _chain_start(skel, eff.joint)
     chain_weights = "clip" if weights == "style" else weights
-    # the judge's joint ranges (the compiled model's) unless told otherwise: an adapted shot never
-    # turns a joint past what evaluate counts as a limit violation
-    # (just inside them, so a written BVH, its angles to six decimals, reads within them too)
-    max_angles = limits.joint_limits(skel) - CONE_CLEARANCE if joint_limits is None else np.asarray(joint_limits, dtype=float)
+    max_angles = judge_cones(motion) if joint_limits is None else np.asarray(joint_limits, dtype=float)
     lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=chain_weights, max_angles=max_angles)
     # One PCA of the source for both chains' weights (the second fits it itself if the lead has none).
     space = PoseSpace.fit(motion) if weights == "style" and lead.n_dof else None
@@ -779,9 +776,8 @@ def adapt(
         style: compute ``style_rmse`` (PCA of the source; METRICS.md "Style").
         source_ball: ``(3,)`` metres, where the ball was in the source (for the hit frame's detection).
         joint_limits: ``(J,)`` radians, cone limits on every joint's local rotation angle
-            (default: the judge's joint ranges, :func:`mjmotion.limits.joint_limits`, which the
-            compiled model declares and ``evaluate``'s ``limit_violation_ratio`` counts; ``inf``
-            for none); the chains keep within them exactly, and a frame whose source is already
+            (default: :func:`judge_cones`, the judge's joint ranges, or the source's own largest
+            angle for a joint it already takes beyond its range; ``inf`` for none); the chains keep within them exactly, and a frame whose source is already
             beyond a limit does not go further.
 
     A target the chains cannot reach at the hit frame (within their limits, with the second hand
@@ -815,6 +811,17 @@ def adapt(
     out = motion.replace(rotations=_rotations(problem, d1, d2 if problem.second is not None else None), name=name)
     elapsed = time.perf_counter() - start
     return _report(problem, out, solver, elapsed, n, style, fraction, paced)
+
+
+def judge_cones(motion: Motion) -> np.ndarray:
+    """The default cone limits ``(J,)`` radians: the judge's joint ranges (:func:`mjmotion.limits.joint_limits`,
+    which the compiled model declares and ``evaluate``'s ``limit_violation_ratio`` counts), kept
+    :data:`CONE_CLEARANCE` inside so a written BVH reads within them; where the source itself turns
+    a joint beyond its range somewhere (a rig's bind rotation, like the bundled humanoid's hands at
+    150°), that range is not this rig's and the joint keeps within the source's own largest angle."""
+    judge = limits.joint_limits(motion.skeleton) - CONE_CLEARANCE
+    own = rotation_angle(motion.rotations).max(axis=0)
+    return np.where(own > judge, own, judge)
 
 
 def _pace(problem: HitProblem, ik: TwoHandIK, d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
