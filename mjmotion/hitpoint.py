@@ -4,8 +4,9 @@ The pipeline, one pure function :func:`adapt` over a source :class:`Motion`:
 
 1. **Effector** (§2.1.1): a point fixed to a joint — a club's sweet spot (the club fitted to both
    hands by :func:`fit_club`), a point on a foot, a fist, or any named site of the compiled model.
-2. **Hit frame**: given, or the frame of peak effector speed in the downswing
-   (:func:`detect_hit_frame`); the source hit point is the effector there.
+2. **Hit frame**, the moment of contact: given, or the downswing frame where the effector reaches
+   the source's ball (given), or, for a ball on the ground or a tee, the effector's lowest pass in
+   the downswing (:func:`detect_hit_frame`); the source hit point is the effector there.
 3. **Offset in effector space** (§2.2.4) and **importance blend** (§2.2.5): the goal at frame ``t``
    is the FK effector plus ``blend(t)`` times the offset carried by the effector's frame, with
    ``blend = clamp(1 − d/falloff, 0, 1)``, ``d`` the FK distance from the effector to the FK hit
@@ -27,16 +28,17 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
 
-from . import kinematics, mjcf
+from . import kinematics, limits, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
-from .ik import ccd, dls
-from .ik.chains import DEFAULT_MARGIN, Chain, ChainKinematics, Effector, build_chain
+from .ik.chains import DEFAULT_MARGIN, Chain, Effector, _coords, build_chain, factor_rates, joint_role, rotation_angle
+from .ik.reach import envelope, nearest_reachable, paced_walk
+from .ik.twohand import FrameSolution, TwoHandIK
 from .skeleton import Motion, Skeleton
 from .style import PoseSpace
 
@@ -48,10 +50,26 @@ DEFAULT_FALLOFF = 0.6
 DEFAULT_EDGE = 0.5
 #: A goal counts as reached within this distance (metres).
 REACH_TOLERANCE = 1e-3
-#: Second-hand error (metres) above which a per-frame NLP result is retried with DLS.
-GRIP_TOLERANCE = 1e-5
+#: How far (metres) below the floor (or below the source) the effector's lowest point may dip.
+CLEARANCE_SLACK = 1e-3
+#: A target stopped short stops this fraction of the way further back than the edge of the reach.
+SHORT_ROOM = 0.1
+#: Fastest change per second of the fraction of a frame's goal offset kept where a best effort
+#: shortens goals (10: from none to all of it over 0.1 s).
+FRACTION_RATE = 10.0
+#: No lead-chain joint turns faster than this many times its own peak speed in the source: where
+#: the importance blend would make one, its deviation ramps in and out at that pace instead
+#: (:func:`mjmotion.ik.reach.rate_limit`; the hit frame stays exact).
+JOINT_SPEED_BOUND = 2.0
+#: Radians the default cone limits (the judge's joint ranges) are kept inside by: BVH's six-decimal
+#: Euler angles move a rotation by up to ~3e-8 rad, which would read a joint on its range as beyond it.
+CONE_CLEARANCE = 1e-6
+#: A paced frame keeps the second hand on the branch of the frame before within this grip error (m).
+PACED_GRIP = 2e-3
 #: Butt of the club above the lead hand's palm along the shaft (metres).
 BUTT_EXTENSION = 0.03
+#: Frames faster than this fraction of the downswing's peak effector speed are the swing through the ball.
+FAST = 0.5
 #: A hand whose local rotation changes more than this in one frame (radians) is a data glitch.
 MAX_HAND_JUMP = np.deg2rad(90.0)
 
@@ -97,13 +115,14 @@ def floor_height(motion: Motion, pose: kinematics.Pose | None = None) -> float:
 def fit_club(motion: Motion, kind: str = "club") -> mjcf.Prop:
     """A club fitted to a two-handed swing: handle through both hands at address, standard length.
 
-    The lead hand is the upper one at address (the left for a right-handed golfer), unless its
-    rotation jumps by more than ``MAX_HAND_JUMP`` in one frame and the other's does not. At each
-    address frame (the clip's first still frames) the shaft passes through the lead palm with its
-    butt ``BUTT_EXTENSION`` above it, heads toward the trail palm in plan view, and is inclined so
+    The club is held by the upper hand at address (the left for a right-handed golfer), unless its
+    rotation jumps by more than ``MAX_HAND_JUMP`` in one frame and the other's does not (then by
+    the lower hand). At each address frame (the clip's first still frames) the shaft passes through
+    the upper palm with its butt ``BUTT_EXTENSION`` above it, heads toward the lower palm in plan
+    view, and is inclined so
     the head at the standard length (``mjcf.PROP_PRESETS``) rests on the floor
     (:func:`floor_height`): the hands are only 5–10 cm apart, too close to fix the inclination
-    alone. The club is attached to the lead hand's joint with the transform averaged over the
+    alone. The club is attached to the holding hand's joint with the transform averaged over the
     address frames and kept fixed for the clip.
     """
     skel = motion.skeleton
@@ -118,15 +137,17 @@ def fit_club(motion: Motion, kind: str = "club") -> mjcf.Prop:
     rots = rot.to_matrix(pose.joint_rotations)
     palms = {s: pose.joint_positions[:, j] + np.einsum("tab,b->ta", rots[:, j], _palm(skel, j)) for s, j in hands.items()}
     n = max(address_frames(palms["left"]), 1)
-    lead, trail = ("left", "right") if palms["left"][:n, 2].mean() >= palms["right"][:n, 2].mean() else ("right", "left")
+    upper, lower = ("left", "right") if palms["left"][:n, 2].mean() >= palms["right"][:n, 2].mean() else ("right", "left")
+    lead = upper
     jumps = {s: float(np.max(rot.angle_between(motion.rotations[:-1, j], motion.rotations[1:, j]), initial=0.0)) for s, j in hands.items()}
-    if jumps[lead] > MAX_HAND_JUMP and jumps[trail] <= MAX_HAND_JUMP:
-        # A flipped hand in the data (64_03's lhand turns 179° at frame 101) would throw the club.
-        lead, trail = trail, lead
+    if jumps[upper] > MAX_HAND_JUMP and jumps[lower] <= MAX_HAND_JUMP:
+        # A flipped hand in the data (64_03's lhand turns 179° at frame 101) would throw the club:
+        # the club is held by the other hand, its shaft still runs from above the upper hand down past the lower.
+        lead = lower
     j = hands[lead]
     floor = floor_height(motion, pose)
-    p1 = palms[lead][:n]
-    plan = palms[trail][:n, :2] - p1[:, :2]
+    p1 = palms[upper][:n]
+    plan = palms[lower][:n, :2] - p1[:, :2]
     plan /= np.maximum(np.linalg.norm(plan, axis=1, keepdims=True), 1e-9)
     dz = np.clip((floor - p1[:, 2]) / (preset["length"] - BUTT_EXTENSION), -1.0, 1.0)
     shaft = np.column_stack([plan * np.sqrt(1.0 - dz**2)[:, None], dz])
@@ -206,8 +227,11 @@ def style_weights(motion: Motion, chain: Chain, variance: float = 0.7, floor: fl
         kept = space.kept[cols]
         rows = lk[row[cols[kept]]]  # (n_kept, k)
         q = rot.make_continuous(motion.rotations[:, cj.joint])
+        if cj.dof:
+            # coordinate i turns the joint about its factor axis at the frame's own angles (ik.chains)
+            rates = factor_rates(np.broadcast_to(cj.basis.T, (len(q), 3, 3)), _coords(cj.basis, cj.q_ref, q))
         for i in range(cj.dof):
-            dq = rot.multiply(q, np.concatenate([[0.0], 0.5 * cj.basis[:, i]]))[:, kept]
+            dq = rot.multiply(q, np.concatenate([np.zeros((len(q), 1)), 0.5 * rates[:, i]], axis=1))[:, kept]
             z = (dq / space.deviations[cols[kept]]) @ rows
             stiff.append(float(np.mean(np.sum(z**2, axis=1))))
             still.append(not kept.any())
@@ -220,16 +244,15 @@ def style_weights(motion: Motion, chain: Chain, variance: float = 0.7, floor: fl
 
 
 # --- hit frame and blend -----------------------------------------------------------------------
-def detect_hit_frame(effector: np.ndarray, fps: float) -> int:
-    """Frame of peak effector speed in the downswing, ``effector: (T, 3)`` metres.
+def _downswing(effector: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(window, speed)``: the frames of the swing through the ball, ``effector: (T, 3)`` metres.
 
-    The downswing is where the effector is in the lower half of its height range and not rising
-    steeply (vertical speed at most a quarter of the speed): a club driven by the lead hand keeps
-    accelerating as it rises into the follow-through, after the ball has gone. Speeds are central
-    differences smoothed over ~25 ms.
+    The anchor is the frame of peak effector speed where the effector is in the lower half of its
+    height range and not rising steeply (vertical speed at most a quarter of the speed): a club
+    driven by the lead hand keeps accelerating as it rises into the follow-through, after the ball
+    has gone. The window is the run of frames around it faster than ``FAST`` × the anchor's speed.
+    Speeds are central differences smoothed over ~25 ms.
     """
-    if len(effector) < 3:
-        return 0
     vel = np.gradient(effector, axis=0) * fps
     width = max(1, min(round(0.025 * fps), (len(effector) - 1) // 2))  # no longer than the clip (np.convolve 'same')
     kernel = np.ones(2 * width + 1) / (2 * width + 1)
@@ -240,7 +263,33 @@ def detect_hit_frame(effector: np.ndarray, fps: float) -> int:
     down[[0, -1]] = False
     if not down.any():
         down[1:-1] = True
-    return int(np.argmax(np.where(down, speed, -1.0)))
+    anchor = int(np.argmax(np.where(down, speed, -1.0)))
+    fast = speed >= FAST * speed[anchor]
+    a = anchor
+    while a > 1 and fast[a - 1]:
+        a -= 1
+    b = anchor
+    while b < len(z) - 2 and fast[b + 1]:
+        b += 1
+    return np.arange(a, b + 1), speed
+
+
+def detect_hit_frame(effector: np.ndarray, fps: float, ball: np.ndarray | None = None) -> int:
+    """The moment of contact, ``effector: (T, 3)`` metres: the frame of the downswing where the
+    effector reaches the ball.
+
+    ``ball`` ``(3,)``: the source's ball position (metres); the hit is the downswing frame nearest
+    to it. Without it the ball is on the ground or a tee, and the hit is the effector's lowest pass
+    in the downswing (``_downswing``: the fast frames around the swing's peak speed, so the address,
+    where a club rests just as low, is not taken for the impact).
+    """
+    if len(effector) < 3:
+        return 0
+    window, _ = _downswing(effector, fps)
+    if ball is not None:
+        d = np.linalg.norm(effector[window] - np.asarray(ball, dtype=float), axis=1)
+        return int(window[int(np.argmin(d))])
+    return int(window[int(np.argmin(effector[window, 2]))])
 
 
 def blend_weights(effector: np.ndarray, hit: int, falloff: float, fps: float, edge: float = DEFAULT_EDGE) -> np.ndarray:
@@ -254,12 +303,17 @@ def blend_weights(effector: np.ndarray, hit: int, falloff: float, fps: float, ed
         raise MjmotionError(f"--falloff must be a positive distance in metres, got {falloff}")
     d = np.linalg.norm(effector - effector[hit], axis=1)
     b = np.clip(1.0 - d / falloff, 0.0, 1.0)
-    t = len(effector)
+    return b * end_taper(len(effector), hit, fps, edge)
+
+
+def end_taper(n_frames: int, hit: int, fps: float, edge: float = DEFAULT_EDGE) -> np.ndarray:
+    """``(T,)`` raised-cosine taper from 0 at the first and last frames to 1 after ``edge`` seconds
+    (each side shortened to end at the hit frame when the hit is closer to that end)."""
     n = max(1, round(edge * fps))
-    n_start, n_end = max(1, min(n, hit)), max(1, min(n, t - 1 - hit))
-    i = np.arange(t)
-    ramp = np.minimum(np.minimum(i / n_start, (t - 1 - i) / n_end), 1.0)
-    return b * 0.5 * (1.0 - np.cos(np.pi * ramp))
+    n_start, n_end = max(1, min(n, hit)), max(1, min(n, n_frames - 1 - hit))
+    i = np.arange(n_frames)
+    ramp = np.minimum(np.minimum(i / n_start, (n_frames - 1 - i) / n_end), 1.0)
+    return 0.5 * (1.0 - np.cos(np.pi * ramp))
 
 
 # --- the problem -------------------------------------------------------------------------------
@@ -277,6 +331,14 @@ class HitProblem:
         second_relative: ``(T, 4, 4)`` source pose of the second hand in the lead chain tip's frame.
         falloff: metres; ``prop``: the club (``None`` for other effectors).
         space: ``PoseSpace.fit(source)`` when the style weights needed it (reused for ``style_rmse``).
+        hit_rule: how the hit frame was found: ``given``, ``nearest the ball`` or ``lowest pass``.
+        floor: metres, the floor the subject stands on (:func:`floor_height`; not always z = 0).
+        points, radius: ``(P, 3)`` points in the effector joint's frame (a club: both ends of its
+            shaft) and a radius, whose lowest height is kept off the floor (:attr:`clearance`).
+        clearance: ``(T,)`` metres, the lowest the effector may go per frame: the floor, or the
+            source's own lowest point where it is already below the floor.
+        requested: ``(3,)`` the target asked for, when :attr:`target` had to stop short of it.
+        source_lowest: ``(T,)`` metres, the height of the effector's lowest point in the source.
         tip_rotations: ``(T, 3, 3)`` world rotation of the effector's joint in the source (the
             frame the offset is carried in; :func:`aim` uses it).
     """
@@ -296,6 +358,13 @@ class HitProblem:
     falloff: float
     prop: mjcf.Prop | None = None
     space: PoseSpace | None = None
+    hit_rule: str = "given"
+    floor: float = 0.0
+    points: np.ndarray = field(default_factory=lambda: np.zeros((1, 3)))
+    radius: float = 0.0
+    clearance: np.ndarray | None = None
+    requested: np.ndarray | None = None
+    source_lowest: np.ndarray | None = None
     tip_rotations: np.ndarray | None = None
 
 
@@ -342,6 +411,8 @@ def setup(
     edge: float = DEFAULT_EDGE,
     chain_start: str | None = None,
     prop: mjcf.Prop | None = None,
+    source_ball: np.ndarray | None = None,
+    joint_limits: np.ndarray | None = None,
 ) -> HitProblem:
     """Build the :class:`HitProblem` (see :func:`adapt` for the arguments)."""
     if (target is None) == (offset is None):
@@ -353,7 +424,15 @@ def setup(
     pose = kinematics.forward(compiled, qpos)
     tip_frames = _frames(pose, eff.joint)
     e_fk = np.einsum("tab,b->ta", tip_frames[:, :3, :3], np.asarray(eff.offset)) + tip_frames[:, :3, 3]
-    hit = detect_hit_frame(e_fk, motion.fps) if frame is None else int(frame)
+    if source_ball is not None:
+        source_ball = np.asarray(source_ball, dtype=float)
+        if source_ball.shape != (3,) or not np.all(np.isfinite(source_ball)):
+            raise MjmotionError(f"the source's ball must be three finite numbers (metres), got {source_ball}")
+    if frame is not None:
+        hit, rule = int(frame), "given"
+    else:
+        hit = detect_hit_frame(e_fk, motion.fps, source_ball)
+        rule = "lowest pass" if source_ball is None else "nearest the ball"
     if not 0 <= hit < motion.n_frames:
         raise MjmotionError(f"--frame {frame}: the clip has frames 0..{motion.n_frames - 1}")
     tgt = _check_target(np.asarray(target, dtype=float) if target is not None else e_fk[hit] + np.asarray(offset, dtype=float))
@@ -362,7 +441,8 @@ def setup(
     goals = _goals(e_fk, tip_rot, blend, hit, tgt)
     start = skel.index(chain_start) if chain_start else _chain_start(skel, eff.joint)
     chain_weights = "clip" if weights == "style" else weights
-    lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=chain_weights)
+    max_angles = judge_cones(motion) if joint_limits is None else np.asarray(joint_limits, dtype=float)
+    lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=chain_weights, max_angles=max_angles)
     # One PCA of the source for both chains' weights (the second fits it itself if the lead has none).
     space = PoseSpace.fit(motion) if weights == "style" and lead.n_dof else None
     if space is not None:
@@ -376,12 +456,28 @@ def setup(
             h2 = other[0]
             anc = _lca(skel, eff.joint, h2)
             s2 = skel.chain(anc, h2)[1]
-            # The second arm only follows the first hand; its limits get twice the margin.
-            second = build_chain(motion, s2, h2, None, wrist="swing", margin=2 * margin, weights=chain_weights)
+            # The second arm only follows the first hand; its limits get twice the margin. Its wrist
+            # swings (§2.1.2); it twists too where the arm has no forearm roll bone to do it.
+            roll = any(joint_role(skel, j) == "twist" for j in skel.chain(s2, h2))
+            second = build_chain(
+                motion, s2, h2, None, wrist="swing" if roll else "ball", margin=2 * margin, weights=chain_weights, max_angles=max_angles
+            )
             if weights == "style" and second.n_dof:
                 second = second.with_weights(style_weights(motion, second, space=space))
             rel = np.linalg.inv(tip_frames) @ _frames(pose, h2)
-    return HitProblem(motion, compiled, eff, lead, second, qpos, e_fk, hit, tgt, blend, goals, rel, falloff, prop, space, tip_rot)
+    floor = floor_height(motion, pose)
+    if prop is not None:
+        # the club's shaft, grip to head, and its radius
+        axis = rot.rotate(np.asarray(prop.quat), np.array([0.0, 0.0, 1.0]))
+        points, radius = np.array([prop.pos, np.asarray(prop.pos) + prop.length * axis]), float(prop.radius)
+    else:
+        points, radius = np.asarray(eff.offset, dtype=float)[None], 0.0
+    lowest = np.min(tip_frames[:, 2, 3][:, None] + tip_frames[:, 2, :3] @ points.T, axis=1)
+    clearance = np.minimum(floor, lowest - radius) - CLEARANCE_SLACK
+    return HitProblem(
+        motion, compiled, eff, lead, second, qpos, e_fk, hit, tgt, blend, goals, rel, falloff, prop, space, rule, floor, points, radius, clearance,
+        source_lowest=lowest - radius, tip_rotations=tip_rot,
+    )  # fmt: skip
 
 
 def _check_target(tgt: np.ndarray) -> np.ndarray:
@@ -399,11 +495,12 @@ def _goals(e_fk: np.ndarray, tip_rot: np.ndarray, blend: np.ndarray, hit: int, t
 def aim(problem: HitProblem, target: np.ndarray) -> HitProblem:
     """``problem`` with a new ``target (3,)``: exactly what :func:`setup` builds for it, without
     redoing the work that does not depend on the target (model, FK, chains, the PCA of the style
-    weights). An interactive drag sets up once and aims many times."""
+    weights, the floor clearance). An interactive drag sets up once and aims many times."""
     if problem.tip_rotations is None:
         raise MjmotionError("this HitProblem has no tip rotations; build it with hitpoint.setup")
     tgt = _check_target(np.asarray(target, dtype=float))
-    return replace(problem, target=tgt, goals=_goals(problem.effector_fk, problem.tip_rotations, problem.blend, problem.hit, tgt))
+    goals = _goals(problem.effector_fk, problem.tip_rotations, problem.blend, problem.hit, tgt)
+    return replace(problem, target=tgt, goals=goals, requested=None)
 
 
 # --- target grids (experiments) ---------------------------------------------------------------
@@ -423,10 +520,18 @@ def swing_plane_axes(problem: HitProblem) -> np.ndarray:
 
 
 def target_grid(problem: HitProblem, spacing: float) -> np.ndarray:
-    """``(9, 3)`` offsets of a 3×3 grid ``{−s, 0, s}²`` in the plane across the swing (metres)."""
+    """``(9, 3)`` offsets of a 3×3 grid in the plane across the swing (metres): ``{−s, 0, s}`` across
+    and ``{−s, 0, s}`` up, or ``{0, s, 2s}`` up when a row ``s`` lower would put the effector's
+    lowest point (a club's head, a bat's toe) under the floor (:attr:`HitProblem.clearance`): a ball
+    on the ground or a tee can only be met higher."""
     axes = swing_plane_axes(problem)
     steps = (-spacing, 0.0, spacing)
-    return np.array([a * axes[0] + b * axes[1] for a in steps for b in steps])
+    h = problem.hit
+    grounded = (
+        problem.clearance is not None and problem.source_lowest is not None and problem.source_lowest[h] - spacing * axes[1, 2] < problem.clearance[h]
+    )
+    ups = (0.0, spacing, 2 * spacing) if grounded else steps
+    return np.array([a * axes[0] + b * axes[1] for a in steps for b in ups])
 
 
 def grid_reports(
@@ -457,7 +562,7 @@ def grid_reports(
     return out
 
 
-_SETUP_KEYS = ("frame", "effector", "falloff", "wrist", "lock", "margin", "weights", "edge", "chain_start")
+_SETUP_KEYS = ("frame", "effector", "falloff", "wrist", "lock", "margin", "weights", "edge", "chain_start", "source_ball")
 
 
 # --- solving -----------------------------------------------------------------------------------
@@ -516,6 +621,71 @@ def _rotations(problem: HitProblem, lead_delta: np.ndarray, second_delta: np.nda
     return q
 
 
+def frame_ik(problem: HitProblem, solver: str) -> TwoHandIK:
+    """The per-frame IK of ``problem``'s chains with ``solver`` (``nlp``, ``dls`` or ``ccd``)."""
+    src, lead, second = problem.source, problem.lead, problem.second
+    return TwoHandIK(
+        problem.compiled,
+        lead,
+        second,
+        problem.qpos,
+        lead.bounds(src),
+        second.bounds(src) if second is not None else None,
+        lead.cones(src),
+        second.cones(src) if second is not None else None,
+        problem.second_relative,
+        solver,
+        problem.points,
+        problem.radius,
+    )
+
+
+def _margin(problem: HitProblem, t: int, sol: FrameSolution) -> float:
+    """Room (metres) a frame's solution has: negative unless the goal is reached, the grip kept and
+    the effector no lower than allowed (``HitProblem.clearance``)."""
+    clear = problem.clearance[t] if problem.clearance is not None else -np.inf
+    return float(min(REACH_TOLERANCE - sol.error, REACH_TOLERANCE - sol.grip_error, sol.lowest - clear))
+
+
+def _fraction(problem: HitProblem, ik: TwoHandIK, t: int, goal: np.ndarray, oracle: TwoHandIK | None = None) -> float:
+    """The largest fraction of frame ``t``'s offset toward ``goal`` the chains reach (:func:`mjmotion.ik.reach.nearest_reachable`).
+
+    ``oracle``: a faster IK (DLS) that finds the fraction first; ``ik`` then checks it and, if it
+    cannot reach that far, searches below it.
+    """
+    e = problem.effector_fk[t]
+    off = goal - e
+    length = float(np.linalg.norm(off))
+    # the source's own pose has at least this much room (its goal met, its grip, its own height)
+    start = min(REACH_TOLERANCE, CLEARANCE_SLACK)
+    top = 1.0
+    if oracle is not None and oracle is not ik:
+        top = nearest_reachable(lambda x: _margin(problem, t, oracle.solve(t, e + x * off)), length, start)
+        if _margin(problem, t, ik.solve(t, e + top * off)) >= 0:
+            return top
+    return top * nearest_reachable(lambda x: _margin(problem, t, ik.solve(t, e + x * top * off)), top * length, start)
+
+
+def _scaled_goals(problem: HitProblem, fraction: np.ndarray | float) -> np.ndarray:
+    """``(T, 3)`` goals with each frame's offset from the FK effector scaled by ``fraction``."""
+    f = np.broadcast_to(np.asarray(fraction, dtype=float), (problem.source.n_frames,))
+    return problem.effector_fk + f[:, None] * (problem.goals - problem.effector_fk)
+
+
+def stop_short(problem: HitProblem, ik: TwoHandIK, oracle: TwoHandIK | None = None) -> HitProblem:
+    """The problem with its target moved back along the offset to the nearest point the chains can
+    reach at the hit frame (the grip kept, the club off the floor; :func:`mjmotion.ik.reach.nearest_reachable`),
+    or ``problem`` itself when the target can be reached."""
+    h = problem.hit
+    s = _fraction(problem, ik, h, problem.goals[h], oracle)
+    if s >= 1.0:
+        return problem
+    # not to the very edge: the frames around the hit, at the edge of the reach too, keep some room
+    s *= 1.0 - SHORT_ROOM
+    target = problem.effector_fk[h] + s * (problem.target - problem.effector_fk[h])
+    return replace(problem, target=target, goals=_scaled_goals(problem, s), requested=problem.target)
+
+
 def preview_frames(problem: HitProblem, n: int) -> np.ndarray:
     """About ``n`` of the frames the blend touches, for a coarse solve: spaced evenly in time plus
     the blend's change (so the short ramp around the hit gets its share), with both ends and the hit frame."""
@@ -530,66 +700,49 @@ def preview_frames(problem: HitProblem, n: int) -> np.ndarray:
 
 
 def _solve_frames(
-    problem: HitProblem, solver: str, frames: np.ndarray | None = None, on_frame: Callable[[int, int], None] | None = None
-) -> tuple[np.ndarray, np.ndarray, float, int]:
-    """Per-frame solve of the lead chain, then the second hand, on ``frames`` (default: every frame
-    the blend touches); ``on_frame(i, n)`` before each. Returns ``δ``s, seconds, frames solved."""
-    c = problem.compiled
-    t_n = problem.source.n_frames
-    lead, second = problem.lead, problem.second
-    d1 = np.zeros((t_n, lead.n_dof))
-    d2 = np.zeros((t_n, second.n_dof if second else 0))
-    lo1, hi1 = lead.bounds(problem.source)
-    kin1 = ChainKinematics(c, lead)
-    if second is not None:
-        lo2, hi2 = second.bounds(problem.source)
-        kin2 = ChainKinematics(c, second)
-    fs1 = fs2 = None
-    if solver == "nlp":
-        from .ik.nlp import FrameSolver
+    problem: HitProblem,
+    ik: TwoHandIK,
+    oracle: TwoHandIK | None = None,
+    frames: np.ndarray | None = None,
+    on_frame: Callable[[int, int], None] | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Per-frame solve of every frame the blend touches, or of ``frames``
+    (:class:`mjmotion.ik.twohand.TwoHandIK`); ``on_frame(i, n)`` before each first solve.
 
-        fs1 = FrameSolver(c, lead)
-        fs2 = FrameSolver(c, second, six=True) if second is not None else None
+    A frame whose goal cannot be reached gets the largest fraction of its offset that can be
+    (:func:`_fraction`, found with ``oracle`` first when given), the fractions are made gradual
+    (:func:`mjmotion.ik.reach.envelope`, ``FRACTION_RATE``) and the frames they shorten are solved again
+    (twice at most). Returns both chains' ``δ``, the fractions ``(T,)`` and the frames solved.
+    """
+    t_n = problem.source.n_frames
+    d1 = np.zeros((t_n, problem.lead.n_dof))
+    d2 = np.zeros((t_n, problem.second.n_dof if problem.second else 0))
     active = np.flatnonzero(problem.blend > 0) if frames is None else np.asarray(frames, dtype=int)
-    start = time.perf_counter()
+    goals = problem.goals
+    sols = {}
     for i, t in enumerate(active):
         if on_frame is not None:
             on_frame(i, len(active))
-        q = problem.qpos[t]
-        if solver == "nlp":
-            kin1.set_frame(q)
-            kin1.set_delta(np.zeros(lead.n_dof))
-            assert fs1 is not None
-            r = fs1.solve(q, kin1.data.xpos, kin1.data.xmat, problem.goals[t], lo1[t], hi1[t])
-        elif solver == "dls":
-            r = dls.solve(kin1, q, problem.goals[t], lo1[t], hi1[t])
-        else:
-            r = ccd.solve(kin1, q, problem.goals[t], lo1[t], hi1[t])
-        d1[t] = r.delta
-        if second is None or problem.second_relative is None:
-            continue
-        # §2.2.2: the second hand returns to its source placement relative to the (new) first hand.
-        kin1.set_delta(r.delta)
-        p, rm = kin1.tip_frame()
-        lead_new = np.eye(4)
-        lead_new[:3, :3], lead_new[:3, 3] = rm, p
-        goal = lead_new @ problem.second_relative[t]
-        q2 = kin1.data.qpos.copy()
-        if solver == "nlp":
-            assert fs2 is not None
-            r2 = fs2.solve(q, kin1.data.xpos, kin1.data.xmat, goal[:3, 3], lo2[t], hi2[t], goal_rotation=goal[:3, :3])
-            if r2.error > GRIP_TOLERANCE:
-                # IPOPT gave up on the equality (a local infeasibility near a limit): DLS may still get there.
-                r3 = dls.solve(kin2, q2, goal[:3, 3], lo2[t], hi2[t], goal_rotation=goal[:3, :3])
-                r2 = r3 if r3.error < r2.error else r2
-        else:
-            r2 = dls.solve(kin2, q2, goal[:3, 3], lo2[t], hi2[t], goal_rotation=goal[:3, :3])
-        d2[t] = r2.delta
-    return d1, d2, time.perf_counter() - start, len(active)
+        sols[int(t)] = ik.solve(int(t), goals[t])
+    fraction = np.ones(t_n)
+    for _ in range(2):
+        bad = [t for t, sol in sols.items() if _margin(problem, t, sol) < 0]
+        if not bad:
+            break
+        for t in bad:
+            fraction[t] *= _fraction(problem, ik, t, goals[t], oracle)
+        fraction = envelope(fraction, FRACTION_RATE / problem.source.fps)
+        goals = _scaled_goals(problem, fraction)
+        for t in active[fraction[active] < 1.0]:
+            sols[int(t)] = ik.solve(int(t), goals[t])
+    for t, sol in sols.items():
+        d1[t], d2[t] = sol.lead, sol.second
+    return d1, d2, fraction, len(active)
 
 
-def _solve_shot(problem: HitProblem, smoothness: float) -> tuple[np.ndarray, np.ndarray, float, int]:
-    """Whole-shot NLP over the frames the blend touches; the others stay the source (``δ = 0``)."""
+def _solve_shot(problem: HitProblem, smoothness: float, goals_all: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Whole-shot NLP over the frames the blend touches, to ``goals_all (T, 3)``; the others stay
+    the source (``δ = 0``). Returns both chains' ``δ`` and whether IPOPT met every constraint."""
     from .ik.nlp import ShotSolver, SymbolicFK
 
     c = problem.compiled
@@ -600,8 +753,7 @@ def _solve_shot(problem: HitProblem, smoothness: float) -> tuple[np.ndarray, np.
     frames = np.flatnonzero(problem.blend > 0)
     n = len(frames)
     if n == 0:
-        return d1, d2, 0.0, 0
-    start = time.perf_counter()
+        return d1, d2, True
     fk = SymbolicFK(c, [lead] + ([second] if second else []))
     # Base frames come from the source FK (the lead chain's base is never moved).
     data = mujoco.MjData(c.model)
@@ -610,20 +762,22 @@ def _solve_shot(problem: HitProblem, smoothness: float) -> tuple[np.ndarray, np.
         data.qpos[:] = problem.qpos[t]
         mujoco.mj_kinematics(c.model, data)
         params[i] = fk.params(problem.qpos[t], data.xpos, data.xmat)
-    goals = problem.goals[frames]
+    goals = goals_all[frames]
     lo, hi = (x[frames] for x in lead.bounds(problem.source))
-    if second is not None and problem.second_relative is not None:
+    cones = lead.cones(problem.source)[frames]
+    if second is not None:
         lo2, hi2 = second.bounds(problem.source)
         lo, hi = np.hstack([lo, lo2[frames]]), np.hstack([hi, hi2[frames]])
+        cones = np.hstack([cones, second.cones(problem.source)[frames]])
+        assert problem.second_relative is not None, "setup gives a second chain its grip placement"
         rel = problem.second_relative[frames]
         goals = np.hstack([goals, rel[:, :3, 3], rel[:, :3, :3].transpose(0, 2, 1).reshape(n, 9)])
     solver = ShotSolver(c, lead, second, frames, smoothness=smoothness)
-    res = solver.solve(params, goals, lo, hi)
-    elapsed = time.perf_counter() - start
+    res = solver.solve(params, goals, lo, hi, cones)
     d1[frames] = res.lead
     if second is not None:
         d2[frames] = res.second
-    return d1, d2, elapsed, n
+    return d1, d2, res.success
 
 
 def adapt(
@@ -643,13 +797,16 @@ def adapt(
     chain_start: str | None = None,
     prop: mjcf.Prop | None = None,
     style: bool = True,
+    source_ball: np.ndarray | None = None,
+    joint_limits: np.ndarray | None = None,
 ) -> Adaptation:
     """Adapt ``motion`` so its effector meets ``target`` (or the source hit point + ``offset``) at the hit frame.
 
     Args:
         motion: the source swing/kick/punch.
         target, offset: ``(3,)`` metres in the model's world frame (exactly one).
-        frame: the hit frame (default: detected, :func:`detect_hit_frame`).
+        frame: the hit frame (default: detected, :func:`detect_hit_frame`: the lowest pass of the
+            effector in the downswing, or the downswing frame nearest ``source_ball``).
         effector: ``club`` (fitted, two hands), ``left_foot``, ``right_foot``, ``left_fist``,
             ``right_fist`` or a site name of the compiled model.
         solver: ``nlp`` (per frame, CasADi/IPOPT), ``nlp-shot`` (whole shot), ``dls`` or ``ccd``.
@@ -665,9 +822,21 @@ def adapt(
         chain_start: override the chain's first joint (default: the root's child toward the effector).
         prop: the club to use (default: :func:`fit_club`).
         style: compute ``style_rmse`` (PCA of the source; METRICS.md "Style").
+        source_ball: ``(3,)`` metres, where the ball was in the source (for the hit frame's detection).
+        joint_limits: ``(J,)`` radians, cone limits on every joint's local rotation angle
+            (default: :func:`judge_cones`, the judge's joint ranges, or the source's own largest
+            angle for a joint it already takes beyond its range; ``inf`` for none); the chains keep within them exactly, and a frame whose source is already
+            beyond a limit does not go further.
+
+    A target the chains cannot reach at the hit frame (within their limits, with the second hand
+    on the grip and the effector no lower than the floor, or than the source where it is lower)
+    is stopped short along the offset at the nearest point they can reach; the report says how
+    far short (``short_by_m``) and the result is written as the best effort.
     """
     _check_solver(solver)
-    problem = setup(motion, target, offset, frame, effector, falloff, wrist, lock, margin, weights, edge, chain_start, prop)
+    problem = setup(
+        motion, target, offset, frame, effector, falloff, wrist, lock, margin, weights, edge, chain_start, prop, source_ball, joint_limits
+    )
     return solve(problem, solver, smoothness, style)
 
 
@@ -699,20 +868,34 @@ def solve(
     _check_solver(solver)
     if preview and solver == "nlp-shot":
         raise MjmotionError("a preview needs a per-frame solver (nlp, dls or ccd)")
+    motion = problem.source
     active = np.flatnonzero(problem.blend > 0)
     frames = preview_frames(problem, preview) if 0 < preview < len(active) else None
+    start = time.perf_counter()
+    # The per-frame IK decides what can be reached (the whole-shot NLP uses the per-frame NLP for it).
+    ik = frame_ik(problem, "nlp" if solver == "nlp-shot" else solver)
+    # DLS finds how far a goal can be reached fast; the solver itself confirms it
+    oracle = ik if solver == "dls" else frame_ik(problem, "dls")
+    problem = stop_short(problem, ik, oracle)
+    name = f"{motion.name}_hit" if motion.name else "hit"
+    fraction = np.ones(motion.n_frames)
     if solver == "nlp-shot":
-        d1, d2, elapsed, n = _solve_shot(problem, smoothness)
+        d1, d2, ok = _solve_shot(problem, smoothness, problem.goals)
+        n = len(active)
+        if not ok:
+            # some frame cannot meet its goal with the grip kept: shorten those goals, then solve again
+            _, _, fraction, _ = _solve_frames(problem, ik, oracle)
+            d1, d2, _ = _solve_shot(problem, smoothness, _scaled_goals(problem, fraction))
     else:
-        d1, d2, elapsed, n = _solve_frames(problem, solver, frames, on_frame)
+        d1, d2, fraction, n = _solve_frames(problem, ik, oracle, frames, on_frame)
     if frames is not None:
         # between solved frames the δ of both chains is interpolated (it is 0 outside the blend)
         d1[active] = _interp_rows(active, frames, d1[frames])
         d2[active] = _interp_rows(active, frames, d2[frames])
-    q = _rotations(problem, d1, d2 if problem.second is not None else None)
-    motion = problem.source
-    out = motion.replace(rotations=q, name=f"{motion.name}_hit" if motion.name else "hit")
-    a = _report(problem, out, solver, elapsed, n, style)
+    d1, d2, paced = _pace(problem, ik, d1, d2)
+    out = motion.replace(rotations=_rotations(problem, d1, d2 if problem.second is not None else None), name=name)
+    elapsed = time.perf_counter() - start
+    a = _report(problem, out, solver, elapsed, n, style, fraction, paced)
     if frames is not None:
         a.report["preview_frames"] = int(len(frames))
     return a
@@ -723,7 +906,97 @@ def _interp_rows(at: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(at, x, y[:, k]) for k in range(y.shape[1])], axis=1) if y.shape[1] else np.zeros((len(at), 0))
 
 
-def _report(problem: HitProblem, out: Motion, solver: str, elapsed: float, n: int, style: bool) -> Adaptation:
+def judge_cones(motion: Motion) -> np.ndarray:
+    """The default cone limits ``(J,)`` radians: the judge's joint ranges (:func:`mjmotion.limits.joint_limits`,
+    which the compiled model declares and ``evaluate``'s ``limit_violation_ratio`` counts), kept
+    :data:`CONE_CLEARANCE` inside so a written BVH reads within them; where the source itself turns
+    a joint beyond its range somewhere (a rig's bind rotation, like the bundled humanoid's hands at
+    150°), that range is not this rig's and the joint keeps within the source's own largest angle."""
+    judge = limits.joint_limits(motion.skeleton) - CONE_CLEARANCE
+    own = rotation_angle(motion.rotations).max(axis=0)
+    return np.where(own > judge, own, judge)
+
+
+def _pace(problem: HitProblem, ik: TwoHandIK, d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Both chains' ``δ`` with no chain joint turning faster than ``JOINT_SPEED_BOUND`` × its own
+    peak in the source (:func:`mjmotion.ik.reach.paced_walk`): from the hit outward, a frame whose solution would
+    be too fast moves the lead only part of the way there and puts the second hand back on the grip
+    for that pose. Returns them and the number of frames slowed."""
+    src, lead, second = problem.source, problem.lead, problem.second
+    chains = [c for c in (lead, second) if c is not None]
+    cols = [c.joint_indices for c in chains]
+    q_src = [src.rotations[:, j] for j in cols]
+    moving = [np.array([cj.dof > 0 for cj in c.joints]) for c in chains]
+
+    def peaks(q: np.ndarray) -> np.ndarray:
+        return rotation_angle(rot.multiply(rot.conjugate(q[:-1]), q[1:])).max(axis=0) if len(q) > 1 else np.zeros(q.shape[1])
+
+    bound = [JOINT_SPEED_BOUND * peaks(q) + 1e-12 for q in q_src]
+    cones = [c.cones(src) for c in chains]
+    d1, d2 = d1.copy(), d2.copy()
+    # every frame's own solution, at once
+    solved = [lead.apply(q_src[0], d1)] + ([second.apply(q_src[1], d2)] if second is not None else [])
+
+    def rotations(t: int, ab: tuple[np.ndarray, np.ndarray] | None) -> list[np.ndarray]:
+        if ab is None:  # the frame's own solution
+            return [r[t] for r in solved]
+        out = [lead.apply(q_src[0][t : t + 1], ab[0][None])[0]]
+        if second is not None:
+            out.append(second.apply(q_src[1][t : t + 1], ab[1][None])[0])
+        return out
+
+    def fast(prev: list[np.ndarray], now: list[np.ndarray]) -> bool:
+        return any(np.any((rotation_angle(rot.multiply(rot.conjugate(p), n)) > b) & m) for p, n, b, m in zip(prev, now, bound, moving))
+
+    # the walk's last accepted frame: both chains' δ and the chain joints' rotations
+    state: dict[str, np.ndarray] = {}
+    state_rot: list[list[np.ndarray]] = [[]]
+    trial: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+    def candidate(t: int, lam: float) -> tuple[np.ndarray, np.ndarray] | None:
+        if lam >= 1.0:
+            return None
+        if lam not in trial:
+            a = state["lead"] + lam * (d1[t] - state["lead"])
+            # a step between two frames' solutions can leave this frame's cones (each frame's FK
+            # differs): back toward this frame's source pose until it is within them
+            a = lead.within_cones(q_src[0][t], a, cones[0][t])
+            # from the previous frame's grip (to stay on its branch), else afresh from the source's
+            prev = state["second"] if second is None else second.within_cones(q_src[1][t], state["second"], cones[1][t])
+            warm = ik.hold(t, a, dls_only=True, start=prev)
+            if warm.grip_error > PACED_GRIP:
+                cold = ik.hold(t, a, dls_only=True)
+                warm = cold if cold.grip_error < warm.grip_error else warm
+            trial[lam] = (a, warm.second)
+        return trial[lam]
+
+    def step_ok(t: int, lam: float) -> bool:
+        return not fast(state_rot[0], rotations(t, candidate(t, lam)))
+
+    def accept(t: int, lam: float) -> None:
+        ab = candidate(t, lam)
+        state_rot[0] = rotations(t, ab)
+        if ab is not None:
+            d1[t], d2[t] = ab
+        state["lead"], state["second"] = d1[t].copy(), d2[t].copy()
+        trial.clear()
+
+    h = problem.hit
+    if second is not None and ik.solver != "dls":
+        # the walk's frames hold the grip by DLS: so does the hit, where DLS holds it as well
+        held = ik.hold(h, d1[h], dls_only=True)
+        if held.grip_error <= REACH_TOLERANCE:
+            d2[h] = held.second
+            solved[1][h] = second.apply(q_src[1][h : h + 1], d2[h][None])[0]
+    n = 0
+    for step in (1, -1):
+        state["lead"], state["second"], state_rot[0] = d1[h].copy(), d2[h].copy(), rotations(h, None)
+        ends = np.arange(h + step, src.n_frames) if step > 0 else np.arange(h - 1, -1, -1)
+        n += paced_walk(ends, step_ok, accept)
+    return d1, d2, n
+
+
+def _report(problem: HitProblem, out: Motion, solver: str, elapsed: float, n: int, style: bool, fraction: np.ndarray, paced: int) -> Adaptation:
     c = problem.compiled
     pose = kinematics.forward(c, out)
     tip = _frames(pose, problem.effector.joint)
@@ -733,7 +1006,8 @@ def _report(problem: HitProblem, out: Motion, solver: str, elapsed: float, n: in
     if problem.second is not None:
         want = tip @ problem.second_relative
         grip = np.linalg.norm(pose.joint_positions[:, problem.second.tip] - want[:, :3, 3], axis=1)
-    hit_err = float(np.linalg.norm(achieved[problem.hit] - problem.target))
+    asked = problem.requested if problem.requested is not None else problem.target
+    hit_err = float(np.linalg.norm(achieved[problem.hit] - asked))
     reachable = hit_err <= REACH_TOLERANCE
     rmse = k = None
     if style:
@@ -741,25 +1015,50 @@ def _report(problem: HitProblem, out: Motion, solver: str, elapsed: float, n: in
 
         r, kk = style_rmse(problem.source, out, space=problem.space)
         rmse, k = float(r), int(kk)
+    active = problem.blend > 0
+    low = np.min(tip[:, 2, 3][:, None] + tip[:, 2, :3] @ problem.points.T, axis=1) - problem.radius
     report = {
         "hit_frame": int(problem.hit),
+        "hit_rule": problem.hit_rule,
+        "floor_m": problem.floor,
+        "source_effector_height_m": float(problem.effector_fk[problem.hit, 2] - problem.floor),
         "source_effector": problem.effector_fk[problem.hit].tolist(),
-        "target": problem.target.tolist(),
+        "target": asked.tolist(),
+        "stopped_target": problem.target.tolist(),
+        "short_by_m": float(np.linalg.norm(asked - problem.target)),
         "achieved_effector": achieved[problem.hit].tolist(),
         "hit_error_m": hit_err,
         "reachable": bool(reachable),
         "max_goal_error_m": float(goal_err.max()),
+        "frames_shortened": int(np.count_nonzero(active & (fraction < 1.0))),
         "style_rmse": rmse,
         "k": k,
         "grip_error_m": float(grip.max()),
+        "lowest_above_floor_m": float(low.min() - problem.floor),
+        "joint_speed_ratio": joint_speed_ratio(problem, out),
+        "frames_paced": int(paced),
         "solve_s_per_frame": float(elapsed / n) if n else 0.0,
         "solver": solver,
     }
     if not reachable:
-        dist = float(np.linalg.norm(problem.target - problem.effector_fk[problem.hit]))
+        dist = float(np.linalg.norm(asked - problem.effector_fk[problem.hit]))
         report["message"] = (
-            f"target unreachable: it is {dist:.3f} m from the source hit point and the chain "
-            f"{problem.lead.names[0]}..{problem.lead.names[-1]} within its limits got to {hit_err:.3f} m of it "
-            "(best effort kept)"
+            f"target unreachable: it is {dist:.3f} m from the source hit point; stopped {report['short_by_m']:.3f} m short of it "
+            f"along the offset, at the nearest point the chain {problem.lead.names[0]}..{problem.lead.names[-1]} reaches within "
+            "its limits with the grip kept and the effector off the floor (best effort kept)"
         )
     return Adaptation(out, report, achieved, goal_err, grip, problem)
+
+
+def joint_speed_ratio(problem: HitProblem, out: Motion) -> float:
+    """Largest ratio, over the chains' moving joints, of a joint's peak angular speed in ``out`` to
+    its own peak in the source (1: no joint faster than it ever is in the source)."""
+    joints = [cj.joint for c in (problem.lead, problem.second) if c is not None for cj in c.joints if cj.dof]
+    if not joints or out.n_frames < 2:
+        return 0.0
+
+    def peaks(m: Motion) -> np.ndarray:
+        q = m.rotations[:, joints]
+        return rotation_angle(rot.multiply(rot.conjugate(q[:-1]), q[1:])).max(axis=0)
+
+    return float(np.max(peaks(out) / np.maximum(peaks(problem.source), 1e-12)))

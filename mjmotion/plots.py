@@ -331,6 +331,107 @@ def hitpoint_grid(
     return _save(fig, out, dpi)
 
 
+def ik_blend(
+    times: np.ndarray,
+    curves: Mapping[str, np.ndarray],
+    hit_time: float,
+    out: str | os.PathLike[str],
+    *,
+    distance: np.ndarray | None = None,
+    title: str = "",
+    figsize: tuple[float, float] = (7.5, 3.4),
+    dpi: int = 100,
+) -> Path:
+    """IK blend parameters over a shot (seed 003 Fig. 2.3: time-based red, importance-based blue).
+
+    Args:
+        times: ``(T,)`` seconds; curves: name → ``(T,)`` blend in [0, 1], drawn in the seed's colours
+            (red, blue) and then :data:`COLORS`.
+        hit_time: seconds, marked with a vertical line.
+        distance: ``(T,)`` metres, the effector's distance to the hit point, on a second axis.
+    """
+    t = _array("times", times, 1)
+    fig, ax = _figure(figsize)
+    ax = ax[0, 0]
+    colours = ["#d94040", "#4d8cd9", *COLORS[2:]]
+    for i, (name, c) in enumerate(curves.items()):
+        y = _array(f"curves[{name!r}]", c, 1)
+        if y.shape != t.shape:
+            raise MjmotionError(f"curves[{name!r}]: {y.shape[0]} values for {t.shape[0]} times")
+        ax.plot(t, y, color=colours[i % len(colours)], lw=1.8, label=name)
+    ax.axvline(hit_time, color="#444444", lw=1.0, ls=":", label="hit frame")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("IK blend")
+    ax.set_ylim(-0.03, 1.05)
+    ax.set_xlim(t[0], t[-1])
+    ax.grid(alpha=0.3)
+    if distance is not None:
+        d = _array("distance", distance, 1)
+        ax2 = ax.twinx()
+        ax2.plot(t, d, color="#7f7f7f", lw=1.0, ls="--", label="effector to hit point (m)")
+        ax2.set_ylabel("distance to the hit point (m)", color="#7f7f7f")
+        h1, l1 = ax.get_legend_handles_labels()
+        h2, l2 = ax2.get_legend_handles_labels()
+        ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper right")
+    else:
+        ax.legend(fontsize=8, loc="upper right")
+    if title:
+        ax.set_title(title, fontsize=10)
+    return _save(fig, out, dpi)
+
+
+def prop_frames(
+    segments: Mapping[str, np.ndarray],
+    frame_labels: Sequence[str],
+    out: str | os.PathLike[str],
+    *,
+    ball: np.ndarray | None = None,
+    axes: np.ndarray | None = None,
+    axis_labels: tuple[str, str] = ("along the swing (m)", "up (m)"),
+    title: str = "",
+    dpi: int = 100,
+) -> Path:
+    """A prop (bat, club) at a few frames of several versions of a shot (seed 003 Fig. 2.7).
+
+    Args:
+        segments: version → ``(F, 2, 3)`` world endpoints (grip, head) of the prop at ``F`` frames;
+            one panel per frame, versions in :data:`COLORS` order.
+        frame_labels: ``F`` panel titles.
+        ball: ``(3,)`` the ball (drawn in every panel).
+        axes: ``(2, 3)`` unit axes of the view (default: world x and z).
+    """
+    segs = {n: np.asarray(v, dtype=float) for n, v in segments.items()}
+    f = len(frame_labels)
+    for n, v in segs.items():
+        if v.shape != (f, 2, 3) or not np.all(np.isfinite(v)):
+            raise MjmotionError(f"segments[{n!r}]: expected a finite ({f}, 2, 3) array, got shape {v.shape}")
+    view = np.array([[1.0, 0, 0], [0, 0, 1.0]]) if axes is None else _array("axes", axes, 2, 3)
+    fig, panels = _figure((3.2 * f, 3.6), ncols=f, sharex=True, sharey=True)
+    pts = np.concatenate([v.reshape(-1, 3) for v in segs.values()] + ([np.asarray(ball, float)[None]] if ball is not None else []))
+    xy = pts @ view.T
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    pad = 0.1 * float((hi - lo).max())
+    for k, ax in enumerate(panels[0]):
+        for i, (name, v) in enumerate(segs.items()):
+            p = v[k] @ view.T
+            ax.plot(p[:, 0], p[:, 1], color=COLORS[i % len(COLORS)], lw=3, solid_capstyle="round", label=name)
+            ax.plot(p[1, 0], p[1, 1], "o", color=COLORS[i % len(COLORS)], ms=4)
+        if ball is not None:
+            b = np.asarray(ball, float) @ view.T
+            ax.plot(b[0], b[1], "o", color="#d94040", ms=8, mec="black", label="ball")
+        ax.set_title(frame_labels[k], fontsize=10)
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_xlabel(axis_labels[0])
+        ax.grid(alpha=0.3)
+    panels[0, 0].set_ylabel(axis_labels[1])
+    panels[0, 0].legend(fontsize=8, loc="best")
+    if title:
+        fig.suptitle(title)
+    return _save(fig, out, dpi)
+
+
 def skinning_artefacts(
     series: Mapping[str, Mapping[str, np.ndarray]],
     views: Mapping[str, np.ndarray],

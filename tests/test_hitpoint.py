@@ -12,9 +12,14 @@ from mjmotion import rotations as rot
 from mjmotion.cli import main
 from mjmotion.errors import MjmotionError
 
-GRID = [(dy, dz) for dy in (-0.2, 0.0, 0.2) for dz in (-0.2, 0.0, 0.2)]
+# across and up the plane across the swing at the contact, where the club is ~11 cm above the
+# floor: a grid above it (targets under the floor stop short, test_unreachable_*)
+GRID = [(dy, dz) for dy in (-0.2, 0.0, 0.2) for dz in (0.0, 0.1, 0.2)]
 REPORT_KEYS = {
     "hit_frame",
+    "hit_rule",
+    "floor_m",
+    "source_effector_height_m",
     "source_effector",
     "target",
     "achieved_effector",
@@ -26,6 +31,12 @@ REPORT_KEYS = {
     "grip_error_m",
     "solve_s_per_frame",
     "solver",
+    "stopped_target",
+    "short_by_m",
+    "frames_shortened",
+    "frames_paced",
+    "lowest_above_floor_m",
+    "joint_speed_ratio",
 }
 
 
@@ -43,6 +54,11 @@ def short(swing):
     """Frames 250–420 (top of the backswing to the finish) with the club fitted on the whole clip."""
     _, m, prop = swing
     return m[250:420], prop
+
+
+def rotation_angle(q: np.ndarray) -> np.ndarray:
+    """Rotation angles (radians) of unit quaternions ``(..., 4)``."""
+    return 2.0 * np.arctan2(np.linalg.norm(q[..., 1:], axis=-1), np.abs(q[..., 0]))
 
 
 def across(problem: hitpoint.HitProblem) -> np.ndarray:
@@ -66,11 +82,47 @@ def test_club_runs_through_both_hands_to_the_floor(swing):
 def test_hit_frame_is_the_impact(swing):
     _, m, _ = swing
     p = hitpoint.setup(m, offset=np.zeros(3))
-    assert abs(p.hit - 325) <= 8  # SOURCES.md: impact ≈ frame 325
+    assert 0 <= p.hit - 325 <= 12  # SOURCES.md: impact ≈ frame 325 (peak hand speed; the club bottoms out after)
     assert p.blend[p.hit] == 1.0 and p.blend[0] == 0.0 and p.blend[-1] == 0.0
     d = np.linalg.norm(p.effector_fk - p.effector_fk[p.hit], axis=1)
     mid = slice(120, 380)  # away from the end tapers the blend is the seed's formula exactly
     assert np.allclose(p.blend[mid], np.clip(1 - d[mid] / p.falloff, 0, 1))
+
+
+# SOURCES.md's approximate impact frames (peak hand speed) of the golf swings
+IMPACT = {"64_01": 325, "64_02": 367, "64_03": 284, "64_04": 258, "64_05": 244}
+
+
+@pytest.mark.parametrize("name", sorted(IMPACT))
+def test_hit_frame_is_the_clubs_lowest_pass_near_the_floor(name):
+    """Issue 18 item 8: the hit frame is the moment of contact. A golf ball sits on the ground, so
+    the contact is the sweet spot's lowest pass in the downswing, not the peak speed 3–5 frames
+    earlier with the club 21–29 cm above the floor. Heights are above the floor the feet stand on
+    (subject 64's is 2–4 cm below z = 0), which the report gives."""
+    from conftest import require_data
+
+    m = bvh.read(require_data() / "cmu_asfamc_converted" / f"{name}.bvh")
+    p = hitpoint.setup(m, offset=np.zeros(3), weights="clip")
+    z = p.effector_fk[:, 2]
+    around = slice(IMPACT[name] - 18, IMPACT[name] + 19)  # ±0.15 s of SOURCES.md's impact
+    assert z[p.hit] == z[around].min() and p.hit_rule == "lowest pass", (name, p.hit)
+    assert -0.04 <= p.floor <= -0.015  # SOURCES.md: the floor is 2–4 cm below z = 0
+    height = z[p.hit] - p.floor
+    assert height < 0.17, (name, height)  # the fitted club's lowest pass (it was 0.21–0.29 m at the old frame)
+    # a ball given where the club passes 4 frames before the bottom: that frame is the contact
+    k = p.hit - 4
+    q = hitpoint.setup(m, offset=np.zeros(3), weights="clip", source_ball=p.effector_fk[k], prop=p.prop)
+    assert q.hit == k and q.hit_rule == "nearest the ball"
+    # the address, where the club rests as low, is not the impact
+    assert p.hit > 200
+    # at address the head rests in front of the golfer, beyond the hands (64_03's club, held by the
+    # right hand because the left flips in the data, used to point behind him)
+    pose = kinematics.forward(p.compiled, p.qpos[:1])
+    feet = [a for a, _ in m.skeleton.feet().values()]
+    mid = pose.joint_positions[0, feet].mean(axis=0)
+    head = (pose.site("club/tip")[0] - mid)[:2]
+    hands = (pose.joint_positions[0, [m.skeleton.index("lhand"), m.skeleton.index("rhand")]].mean(axis=0) - mid)[:2]
+    assert head @ hands > 0 and np.linalg.norm(head) > np.linalg.norm(hands) + 0.3, (name, head, hands)
 
 
 @pytest.mark.parametrize("solver", ["nlp", "dls"])
@@ -79,32 +131,114 @@ def test_grid_of_targets_is_reached_with_the_grip_kept(short, solver):
     base = hitpoint.setup(s, offset=np.zeros(3), prop=prop)
     axes = across(base)
     legs = [j for j, n in enumerate(s.skeleton.names) if any(k in n for k in ("hip", "femur", "tibia", "foot", "toes"))]
+    reached = 0
     for dy, dz in GRID:
         a = hitpoint.adapt(s, offset=dy * axes[0] + dz * axes[1], prop=prop, solver=solver, style=False)
         r = a.report
-        assert r["reachable"] and r["hit_error_m"] < 1e-3 and r["max_goal_error_m"] < 1e-3, (dy, dz, r)
-        assert r["grip_error_m"] < 5e-3, (dy, dz, r)
+        h = a.problem.hit
+        if r["reachable"]:
+            reached += 1
+            assert r["hit_error_m"] < 1e-3 and r["short_by_m"] == 0.0, (dy, dz, r)
+        else:  # stopped short where the second hand cannot follow: at the stopped target exactly
+            assert r["short_by_m"] > 0 and np.linalg.norm(a.achieved[h] - a.problem.target) < 1e-3, (dy, dz, r)
+        assert a.goal_error[h] < 1e-3
+        # the goals are met but in the quarter second around the hit, where the joints ramp in and out
+        # no faster than twice their own peak in the source (the club sweeps the blend up in 4 frames)
+        off_goal = np.flatnonzero(a.goal_error > 1e-3)
+        assert np.all(np.abs(off_goal - h) <= 0.125 * s.fps), (dy, dz, off_goal)
+        assert r["joint_speed_ratio"] <= 1.1 * hitpoint.JOINT_SPEED_BOUND, (dy, dz, r)
+        assert r["grip_error_m"] < 2e-3, (dy, dz, r)
         assert np.array_equal(a.motion.rotations[[0, -1]], s.rotations[[0, -1]])
         assert np.array_equal(a.motion.rotations[:, [0] + legs], s.rotations[:, [0] + legs])
         assert np.array_equal(a.motion.root_positions, s.root_positions)
+    assert reached >= 6, reached
 
 
-def test_locked_wrist_keeps_the_style_better_than_a_two_dof_wrist(short):
-    """Seed 003 Table 2.1 in direction: mean style_rmse over the grid, locked < 2-DOF wrist.
+def _all_coordinates_within_limits(a) -> float:
+    """Largest excursion (radians) of any free coordinate of either chain beyond its limits, any frame."""
+    worst = 0.0
+    for c in (a.problem.lead, a.problem.second):
+        if c is None or not c.n_dof:
+            continue
+        x = c.coordinates(a.motion.rotations[:, c.joint_indices])
+        lo = np.concatenate([j.lower for j in c.joints])
+        hi = np.concatenate([j.upper for j in c.joints])
+        worst = max(worst, float(np.max(np.maximum(lo - x, x - hi))))
+    return worst
 
-    Holds on the impact half of 64_01 (frames 250–420, its own PCA) with the default
-    style-learned stiffness. It does NOT hold in general: with clip-variance weights it flips, and
-    on the five whole swings (DLS, 18 targets each) the 2-DOF wrist has the lower mean style_rmse
-    in 4 of 5 at falloff 0.6 and on average at 0.35 (0.029 vs 0.033) and 0.2 (0.012 vs 0.015).
+
+@pytest.mark.parametrize("solver", ["nlp", "dls"])
+def test_unreachable_target_stops_short_with_the_limits_and_the_grip_kept(short, solver):
+    """Issue 18 item 10: a target 2 m across (or 0.5 m down, under the floor) is not chased.
+
+    The target stops short along the offset where the chains can reach it with the second hand on
+    the grip and the club off the floor; the result meets that point exactly, keeps every limit
+    exactly on the joints' own angles (box bounds on the IK coordinates exceeded them by up to
+    111°), moves no joint the source never turns (CMU's clavicles and hip joints), and no chain
+    joint turns faster than about twice its own source peak (it was 11–46×).
     """
     s, prop = short
-    base = hitpoint.setup(s, offset=np.zeros(3), prop=prop)
-    axes = across(base)
-    mean = {}
-    for wrist in ("locked", "swing"):
-        errs = [hitpoint.adapt(s, offset=dy * axes[0] + dz * axes[1], prop=prop, solver="dls", wrist=wrist).report["style_rmse"] for dy, dz in GRID]
-        mean[wrist] = float(np.mean(errs))
-    assert mean["locked"] < mean["swing"], mean
+    static = [j for j in range(s.skeleton.n_joints) if np.max(rot.angle_between(s.rotations[:, j], s.rotations[:1, j])) == 0.0]
+    assert {"lclavicle", "rclavicle", "lhipjoint", "rhipjoint"} <= {s.skeleton.names[j] for j in static}
+    for off in (np.array([0.0, 2.0, 0.0]), np.array([0.0, 0.0, -0.5])):
+        a = hitpoint.adapt(s, offset=off, prop=prop, solver=solver, style=False)
+        r, h = a.report, a.problem.hit
+        assert not r["reachable"] and "stopped" in r["message"], r
+        assert r["short_by_m"] > 0.3 and abs(r["hit_error_m"] - r["short_by_m"]) < 2e-3, r
+        assert np.linalg.norm(a.achieved[h] - np.array(r["stopped_target"])) < 1e-3
+        assert r["grip_error_m"] < 2e-3, r
+        assert _all_coordinates_within_limits(a) < 1e-9
+        assert np.array_equal(a.motion.rotations[:, static], s.rotations[:, static])
+        assert hitpoint.source_kept(a) == (True, True)
+        # (DLS, 2 m across: the second arm at the edge of its reach, 2.8×; it cannot be paced further
+        # without leaving the grip)
+        assert r["joint_speed_ratio"] <= 1.5 * hitpoint.JOINT_SPEED_BOUND, r
+        # the club's lowest point (shaft radius included) no lower than the source's own lowest
+        assert r["lowest_above_floor_m"] >= -0.02, r
+
+
+@pytest.mark.parametrize("solver", ["nlp", "dls", "nlp-shot"])
+def test_cone_limits_on_the_local_rotation_angle_hold(short, solver):
+    """A per-joint max rotation angle (a model's joint ranges, ``mjmotion.limits.joint_limits``'s
+    format) holds exactly at every frame: a joint the source keeps within its cone stays within it,
+    one the source takes beyond it goes no further. Synthetic limits: each chain joint's largest
+    angle at the hit frame plus 1°, so the IK has to work against them there."""
+    s, prop = short
+    sl = s[60:110]  # around the hit
+    base = hitpoint.setup(sl, offset=np.zeros(3), prop=prop)
+    limits = np.full(s.skeleton.n_joints, np.inf)
+    joints = [cj.joint for c in (base.lead, base.second) for cj in c.joints if cj.dof]
+    angle = rotation_angle(sl.rotations)  # (T, J)
+    limits[joints] = angle[base.hit, joints] + np.deg2rad(1.0)
+    unlimited = np.full(s.skeleton.n_joints, np.inf)  # (the default is the judge's ranges)
+    free = hitpoint.adapt(sl, offset=np.array([0.0, 0.15, 0.1]), prop=prop, solver=solver, style=False, edge=0.05, joint_limits=unlimited)
+    a = hitpoint.adapt(sl, offset=np.array([0.0, 0.15, 0.1]), prop=prop, solver=solver, style=False, edge=0.05, joint_limits=limits)
+    over = rotation_angle(a.motion.rotations[:, joints]) - np.maximum(limits[joints], angle[:, joints])
+    assert over.max() < 1e-8  # IPOPT: to its constraint tolerance (1e-9 on the trace); DLS: exactly
+    # without them some joint does go beyond, and with them some joint sits on its cone
+    assert (rotation_angle(free.motion.rotations[:, joints]) - limits[joints]).max() > np.deg2rad(1.0)
+    assert over.max() > -1e-5
+
+
+def test_an_adapted_shot_stays_within_the_judges_joint_ranges(tmp_path):
+    """By default the chains keep within the joint ranges the judge compiles into the model
+    (``mjmotion.limits``) and ``evaluate`` counts: 64_05's hit point 60 cm up (unreachable, so
+    the deviation is paced in and out over 260 frames) took ``rwrist`` 10° past its 90° when
+    the paced frames stepped between two frames' solutions."""
+    from conftest import require_data
+
+    from mjmotion import evaluate, limits
+
+    m = bvh.read(require_data() / "cmu_asfamc_converted" / "64_05.bvh")
+    a = hitpoint.adapt(m, offset=np.array([0.0, 0.0, 0.6]), solver="dls", style=False)
+    assert a.report["frames_paced"] > 100
+    lim = limits.joint_limits(m.skeleton)
+    src, out = limits.rotation_angles(m.rotations), limits.rotation_angles(a.motion.rotations)
+    assert (out - np.maximum(lim, src)).max() < 1e-9  # no joint beyond its range where the source is within it, none further where it is not
+    # as the judge reads the written file (its angles rounded to six decimals)
+    bvh.write(a.motion, tmp_path / "a.bvh")
+    compiled = mjcf.compile(m.skeleton)
+    assert evaluate.limit_violation_ratio(compiled, bvh.read(tmp_path / "a.bvh"))[0] <= evaluate.limit_violation_ratio(compiled, m)[0]
 
 
 def test_falloff_changes_the_path_not_the_hit(short):
@@ -119,12 +253,12 @@ def test_falloff_changes_the_path_not_the_hit(short):
 def test_whole_shot_nlp_reaches_and_keeps_the_grip(short):
     s, prop = short
     sl = s[60:110]  # a window around the impact keeps the test small
-    a = hitpoint.adapt(sl, offset=np.array([0.0, 0.1, -0.1]), prop=prop, solver="nlp-shot", falloff=0.4, edge=0.05, style=False)
+    a = hitpoint.adapt(sl, offset=np.array([0.0, 0.1, 0.05]), prop=prop, solver="nlp-shot", falloff=0.4, edge=0.05, style=False)
     r = a.report
     assert r["hit_error_m"] < 1e-3 and r["max_goal_error_m"] < 1e-3 and r["grip_error_m"] < 5e-3, r
     assert np.array_equal(a.motion.rotations[[0, -1]], sl.rotations[[0, -1]])
     # The smoothness term makes the deviation from the source vary more smoothly than per-frame IK.
-    b = hitpoint.adapt(sl, offset=np.array([0.0, 0.1, -0.1]), prop=prop, solver="nlp", falloff=0.4, edge=0.05, style=False)
+    b = hitpoint.adapt(sl, offset=np.array([0.0, 0.1, 0.05]), prop=prop, solver="nlp", falloff=0.4, edge=0.05, style=False)
 
     def roughness(x):
         dev = rot.log(rot.multiply(rot.conjugate(sl.rotations), x.rotations))
@@ -178,7 +312,8 @@ def test_style_weights_stiffen_what_the_style_space_sees(short):
     w = p.lead.weights
     assert np.all(w > 0) and w.max() == pytest.approx(1.0)
     names = [n for n, j in zip(p.lead.names, p.lead.joints) for _ in range(j.dof)]
-    assert w[names.index("lclavicle")] == pytest.approx(w.min())  # still in the source → stiffest
+    # still in the source (no degree of freedom in CMU's skeleton) → not a freedom of the chain
+    assert "lclavicle" in p.lead.names and "lclavicle" not in names
     space = PoseSpace.fit(s)
     k = space.components_for(0.7)
     moved = {}
@@ -203,21 +338,20 @@ def test_blend_is_full_at_a_hit_near_either_end_and_zero_at_the_ends():
         assert np.all(np.diff(b[: hit + 1]) >= -1e-12) and np.all(np.diff(b[hit:]) <= 1e-12), hit
 
 
-def test_table_2_1_with_the_seeds_solver_locked_wrist_keeps_the_style(short):
-    """Seed 003 Table 2.1 in direction with its own solver, CCD: over the ±10 cm grid across the
-    swing, the locked wrist's mean style_rmse is lower than the 2-DOF wrist's (seed: +29 % for
-    2-DOF; measured here +15 % on this excerpt, +37 % on the whole of 64_01). NLP and DLS, which
-    minimise deviation from the source, do not show it (README, results/hitpoint_grid)."""
+def test_the_seeds_solver_ccd_reaches_within_exact_limits(short):
+    """CCD (seed 003 §2.2.1) on the impact window: a target 10 cm across and up is met at the hit
+    with the grip kept, every free angle within its limits exactly and the joints' pace bounded.
+    (Table 2.1's direction, locked wrist vs 2-DOF, is measured over the whole swings by
+    experiments/hitpoint_grid.py and reported per solver, whichever way it goes.)"""
     s, prop = short
-    base = hitpoint.setup(s, offset=np.zeros(3), prop=prop)
+    sl = s[60:110]
+    base = hitpoint.setup(sl, offset=np.zeros(3), prop=prop)
     axes = across(base)
-    grid = [(dy, dz) for dy in (-0.1, 0.0, 0.1) for dz in (-0.1, 0.0, 0.1)]
-    mean = {}
-    for wrist in ("locked", "swing"):
-        reports = [hitpoint.adapt(s, offset=dy * axes[0] + dz * axes[1], prop=prop, solver="ccd", wrist=wrist).report for dy, dz in grid]
-        assert all(r["hit_error_m"] < 1e-3 for r in reports)
-        mean[wrist] = float(np.mean([r["style_rmse"] for r in reports]))
-    assert mean["locked"] < mean["swing"], mean
+    a = hitpoint.adapt(sl, offset=0.1 * axes[0] + 0.1 * axes[1], prop=prop, solver="ccd", style=False, edge=0.05)
+    r = a.report
+    assert r["reachable"] and r["hit_error_m"] < 1e-3 and r["grip_error_m"] < 2e-3, r
+    assert _all_coordinates_within_limits(a) < 1e-12
+    assert r["joint_speed_ratio"] <= 1.1 * hitpoint.JOINT_SPEED_BOUND
 
 
 def test_aim_is_setup_at_the_new_target_and_solve_of_it_is_adapt(short):

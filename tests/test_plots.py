@@ -137,3 +137,25 @@ def test_hitpoint_grid_colours_launch_elevation(tmp_path):
     assert _near(left, lowest, tol=12).sum() > 20 and _near(left, highest, tol=12).sum() > 20
     with pytest.raises(MjmotionError, match="launch_dirs"):
         plots.hitpoint_grid(hp, dirs[:3], tmp_path / "x.png")
+
+
+def test_ik_blend_draws_both_blends_in_the_seeds_colours(tmp_path):
+    t = np.linspace(0, 2, 100)
+    time_based = np.sin(np.pi * t / 2) ** 2
+    importance = np.clip(1 - np.abs(t - 1) / 0.2, 0, 1)
+    img = _rgb(plots.ik_blend(t, {"time-based": time_based, "importance-based": importance}, 1.0, tmp_path / "b.png", distance=np.abs(t - 1)))
+    assert img.shape == (340, 750, 3)
+    for c in ("#d94040", "#4d8cd9"):  # seed Fig. 2.3: red time-based, blue importance-based
+        assert _near(img, _hex(c), tol=10).sum() > 100
+    with pytest.raises(MjmotionError, match="values for"):
+        plots.ik_blend(t, {"x": importance[:-1]}, 1.0, tmp_path / "x.png")
+
+
+def test_prop_frames_panels_and_errors(tmp_path):
+    seg = np.array([[[0, 0, 1.0], [0.5, 0, 0.1]]] * 3)
+    img = _rgb(plots.prop_frames({"source": seg, "adapted": seg + [0, 0, 0.1]}, ["a", "b", "c"], tmp_path / "p.png", ball=np.array([0.5, 0, 0.2])))
+    assert img.shape == (360, 960, 3)
+    for c in plots.COLORS[:2]:
+        assert _near(img, _hex(c), tol=10).sum() > 50
+    with pytest.raises(MjmotionError, match=r"\(3, 2, 3\)"):
+        plots.prop_frames({"source": seg[:2]}, ["a", "b", "c"], tmp_path / "x.png")

@@ -77,9 +77,26 @@ def test_scaled_path_is_a_homothety_about_the_centre(swing01):
     _, space = swing01
     base = V.source_path(space, 3)
     out = V.scaled_path(base, 1.3)
-    c = base.controlled.mean(0)
-    np.testing.assert_allclose(out.controlled - c, 1.3 * (base.controlled - c), atol=1e-12)
+    w = V.end_weights(base.controlled)
+    full = w == 1.0
+    assert full.mean() > 0.3  # the swing itself is scaled at full strength
+    c = base.controlled[w > 0].mean(0)
+    np.testing.assert_allclose(out.controlled[full] - c, 1.3 * (base.controlled[full] - c), atol=1e-12)
     np.testing.assert_array_equal(out.scores[:, 3:], base.scores[:, 3:])  # detail untouched
+    np.testing.assert_array_equal(out.scores[[0, -1]], base.scores[[0, -1]])  # the ends untouched
+
+
+def test_scaled_variants_keep_the_common_start_and_end_poses(golf):
+    """Issue 18 item 11 (seed 003 §2.2.5: the shots begin and end in the same pose): exaggerated and
+    muted variants, cleaned up, start and end exactly where the source does (they moved 0.11–0.50 m)."""
+    name, src, space, path = golf
+    ref = _fk(src)
+    for f in (1.3, 0.7):
+        p = V.scaled_path(path, f)
+        out, _ = V.clean_up(src, V.synthesise(space, p), p)
+        got = _fk(out)
+        for t in (0, -1):
+            assert np.max(np.linalg.norm(got[t] - ref[t], axis=-1)) < 1e-3, (name, f, t)
 
 
 def test_segment_scaling_leaves_the_rest_of_the_path_alone(swing01):

@@ -46,6 +46,7 @@ examples:
   mjmotion evaluate blend.bvh --source walk.bvh --source run.bvh
   mjmotion evaluate cleaned.bvh --source raw.bvh --floor 0
   mjmotion evaluate swing.bvh --prop club:rwrist --ball 0.6 0.1 0.03 --frame 212
+  mjmotion evaluate drive.bvh --prop bat:RightHand --ball 0.27 0.35 0.18 --frame 66 --delivery medium
   mjmotion evaluate "$MJMOTION_DATA" --json all.json
 """
 
@@ -91,6 +92,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="incoming ball velocity at impact, m/s (each within ±1000)",
     )
     p.add_argument("--frame", type=FRAME, metavar="H", help="hit frame (0-based, of the file) for --ball")
+    p.add_argument(
+        "--ball-release",
+        nargs=3,
+        type=COORD,
+        metavar=("X", "Y", "Z"),
+        help="--ball is a delivered ball released here (m, each within ±1000; Hicks 2010, §2.3.2)",
+    )
+    p.add_argument("--release-velocity", nargs=3, type=VELOCITY, metavar=("VX", "VY", "VZ"), help="its release velocity (m/s, each within ±1000)")
+    p.add_argument("--delivery", choices=("fast", "medium", "slow"), help="--ball is a ball delivered at it at this pace, from --bowler's end")
+    p.add_argument(
+        "--bowler", nargs=2, type=COORD, default=(0.0, 1.0), metavar=("DX", "DY"), help="horizontal direction to the bowler, not 0 0 (default 0 1)"
+    )
     p.add_argument(
         "--hit-grid",
         type=integer(2, 9, what="a grid size"),
@@ -179,6 +192,8 @@ def evaluate_one(path: str, opts: dict[str, Any]) -> tuple[Motion, int, Report]:
     """The one-file evaluation ``evaluate`` and ``audit`` share: the clip as evaluated (leading
     transient or ``--frames`` cut off), the frames skipped, and its report. ``opts`` holds this
     verb's options by their ``argparse`` names."""
+    import numpy as np
+
     from .. import evaluate as ev
     from .. import mjcf
 
@@ -196,11 +211,23 @@ def evaluate_one(path: str, opts: dict[str, Any]) -> tuple[Motion, int, Report]:
         if not 0 <= hit < m.n_frames:
             raise MjmotionError(f"--frame {args.frame}: outside the evaluated frames {offset}..{offset + m.n_frames - 1}")
     params = ev.Params(h_c=args.h_c, v_c=args.v_c)
+    ball_velocity = tuple(args.ball_velocity)
+    release, pace = getattr(args, "ball_release", None), getattr(args, "delivery", None)  # audit's options have no delivery
+    if ball is not None and (release is not None or pace is not None):
+        from .. import delivery
+
+        # a delivered ball (released, pitching on the floor): its velocity where it passes the ball's position
+        dv = (
+            delivery.Delivery(tuple(args.ball_release), tuple(args.release_velocity), radius=args.ball_radius)
+            if release is not None
+            else delivery.aimed(np.asarray(args.ball), bowler=np.asarray(args.bowler), preset=args.delivery)
+        )
+        ball_velocity = tuple(delivery.fly(dv).nearest(np.asarray(args.ball))[2])
     m = m.replace(name=Path(path).stem)
     return (
         m,
         offset,
-        ev.evaluate(m, props, ball, hit, params, ball_velocity=tuple(args.ball_velocity), sources=sources, floor=getattr(args, "floor", None)),
+        ev.evaluate(m, props, ball, hit, params, ball_velocity=ball_velocity, sources=sources, floor=getattr(args, "floor", None)),
     )
 
 
@@ -269,6 +296,12 @@ def check_options(args: argparse.Namespace) -> None:
     for option, values in (("--ball", args.ball), ("--ball-velocity", args.ball_velocity)):
         if values is not None and not all(math.isfinite(v) for v in values):
             raise MjmotionError(f"{option} {' '.join(f'{v:g}' for v in values)}: expected three finite numbers")
+    if (args.ball_release is None) != (args.release_velocity is None):
+        raise MjmotionError("--ball-release and --release-velocity go together")
+    if (args.ball_release is not None or args.delivery is not None) and args.ball is None:
+        raise MjmotionError("a delivered ball (--ball-release or --delivery) needs --ball X Y Z, where it meets the bat")
+    if args.ball_release is not None and args.delivery is not None:
+        raise MjmotionError("give --ball-release or --delivery, not both")
     if args.jobs < 1:
         raise MjmotionError(f"--jobs {args.jobs}: expected a number of processes ≥ 1")
     if args.hit_grid is not None and args.hit_grid < 2:

@@ -11,13 +11,15 @@ from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, clip_frame, load_first, output_path, parse_frames
 from ._options import FRAME, integer, number
+from ._progress import steps
 
 NAME = "vary"
 HELP = "exaggerate, mute or abort a shot by moving along its PCA score path"
 DESCRIPTION = """Build the principal-component space of a shot (root translation and every joint's
 quaternion, standardised), take the shot's own path of scores through it and change the path:
-  --scale F        exaggerate (F > 1) or mute (F < 1) about the path's centre, or about the
-                   centre of --segment A:B (tapered at the segment's ends)
+  --scale F        exaggerate (F > 1) or mute (F < 1) about the path's centre, fading to none
+                   at the first and last frames (the shot keeps its start and end poses), or
+                   about the centre of --segment A:B (tapered at the segment's ends)
   --abort-at F     follow the shot to frame F, then head for the rest pose's scores over
                    --abort-frames N frames (default: at the shot's own pace); the rest pose is
                    the last frame unless --rest-frame says otherwise
@@ -148,78 +150,88 @@ def run(args: argparse.Namespace) -> int:
     if args.scores and args.pcs is not None:
         raise MjmotionError("--pcs is set by the number of columns of --scores; drop --pcs")
 
-    source, first = load_first(args.file, args)
-    # inner-joint translations (some rigs animate them) are parameters too, so nothing is lost
-    space = PoseSpace.fit(source, translations=True)
-    if args.scores:
-        scores = variations.read_scores(args.scores)
-        path = variations.explicit_path(space, scores, detail=not args.no_detail)
-    else:
-        k = args.pcs if args.pcs is not None else space.components_for(args.variance)
-        base = variations.source_path(space, k, detail=not args.no_detail)
-        if args.scale is not None:
-            seg = None
-            if args.segment:
-                a, b, _ = parse_frames(args.segment, source.n_frames + first).indices(source.n_frames + first)  # file frames
-                seg = (max(a - first, 0), b - first)
-                if seg[1] <= seg[0]:
-                    raise MjmotionError(
-                        f"--segment {args.segment}: inside the skipped leading T-pose/transition (frames 0-{first - 1}); add --keep-start"
-                    )
-            path = variations.scaled_path(base, args.scale, seg)
+    names = ["read", "pose space", "synthesise", *([] if args.no_cleanup else ["clean up"]), "write", "measure", *(["plot"] if args.plot else [])]
+    with steps("vary", names) as step:
+        step("read")
+        source, first = load_first(args.file, args)
+        step("pose space")
+        # inner-joint translations (some rigs animate them) are parameters too, so nothing is lost
+        space = PoseSpace.fit(source, translations=True)
+        if args.scores:
+            scores = variations.read_scores(args.scores)
+            path = variations.explicit_path(space, scores, detail=not args.no_detail)
         else:
-            n_out = args.abort_at + 1 + (args.abort_frames or 0)
-            check_motion_size(n_out, source.skeleton.n_joints, f"--abort-at {args.abort_at} --abort-frames {args.abort_frames}")
-            path = variations.aborted_path(
-                base,
-                clip_frame(args.abort_at, first, "--abort-at"),
-                args.abort_frames,
-                -1 if args.rest_frame is None else clip_frame(args.rest_frame, first, "--rest-frame"),
-                source.fps,
-                space=space,
-            )
-    k = path.k
+            k = args.pcs if args.pcs is not None else space.components_for(args.variance)
+            base = variations.source_path(space, k, detail=not args.no_detail)
+            if args.scale is not None:
+                seg = None
+                if args.segment:
+                    a, b, _ = parse_frames(args.segment, source.n_frames + first).indices(source.n_frames + first)  # file frames
+                    seg = (max(a - first, 0), b - first)
+                    if seg[1] <= seg[0]:
+                        raise MjmotionError(
+                            f"--segment {args.segment}: inside the skipped leading T-pose/transition (frames 0-{first - 1}); add --keep-start"
+                        )
+                path = variations.scaled_path(base, args.scale, seg)
+            else:
+                n_out = args.abort_at + 1 + (args.abort_frames or 0)
+                check_motion_size(n_out, source.skeleton.n_joints, f"--abort-at {args.abort_at} --abort-frames {args.abort_frames}")
+                path = variations.aborted_path(
+                    base,
+                    clip_frame(args.abort_at, first, "--abort-at"),
+                    args.abort_frames,
+                    -1 if args.rest_frame is None else clip_frame(args.rest_frame, first, "--rest-frame"),
+                    source.fps,
+                    space=space,
+                )
+        k = path.k
 
-    raw = variations.synthesise(space, path)
-    first = variations.first_hand_for(source) if args.first_hand == "auto" else args.first_hand
-    first = None if first == "none" else first
-    if args.no_cleanup:
-        result, cleanup = raw, None
-    else:
-        result, cleanup = variations.clean_up(source, raw, path, first_hand=first, feet=args.feet)
-    bvh.write(result, out)
+        step("synthesise")
+        raw = variations.synthesise(space, path)
+        hand = variations.first_hand_for(source) if args.first_hand == "auto" else args.first_hand
+        hand = None if hand == "none" else hand
+        if args.no_cleanup:
+            result, cleanup = raw, None
+        else:
+            step("clean up")
+            result, cleanup = variations.clean_up(source, raw, path, first_hand=hand, feet=args.feet)
+        step("write")
+        bvh.write(result, out)
 
-    report = variations.report(source, raw, result, path, space, first_hand=first)
-    report["cleanup"] = (
-        None
-        if cleanup is None
-        else {
-            "held_frames": cleanup.held_frames,
-            "foot_reach_error_m": cleanup.foot_reach_error_m,
-            "grip_hands": cleanup.grip_hands,
-            "grip_reach_error_m": cleanup.grip_reach_error_m,
-        }
-    )
-    errs = reconstruction_errors(
-        source,
-        sorted({1, 2, 3, 5, 10, k, space.n_components} & set(range(1, space.n_components + 1))),
-    )
-    report["reconstruction_error_m"] = {str(kk): v for kk, v in errs.items()}
-    vals = list(errs.values())
-    report["reconstruction_error_falls_with_k"] = bool(all(b <= a + 1e-9 for a, b in itertools.pairwise(vals)))
-    report.update(source=args.file, output=str(out))
-
-    if args.plot:
-        src_path = space.source_scores
-        plots.score_paths(
-            {"source": src_path, path.label: path.scores},
-            args.plot,
-            dims=args.plot_dims,
+        step("measure")
+        report = variations.report(source, raw, result, path, space, first_hand=hand)
+        report["cleanup"] = (
+            None
+            if cleanup is None
+            else {
+                "held_frames": cleanup.held_frames,
+                "foot_reach_error_m": cleanup.foot_reach_error_m,
+                "grip_hands": cleanup.grip_hands,
+                "grip_reach_error_m": cleanup.grip_reach_error_m,
+            }
         )
-    if args.json:
-        write_text_atomic(args.json, json.dumps(report, indent=2, default=_jsonable) + "\n")
+        errs = reconstruction_errors(
+            source,
+            sorted({1, 2, 3, 5, 10, k, space.n_components} & set(range(1, space.n_components + 1))),
+        )
+        report["reconstruction_error_m"] = {str(kk): v for kk, v in errs.items()}
+        vals = list(errs.values())
+        report["reconstruction_error_falls_with_k"] = bool(all(b <= a + 1e-9 for a, b in itertools.pairwise(vals)))
+        report.update(source=args.file, output=str(out))
 
-    print(f"wrote {out}: {path.label}, {result.n_frames} frames, k={k} ({100 * report['variance_explained']:.1f}% of the variance)")
+        if args.plot:
+            step("plot")
+            src_path = space.source_scores
+            plots.score_paths(
+                {"source": src_path, path.label: path.scores},
+                args.plot,
+                dims=args.plot_dims,
+            )
+        if args.json:
+            write_text_atomic(args.json, json.dumps(report, indent=2, default=_jsonable) + "\n")
+
+    written = ", ".join(str(x) for x in (out, args.json, args.plot) if x)
+    print(f"wrote {written}: {path.label}, {result.n_frames} frames, k={k} ({100 * report['variance_explained']:.1f}% of the variance)")
     fs = report["footskate_mm_per_s"]
     if fs["source"] is not None:
         print(f"footskate mm/s: source {fs['source']:.1f}, raw {_mm(fs['raw'])}, cleaned {_mm(fs['result'])}")

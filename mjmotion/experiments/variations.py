@@ -1,5 +1,7 @@
 """Shot variations in PCA space: exaggerated, muted, aborted (seed 003 §3, Figures 3.1, 3.4, 3.7).
 
+Figure 3.1: the shots that share a skeleton, in one PCA space (:func:`shared_space`).
+
 For each shot: the PCA space of the clip (``style.PoseSpace``, root translation and every
 joint's quaternion, standardised), its own score path with ``k`` controlled components (the
 fewest explaining ``variations.DEFAULT_VARIANCE`` of the motion), and three new paths:
@@ -41,7 +43,7 @@ TOP = 0.2
 COLUMNS = (
     "shot", "variant", "k", "var. expl.", "path src m", "path m", "path ratio", "speed ratio raw",
     "speed ratio clean", "skate src", "skate raw", "skate clean", "planted src", "planted raw",
-    "planted clean", "grip raw mm", "grip clean mm", "style_rmse", "prefix dev mm", "end dev mm",
+    "planted clean", "grip raw mm", "grip clean mm", "style_rmse", "prefix dev mm", "end dev mm", "first/last dev mm",
 )  # fmt: skip
 
 
@@ -183,6 +185,10 @@ def run_shot(shot: Shot) -> ShotResult:
         )
         style = style_rmse(src, clean)[0] if clean.n_frames == src.n_frames else float("nan")
         prefix = end = float("nan")
+        # seed §2.2.5: the shots' common start and end poses (an abort ends at the rest pose where it stands)
+        got_fk = pose_clean.joint_positions
+        ends = [0] if label.startswith("aborted") else [0, -1]
+        first_last = 1000 * max(float(np.max(np.linalg.norm(got_fk[i] - ref[i], axis=-1))) for i in ends)
         if label.startswith("aborted"):
             got = pose_clean.joint_positions
             f = ph.abort
@@ -197,7 +203,7 @@ def run_shot(shot: Shot) -> ShotResult:
             ev.max_joint_speed_ratio(raw, src), ev.max_joint_speed_ratio(clean, src),
             skate_src, ev.skate_mm_per_s(track_raw), ev.skate_mm_per_s(track_clean),
             planted_src, ev.planted_skate_mm_per_s(track_raw), ev.planted_skate_mm_per_s(track_clean),
-            grip[0], grip[1], style, prefix, end,
+            grip[0], grip[1], style, prefix, end, first_last,
         ))  # fmt: skip
         paths[label] = p.scores
     return ShotResult(shot.name, ph, k, float(space.cumulative[k - 1]), rows, paths, marks)
@@ -228,6 +234,48 @@ def plot(result: ShotResult, out_dir: Path) -> list[Path]:
         title=f"{result.shot}: source and variants (★ impact / abort frame)",
     )  # fmt: skip
     return [f1, f2]
+
+
+def shared_space(shots: list[Shot], out_dir: Path) -> list[Path]:
+    """Seed Figure 3.1: several shots plotted in one 3-D principal-component space.
+
+    Shots of one subject (the five golf swings, the two kicks, the bundled drive, pull and kick)
+    are pooled, each with its root moved so it starts over the origin, into one PCA space
+    (``style.PoseSpace`` of their frames together); each shot's path is drawn in its first three
+    components with its impact marked. A group of one shot is skipped.
+    """
+    from .. import plots
+    from ..style import PoseSpace
+
+    groups: dict[tuple, list[Shot]] = {}
+    for sh in shots:
+        sk = sh.motion.skeleton
+        # one subject: the same joints with the same bones (CMU's subjects share joint names)
+        groups.setdefault((sk.names, tuple(np.round(sk.offsets, 3).ravel())), []).append(sh)
+    out = []
+    for members in groups.values():
+        if len(members) < 2:
+            continue
+        moved = [sh.motion.replace(root_positions=sh.motion.root_positions - np.array([*sh.motion.root_positions[0, :2], 0.0])) for sh in members]
+        first = moved[0]
+        pooled = first.replace(
+            root_positions=np.concatenate([m.root_positions for m in moved]),
+            rotations=np.concatenate([m.rotations for m in moved]),
+            translations=None if first.translations is None else np.concatenate([m.translations for m in moved]),
+        )
+        space = PoseSpace.fit(pooled)
+        paths = {sh.name: space.scores(m, 3) for sh, m in zip(members, moved)}
+        name = "_".join(sh.name for sh in members) if len(members) <= 3 else f"{members[0].name}-{members[-1].name}"
+        out.append(
+            plots.score_paths(
+                paths,
+                out_dir / f"shared_space_{name}.png",
+                dims=3,
+                highlight={sh.name: sh.hit_frame for sh in members},
+                title=f"{len(members)} shots in one PC space ({100 * space.cumulative[2]:.0f} % of their variance; ★ impact)",
+            )  # fmt: skip
+        )
+    return out
 
 
 def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: int = 2) -> Table:
@@ -266,6 +314,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
             for row in r.rows:
                 table.add(*row)
             table.files += [str(p) for p in plot(r, out_dir)]
+        table.files += [str(p) for p in shared_space(shots, out_dir)]
     table.notes += [
         (
             f"k: controlled components, the fewest explaining {V.DEFAULT_VARIANCE:.0%} of the clip's variance (var. expl.); "
@@ -289,6 +338,10 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
         (
             "grip: second hand from its source placement relative to the first hand on the club/bat, max over frames "
             "(– for a kick); style_rmse: against the source (same length only)"
+        ),
+        (
+            "first/last dev: largest joint-position difference from the source at the first and last frames (an abort: "
+            "the first; seed §2.2.5's common start and end poses: the scaling fades to none there, variations.end_weights)"
         ),
         (
             "abort: prefix dev = largest joint-position difference from the source up to the abort frame; end dev = "

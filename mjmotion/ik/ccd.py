@@ -4,7 +4,8 @@ Sweeps from the chain's last coordinate up to its first; each coordinate turns i
 the coordinate's world axis by the angle that brings the effector closest to the goal (the
 exact minimiser along that circle), scaled by the coordinate's stiffness weight relative to the
 chain's largest (§1.10: stiffness in CCD as a limit on how far a joint turns per visit), capped
-at ``max_step`` and clipped to the limits. Position goals only, as in the seed.
+at ``max_step`` and clipped to the limits (exact: the coordinates are the joints' own limit
+angles) and to a joint's cone limit, if it has one. Position goals only, as in the seed.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import math
 
 import numpy as np
 
-from .chains import ChainKinematics, factor_rates
+from .chains import ChainKinematics, cone_step, factor_rates
 from .dls import IKResult
 
 
@@ -24,15 +25,17 @@ def solve(
     lower: np.ndarray,
     upper: np.ndarray,
     tol: float = 1e-5,
-    max_sweeps: int = 300,
+    max_sweeps: int = 1000,
     max_step: float = np.deg2rad(10.0),
     stiffness: bool = False,
+    cones: np.ndarray | None = None,
 ) -> IKResult:
     """CCD from the FK pose ``qpos: (nq,)`` (``δ = 0``) toward ``goal: (3,)`` metres.
 
     ``stiffness``: scale each turn by the coordinate's weight relative to the largest (§1.10);
     off by default, as in the seed's solver (§2.2.1 relies on CCD's own lower-joint bias) — with
     the clip's weights the spine turns so little per visit that CCD needs thousands of sweeps.
+    ``cones``: ``(Jc,)`` this frame's cone limits (``Chain.cones``; default: each joint's ``max_angle``).
     """
     chain = kin.chain
     delta = [0.0] * chain.n_dof
@@ -43,13 +46,15 @@ def solve(
     bodies = kin.compiled.body_ids[chain.joint_indices]
     sweep = 0
     lower, upper = np.asarray(lower, dtype=float).tolist(), np.asarray(upper, dtype=float).tolist()
+    limit = np.array([j.max_angle for j in chain.joints]) if cones is None else np.asarray(cones, dtype=float)
+    coned = {ci for ci, j in enumerate(chain.joints) if j.dof and np.isfinite(limit[ci])}
     for sweep in range(max_sweeps + 1):
         kin.set_delta(np.asarray(delta))
         e = kin.effector().copy()
         if np.linalg.norm(goal - e) < tol or sweep == max_sweeps or chain.n_dof == 0:
             break
         # World axes of every coordinate, valid for the whole backward sweep (see module doc).
-        omega = factor_rates(kin.axes, chain.padded(np.asarray(delta)))
+        omega = factor_rates(kin.axes, kin.c_fk + chain.padded(np.asarray(delta)))
         frames = kin.data.xmat[bodies].reshape(-1, 3, 3)
         pivots = kin.data.xpos[bodies].copy()
         world = np.einsum("jab,jib->jia", frames, omega)
@@ -73,6 +78,11 @@ def solve(
                 theta = math.atan2(ax * cx + ay * cy + az * cz, upx * vpx + upy * vpy + upz * vpz) * scale[i]
                 theta = min(max(theta, -max_step), max_step)
                 new = min(max(delta[i] + theta, lower[i]), upper[i])
+                if ci in coned and new != delta[i]:
+                    start = kin.c_fk[ci] + chain.padded(np.asarray(delta))[ci]
+                    along = np.zeros(3)
+                    along[k] = new - delta[i]
+                    new = delta[i] + cone_step(kin.q_ref[ci], kin.axes[ci], start, along, float(limit[ci])) * (new - delta[i])
                 theta = new - delta[i]
                 delta[i] = new
                 # Rodrigues: turn the effector about the axis through the pivot.

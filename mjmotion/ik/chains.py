@@ -1,19 +1,27 @@
 """IK chains: which joints move, with which freedoms, within which limits (seed 003 §2.1–2.2).
 
-A chain joint's rotation is its FK rotation followed by a product of single-axis rotations about
-its free axes, ``q = q_fk ⊗ Rot(b₁, δ₁) ⊗ Rot(b₂, δ₂) ⊗ Rot(b₃, δ₃)`` (axes in the joint's own
-frame, the first ``k`` columns of a right-handed basis ``B``). ``δ = 0`` is the FK pose exactly
-(§2.2.3: IK starts from the frame's FK pose), a hinge stays a hinge exactly, and every solver —
-CCD, DLS and the CasADi NLP — works in the same coordinates ``δ``.
+A chain joint's rotation is written in its own limit coordinates: ``q = q_ref ⊗ Rot(b₁, c₁) ⊗
+Rot(b₂, c₂) ⊗ Rot(b₃, c₃)`` with ``q_ref`` the clip's mean rotation of the joint and ``b₁..b₃`` the
+columns of a right-handed basis ``B`` in the joint's frame (intrinsic Euler angles about ``B``).
+The IK coordinates ``δ`` are changes of the first ``dof`` of these angles from the frame's FK
+pose, ``c = c_fk + δ``; the others stay at their FK values. ``δ = 0`` is the FK pose exactly
+(§2.2.3: IK starts from the frame's FK pose), a hinge stays a hinge, a swing wrist keeps its twist
+angle, and every solver — CCD, DLS and the CasADi NLP — works in the same coordinates ``δ``.
 
 Freedoms (§2.1.2): an elbow or knee is a **hinge** (1 DOF, axis = the clip's own flexion axis);
 a forearm roll bone (CMU's ``lwrist``) is a hinge about its twist axis; a wrist (``lhand``) is a
-**swing** (2 DOF across the hand bone, no twist) or **locked** (0 DOF, §2.3.3); every other joint is
-a **ball** (3 DOF). Limits (§2.1.3) come from **the clip's own range with a margin**, not anatomy
-tables: each free coordinate of ``B``-axis Euler angles of ``q_ref⁻¹ q`` (``q_ref`` the clip's mean
-rotation of the joint) stays within the clip's min/max widened by ``margin``. A result's coordinate
-is taken as the FK frame's plus ``δ`` (exact for hinges, first order for 2/3-axis joints), so the
-limits are per-frame box bounds on ``δ`` that always contain 0.
+**swing** (2 DOF across the hand bone, no twist) or **locked** (0 DOF, §2.3.3); a joint the source
+never turns (CMU's hip joints, clavicles and fingers: no degree of freedom in its skeleton) is
+locked too; every other joint is a **ball** (3 DOF).
+
+Limits (§2.1.3), enforced exactly: each free angle ``cᵢ`` stays within **the clip's own range
+widened by a margin** — since the angles are the coordinates themselves, these are box bounds on
+``δ`` that hold exactly, not to first order, for 2- and 3-axis joints as much as for hinges, and
+always contain 0. A joint may also have a **cone** limit ``max_angle``, the largest rotation angle
+of its local rotation (a model's joint range, e.g. ``mjmotion.limits.joint_limits``); a frame whose
+source pose is already beyond it may not turn further out (:meth:`Chain.cones`). The NLP takes the
+cone as a smooth constraint on the trace of the local rotation matrix; DLS and CCD shorten a step
+that would leave it (:func:`cone_step`).
 
 Stiffness (§1.10, Meredith & Maddock 2005): each coordinate has a weight ``w ∈ (0, 1]``; a small
 weight is a stiff joint. ``weights="clip"`` gives the clip's own variance of the coordinate (a
@@ -29,7 +37,6 @@ from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from .. import rotations as rot
 from ..errors import MjmotionError
@@ -41,6 +48,8 @@ FREEDOMS = ("ball", "swing", "hinge", "locked")
 DEFAULT_MARGIN = np.deg2rad(20.0)
 #: Lowest standard deviation used for stiffness weights (a joint still in the clip is not rigid).
 WEIGHT_FLOOR = np.deg2rad(3.0)
+#: A joint whose rotation never leaves this angle (radians) of its first frame is not a freedom of the character.
+STILL_JOINT = 1e-6
 
 _HINGE = re.compile(r"radius|forearm|elbow|tibia|shin|knee|lowleg|calf", re.IGNORECASE)
 _WRIST = re.compile(r"hand|wrist", re.IGNORECASE)
@@ -73,6 +82,7 @@ class ChainJoint:
         q_ref: ``(4,)`` the clip's mean local rotation, the origin of the limit coordinates.
         lower, upper: ``(dof,)`` radians, limits on the coordinates (clip range ± margin).
         weight: ``(dof,)`` Meredith & Maddock weights in (0, 1]; small = stiff.
+        max_angle: radians, the cone limit on the joint's local rotation angle (``inf``: none).
     """
 
     joint: int
@@ -83,6 +93,7 @@ class ChainJoint:
     lower: np.ndarray
     upper: np.ndarray
     weight: np.ndarray
+    max_angle: float = np.inf
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,24 +159,105 @@ class Chain:
             out[..., i, : j.dof] = delta[..., s]
         return out
 
-    def coordinates(self, local_rotations: np.ndarray) -> np.ndarray:
-        """Limit coordinates ``(T, n_dof)`` of chain-joint rotations ``(T, Jc, 4)`` (or of a motion's)."""
-        cols = []
+    def within_cones(self, fk_rotations: np.ndarray, delta: np.ndarray, cones: np.ndarray) -> np.ndarray:
+        """One frame's ``delta (n_dof,)`` with each coned joint's part shortened toward 0 (the
+        frame's FK pose, ``fk_rotations (Jc, 4)``, itself within ``cones (Jc,)`` radians as
+        :meth:`cones` gives them) until the joint's rotation is within its cone."""
+        start = self.angles(np.asarray(fk_rotations, dtype=float)[None])[0]
+        step = self.padded(delta)
+        axes = self.factor_axes()
+        out = np.array(delta, dtype=float)
+        for i, (j, sl) in enumerate(zip(self.joints, self.slices)):
+            if j.dof and np.isfinite(cones[i]) and np.any(step[i] != 0.0):
+                out[sl] *= cone_step(j.q_ref, axes[i], start[i], step[i], float(cones[i]))
+        return out
+
+    def angles(self, local_rotations: np.ndarray) -> np.ndarray:
+        """All three limit angles ``(T, Jc, 3)`` of chain-joint rotations ``(T, Jc, 4)`` (0 for locked joints)."""
+        out = np.zeros((local_rotations.shape[0], len(self.joints), 3))
         for i, j in enumerate(self.joints):
             if j.dof:
-                cols.append(_coords(j.basis, j.q_ref, local_rotations[:, i])[:, : j.dof])
+                out[:, i] = _coords(j.basis, j.q_ref, local_rotations[:, i])
+        return out
+
+    def coordinates(self, local_rotations: np.ndarray) -> np.ndarray:
+        """Limit coordinates ``(T, n_dof)`` of chain-joint rotations ``(T, Jc, 4)`` (or of a motion's)."""
+        a = self.angles(local_rotations)
+        cols = [a[:, i, : j.dof] for i, j in enumerate(self.joints) if j.dof]
         return np.concatenate(cols, axis=1) if cols else np.zeros((local_rotations.shape[0], 0))
 
+    @property
+    def lower(self) -> np.ndarray:
+        """``(n_dof,)`` the coordinates' lower limits (radians)."""
+        return np.concatenate([j.lower for j in self.joints]) if self.n_dof else np.zeros(0)
+
+    @property
+    def upper(self) -> np.ndarray:
+        """``(n_dof,)`` the coordinates' upper limits (radians)."""
+        return np.concatenate([j.upper for j in self.joints]) if self.n_dof else np.zeros(0)
+
     def bounds(self, motion: Motion) -> tuple[np.ndarray, np.ndarray]:
-        """Per-frame box bounds ``(T, n_dof)`` on ``δ`` from the joints' limits (always contain 0)."""
+        """Per-frame box bounds ``(T, n_dof)`` on ``δ``: exactly the joints' limits (they always contain 0)."""
         c = self.coordinates(motion.rotations[:, self.joint_indices])
-        lo = np.concatenate([j.lower for j in self.joints]) if self.n_dof else np.zeros(0)
-        hi = np.concatenate([j.upper for j in self.joints]) if self.n_dof else np.zeros(0)
-        return np.minimum(lo - c, 0.0), np.maximum(hi - c, 0.0)
+        return np.minimum(self.lower - c, 0.0), np.maximum(self.upper - c, 0.0)
+
+    def cones(self, motion: Motion) -> np.ndarray:
+        """Per-frame cone limits ``(T, Jc)`` (radians): each joint's ``max_angle``, or the source's own
+        angle where the source is already beyond it (so ``δ = 0`` is always allowed)."""
+        limit = np.array([j.max_angle for j in self.joints])
+        return np.maximum(limit, rotation_angle(motion.rotations[:, self.joint_indices]))
+
+    @property
+    def coned(self) -> np.ndarray:
+        """``(Jc,) bool``: joints with a cone limit that can move."""
+        return np.array([bool(j.dof) and np.isfinite(j.max_angle) for j in self.joints], dtype=bool)
 
     def apply(self, fk_rotations: np.ndarray, delta: np.ndarray) -> np.ndarray:
-        """Chain-joint rotations ``(..., Jc, 4)`` for FK rotations ``(..., Jc, 4)`` and ``δ (..., n_dof)``."""
-        return rot.multiply(fk_rotations, perturbation(self.factor_axes(), self.padded(delta)))
+        """Chain-joint rotations ``(T, Jc, 4)`` for FK rotations ``(T, Jc, 4)`` and ``δ (T, n_dof)``.
+
+        A joint whose ``δ`` is zero in a frame keeps its FK rotation bit for bit.
+        """
+        fk = np.asarray(fk_rotations, dtype=float)
+        d = self.padded(delta)
+        out = fk.copy()
+        moved = np.any(d != 0.0, axis=-1)  # (T, Jc)
+        if not moved.any():
+            return out
+        a = self.angles(fk) + d
+        q_ref = np.stack([j.q_ref for j in self.joints])
+        new = rot.multiply(np.broadcast_to(q_ref, fk.shape), perturbation(self.factor_axes(), a))
+        # the FK rotation's sign (a quaternion and its negative are the same rotation)
+        new = np.where(np.sum(new * fk, axis=-1, keepdims=True) < 0, -new, new)
+        out[moved] = new[moved]
+        return out
+
+
+def rotation_angle(q: np.ndarray) -> np.ndarray:
+    """Rotation angle ``(...)`` in ``[0, π]`` radians of unit quaternions ``q: (..., 4)``."""
+    return 2.0 * np.arctan2(np.linalg.norm(q[..., 1:], axis=-1), np.abs(q[..., 0]))
+
+
+def cone_step(q_ref: np.ndarray, axes: np.ndarray, start: np.ndarray, step: np.ndarray, limit: float, iters: int = 30) -> float:
+    """Largest fraction ``s ∈ [0, 1]`` of ``step (3,)`` from the joint's angles ``start (3,)`` whose
+    rotation ``q_ref ⊗ P(start + s·step)`` stays within the cone ``limit`` (radians).
+
+    ``start`` must be inside (or no further out than allowed); bisection on ``s``.
+    """
+
+    def angle(s: float) -> float:
+        return float(rotation_angle(rot.multiply(q_ref, perturbation(axes[None], (start + s * step)[None])[0])))
+
+    if angle(1.0) <= limit:
+        return 1.0
+    base = max(angle(0.0), limit)
+    lo, hi = 0.0, 1.0
+    for _ in range(iters):
+        mid = 0.5 * (lo + hi)
+        if angle(mid) <= base:
+            lo = mid
+        else:
+            hi = mid
+    return lo
 
 
 def perturbation(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
@@ -176,10 +268,32 @@ def perturbation(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
 
 
 def _coords(basis: np.ndarray, q_ref: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Intrinsic Euler angles ``(T, 3)`` about the basis axes of ``q_ref⁻¹ ⊗ q``."""
-    rel = rot.to_matrix(rot.multiply(rot.conjugate(q_ref), q))
-    m = np.einsum("ji,tjk,kl->til", basis, rel, basis)
-    return Rotation.from_matrix(m).as_euler("XYZ")
+    """Intrinsic Euler angles ``(T, 3)`` about the basis axes of ``q_ref⁻¹ ⊗ q`` (``q: (T, 4)``).
+
+    ``m = Bᵀ R(q_ref⁻¹ q) B = Rx(a) Ry(b) Rz(c)``: ``b = asin m₀₂``, ``a = atan2(−m₁₂, m₂₂)``,
+    ``c = atan2(−m₀₁, m₀₀)`` (at ``|b| = 90°`` all of the turn goes to ``a``).
+    """
+    rel = rot.multiply(rot.conjugate(q_ref), q)
+    m = np.einsum("ji,tjk,kl->til", basis, _matrix(rel), basis)
+    sb = np.clip(m[:, 0, 2], -1.0, 1.0)
+    b = np.arcsin(sb)
+    lock = np.abs(sb) > 1.0 - 1e-12
+    a = np.where(lock, np.arctan2(m[:, 2, 1], m[:, 1, 1]), np.arctan2(-m[:, 1, 2], m[:, 2, 2]))
+    c = np.where(lock, 0.0, np.arctan2(-m[:, 0, 1], m[:, 0, 0]))
+    return np.stack([a, b, c], axis=1)
+
+
+def _matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)`` (w, x, y, z)."""
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
+        ],
+        axis=-2,
+    )
 
 
 def _principal_axis(v: np.ndarray, fallback: np.ndarray) -> np.ndarray:
@@ -222,10 +336,13 @@ def chain_joint(
     freedom: str,
     margin: float = DEFAULT_MARGIN,
     axis: np.ndarray | None = None,
+    max_angle: float = np.inf,
 ) -> ChainJoint:
     """The :class:`ChainJoint` for joint ``j`` of ``motion`` with ``freedom`` and limits from the clip.
 
     ``axis``: for a hinge, the hinge axis (default: the clip's principal rotation axis of the joint).
+    ``max_angle``: the cone limit on the joint's local rotation angle (radians); ``inf`` where the
+    clip's box (its range ± ``margin``) cannot reach it.
     """
     if freedom not in FREEDOMS:
         raise MjmotionError(f"freedom must be one of {', '.join(FREEDOMS)}, got {freedom!r}")
@@ -253,7 +370,14 @@ def chain_joint(
     lower = c.min(axis=0) - margin if dof else np.zeros(0)
     upper = c.max(axis=0) + margin if dof else np.zeros(0)
     sd = np.maximum(c.std(axis=0), WEIGHT_FLOOR) if dof else np.zeros(0)
-    return ChainJoint(j, freedom, basis, dof, q_ref, lower, upper, sd**2)
+    if np.isfinite(max_angle) and dof:
+        # The rotation angle is a metric on rotations, so within the box q_ref ⊗ P(c) turns at most
+        # angle(q_ref) + Σ|c_k| from rest: a cone that bound keeps inside cannot bind (and costs the
+        # solvers a constraint for nothing).
+        reach = float(rotation_angle(q_ref)) + float(np.sum(np.maximum(np.abs(lower), np.abs(upper))))
+        if reach <= max_angle:
+            max_angle = np.inf
+    return ChainJoint(j, freedom, basis, dof, q_ref, lower, upper, sd**2, float(max_angle))
 
 
 def _any_perpendicular(a: np.ndarray) -> np.ndarray:
@@ -277,6 +401,7 @@ def build_chain(
     lock: tuple[str, ...] | list[str] = (),
     margin: float = DEFAULT_MARGIN,
     weights: str = "clip",
+    max_angles: np.ndarray | None = None,
 ) -> Chain:
     """A chain from joint ``start`` down to ``tip`` (never the root: §2.2.2).
 
@@ -289,8 +414,14 @@ def build_chain(
         lock: names of further joints to lock.
         margin: radians added on both sides of the clip's range of each coordinate.
         weights: ``clip`` (variance of the coordinate in the clip, max 1) or ``uniform``.
+        max_angles: ``(J,)`` radians per skeleton joint, cone limits on the local rotation angle
+            (``inf`` or ``None``: no cone), e.g. ``mjmotion.limits.joint_limits(skeleton)``.
     """
     skel = motion.skeleton
+    if max_angles is not None:
+        max_angles = np.asarray(max_angles, dtype=float)
+        if max_angles.shape != (skel.n_joints,) or np.any(np.isnan(max_angles)) or np.any(max_angles < 0):
+            raise MjmotionError(f"joint limits must be {skel.n_joints} non-negative angles (radians, one per joint), got shape {max_angles.shape}")
     s = skel.index(start) if isinstance(start, str) else int(start)
     t = skel.index(tip) if isinstance(tip, str) else int(tip)
     if s == 0:
@@ -304,7 +435,9 @@ def build_chain(
     joints = []
     for j in skel.chain(s, t):
         role = joint_role(skel, j)
-        if skel.names[j] in lock:
+        still = float(np.max(rot.angle_between(motion.rotations[:, j], motion.rotations[:1, j]), initial=0.0)) <= STILL_JOINT
+        if skel.names[j] in lock or still:
+            # a joint the source never turns is not a freedom of this character (CMU: hip joints, clavicles)
             freedom = "locked"
         elif role in ("hinge", "twist"):
             freedom = "hinge"
@@ -312,12 +445,12 @@ def build_chain(
             freedom = wrist
         else:
             freedom = "ball"
-        joints.append(chain_joint(motion, j, freedom, margin))
+        joints.append(chain_joint(motion, j, freedom, margin, max_angle=np.inf if max_angles is None else float(max_angles[j])))
     if weights == "uniform":
-        joints = [ChainJoint(c.joint, c.freedom, c.basis, c.dof, c.q_ref, c.lower, c.upper, np.ones(c.dof)) for c in joints]
+        joints = [dataclasses.replace(c, weight=np.ones(c.dof)) for c in joints]
     elif weights == "clip":
         top = max((float(c.weight.max()) for c in joints if c.dof), default=1.0)
-        joints = [ChainJoint(c.joint, c.freedom, c.basis, c.dof, c.q_ref, c.lower, c.upper, c.weight / top) for c in joints]
+        joints = [dataclasses.replace(c, weight=c.weight / top) for c in joints]
     else:
         raise MjmotionError(f"weights must be 'clip' or 'uniform', got {weights!r}")
     return Chain(skel, tuple(joints), effector, t)
@@ -343,7 +476,11 @@ class ChainKinematics:
         self.tip_body = int(compiled.body_ids[chain.tip])
         eff = chain.effector
         self.eff_offset = np.zeros(3) if eff is None else np.asarray(eff.offset, dtype=float)
+        self.q_ref = np.stack([j.q_ref for j in chain.joints]) if chain.joints else np.zeros((0, 4))
+        self.moving = np.array([j.dof > 0 for j in chain.joints], dtype=bool)
         self.q_fk = np.zeros((len(chain.joints), 4))
+        self.c_fk = np.zeros((len(chain.joints), 3))
+        self._angles = np.zeros((len(chain.joints), 3))
         self.jacp = np.zeros((3, self.model.nv))
         self.jacr = np.zeros((3, self.model.nv))
 
@@ -351,13 +488,25 @@ class ChainKinematics:
         """Load the FK pose ``qpos: (nq,)`` of a frame; ``δ = 0`` reproduces it."""
         self.data.qpos[:] = qpos
         self.q_fk = self.data.qpos[self.qidx].reshape(-1, 4).copy()
-        self._angles = np.zeros((len(self.chain.joints), 3))
+        self.c_fk = self.chain.angles(self.q_fk[None])[0]
+        self._angles = self.c_fk.copy()
+
+    def rotations(self, delta: np.ndarray) -> np.ndarray:
+        """``(Jc, 4)`` chain-joint local rotations at ``δ (n_dof,)`` for the loaded frame (the FK
+        rotation itself, bit for bit, for a joint whose ``δ`` is zero)."""
+        d = self.chain.padded(delta)
+        angles = self.c_fk + d
+        out = self.q_fk.copy()
+        moved = self.moving & np.any(d != 0.0, axis=-1)
+        if moved.any():
+            new = rot.multiply(self.q_ref[moved], perturbation(self.axes[moved], angles[moved]))
+            out[moved] = np.where(np.sum(new * self.q_fk[moved], axis=-1, keepdims=True) < 0, -new, new)
+        return out
 
     def set_delta(self, delta: np.ndarray) -> None:
         """Apply ``δ (n_dof,)`` to the loaded frame and run ``mj_kinematics``."""
-        self._angles = self.chain.padded(delta)
-        pert = perturbation(self.axes, self._angles)
-        self.data.qpos[self.qidx] = rot.multiply(self.q_fk, pert).ravel()
+        self._angles = self.c_fk + self.chain.padded(delta)
+        self.data.qpos[self.qidx] = self.rotations(delta).ravel()
         mujoco.mj_kinematics(self.model, self.data)
 
     def tip_frame(self) -> tuple[np.ndarray, np.ndarray]:
@@ -374,7 +523,8 @@ class ChainKinematics:
         """``(3, n_dof)`` (or ``(6, n_dof)`` with ``rotation``) Jacobian of the effector w.r.t. ``δ``.
 
         From ``mujoco.mj_jac`` (ball-joint velocities are in the joint's frame), mapped through
-        the factor axes: coordinate ``i`` of a joint turns about ``(Rᵢ₊₁⋯R₃)ᵀ bᵢ`` in that frame.
+        the factor axes: angle ``i`` of a joint turns about ``(Rᵢ₊₁⋯R₃)ᵀ bᵢ`` in that frame, the
+        factors ``R`` at the joint's current angles ``c_fk + δ``.
         """
         mujoco.mj_comPos(self.model, self.data)
         mujoco.mj_jac(self.model, self.data, self.jacp, self.jacr, self.effector(), self.tip_body)

@@ -15,7 +15,6 @@ infeasible, the goal becomes a heavy penalty instead and the result says how far
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import casadi as ca
 import mujoco
@@ -25,12 +24,13 @@ import scipy.sparse as sp
 from .. import rotations as rot
 from ..errors import MjmotionError
 from ..mjcf import CompiledModel
-from .chains import Chain
+from .chains import Chain, _coords
 from .dls import ORIENTATION_SCALE, IKResult, rotation_error
 
 #: Penalty weight of the goal when it cannot be met exactly (per m²).
 SOFT_WEIGHT = 1e6
-_IPOPT: dict[str, Any] = {
+#: IPOPT's options (the value types casadi's ``nlpsol`` takes).
+_IPOPT: dict[str, bool | int | float | str | ca.Function] = {
     "ipopt.print_level": 0,
     "ipopt.sb": "yes",
     "print_time": False,
@@ -52,14 +52,22 @@ def _axis_matrix(axis: int, a: ca.SX) -> ca.SX:
 class SymbolicFK:
     """Forward kinematics of one or more disjoint chains as a CasADi expression.
 
-    Joint ``j`` of a chain: ``R_j = R_parent · (R_fk,j B_j) · Rx(δ₁) Ry(δ₂) Rz(δ₃) · B_jᵀ`` and
-    ``x_j = x_parent + R_parent t_j``. The numbers that change per frame — each joint's
-    ``R_fk B`` and local translation ``t``, and the world frame of every joint whose parent is not
-    in the chains (a *base*) — form the parameter vector from :meth:`params`.
+    Joint ``j`` of a chain (:mod:`mjmotion.ik.chains`): its local rotation is
+    ``L_j = M_j · R₁(c₁ + δ₁) ⋯ R_k(c_k + δ_k) · N_j`` over its ``k`` free angles, with
+    ``M_j = R(q_ref) B`` and ``N_j`` the fixed angles' factors times ``Bᵀ`` (a locked joint:
+    ``M_j = R_fk B``, ``N_j = Bᵀ``); ``R_j = R_parent · L_j`` and ``x_j = x_parent + R_parent t_j``.
+    The numbers that change per frame — each joint's ``M``, ``N``, free angles ``c`` and local
+    translation ``t``, and the world frame of every joint whose parent is not in the chains (a
+    *base*) — form the parameter vector from :meth:`params`.
 
     Outputs of :attr:`function` ``(δ, p)``: for each chain, its tip position ``(3,)``, tip rotation
-    ``(9,)`` column-major, and (if it has one) its effector position ``(3,)``.
+    ``(9,)`` column-major, and (if it has one) its effector position ``(3,)``. :attr:`traces` are
+    the traces of the joints' local rotation matrices (``1 + 2 cos θ``, θ the rotation angle), for
+    cone limits.
     """
+
+    #: Parameters per chain joint: M (9), N (9), free angles c (3), translation t (3).
+    PER_JOINT = 24
 
     def __init__(self, compiled: CompiledModel, chains: list[Chain]):
         self.compiled = compiled
@@ -71,33 +79,41 @@ class SymbolicFK:
         skel = compiled.skeleton
         self.bases = sorted({int(skel.parents[cj.joint]) for cj in self.joints if int(skel.parents[cj.joint]) not in self.index})
         self.n_dof = sum(c.n_dof for c in chains)
-        self.n_params = 12 * len(self.joints) + 12 * len(self.bases)
+        k = self.PER_JOINT
+        self.n_params = k * len(self.joints) + 12 * len(self.bases)
         delta = ca.SX.sym("delta", self.n_dof)
         p = ca.SX.sym("p", self.n_params)
         frames: dict[int, tuple[ca.SX, ca.SX]] = {}
-        off = 12 * len(self.joints)
+        off = k * len(self.joints)
         for b_i, b in enumerate(self.bases):
             x = p[off + 12 * b_i : off + 12 * b_i + 3]
             r = ca.reshape(p[off + 12 * b_i + 3 : off + 12 * b_i + 12], 3, 3)
             frames[b] = (x, r)
         a = 0
+        traces = []
         for i, cj in enumerate(self.joints):
             px, pr = frames[int(skel.parents[cj.joint])]
-            m = ca.reshape(p[12 * i : 12 * i + 9], 3, 3)
-            t = p[12 * i + 9 : 12 * i + 12]
+            base = k * i
+            m = ca.reshape(p[base : base + 9], 3, 3)
+            n = ca.reshape(p[base + 9 : base + 18], 3, 3)
+            c = p[base + 18 : base + 21]
+            t = p[base + 21 : base + 24]
             e = m
-            for k in range(cj.dof):
-                e = e @ _axis_matrix(k, delta[a + k])
+            for f in range(cj.dof):
+                e = e @ _axis_matrix(f, c[f] + delta[a + f])
             a += cj.dof
-            frames[cj.joint] = (px + pr @ t, pr @ e @ ca.DM(cj.basis.T))
+            local = e @ n
+            traces.append(ca.trace(local))
+            frames[cj.joint] = (px + pr @ t, pr @ local)
         outs = []
-        for c in chains:
-            x, r = frames[c.tip]
+        for ch in chains:
+            x, r = frames[ch.tip]
             outs += [x, ca.reshape(r, 9, 1)]
-            if c.effector is not None:
-                outs.append(x + r @ ca.DM(np.asarray(c.effector.offset, dtype=float)))
+            if ch.effector is not None:
+                outs.append(x + r @ ca.DM(np.asarray(ch.effector.offset, dtype=float)))
         self.delta, self.p = delta, p
         self.outputs = outs
+        self.traces = traces
         self.function = ca.Function("chain_fk", [delta, p], outs)
 
     def params(self, qpos_fk: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> np.ndarray:
@@ -105,22 +121,55 @@ class SymbolicFK:
         from MuJoCo's ``xpos (nbody, 3)`` and ``xmat (nbody, 9)`` of the current state."""
         c = self.compiled
         skel = c.skeleton
+        k = self.PER_JOINT
         out = np.empty(self.n_params)
         for i, cj in enumerate(self.joints):
             a = c.qpos_adr[cj.joint]
-            m = rot.to_matrix(qpos_fk[a : a + 4]) @ cj.basis
+            q = qpos_fk[a : a + 4]
             t = skel.offsets[cj.joint].copy()
             if c.slide_adr[cj.joint] >= 0:
                 s = c.slide_adr[cj.joint]
                 t = t + qpos_fk[s : s + 3]
-            out[12 * i : 12 * i + 9] = m.ravel(order="F")
-            out[12 * i + 9 : 12 * i + 12] = t
-        off = 12 * len(self.joints)
+            free = np.zeros(3)
+            if cj.dof:
+                angles = _coords(cj.basis, cj.q_ref, q[None])[0]
+                m = rot.to_matrix(cj.q_ref) @ cj.basis
+                n = np.eye(3)
+                for f in range(cj.dof, 3):
+                    n = n @ _axis(f, angles[f])
+                n = n @ cj.basis.T
+                free[: cj.dof] = angles[: cj.dof]
+            else:
+                m, n = rot.to_matrix(q) @ cj.basis, cj.basis.T
+            out[k * i : k * i + 9] = m.ravel(order="F")
+            out[k * i + 9 : k * i + 18] = n.ravel(order="F")
+            out[k * i + 18 : k * i + 21] = free
+            out[k * i + 21 : k * i + 24] = t
+        off = k * len(self.joints)
         for b_i, b in enumerate(self.bases):
             body = c.body_ids[b]
             out[off + 12 * b_i : off + 12 * b_i + 3] = xpos[body]
             out[off + 12 * b_i + 3 : off + 12 * b_i + 12] = xmat[body].reshape(3, 3).ravel(order="F")
         return out
+
+    def cone_rows(self) -> np.ndarray:
+        """Indices (into :attr:`joints`) of the joints with a cone limit that can move."""
+        return np.array([i for i, cj in enumerate(self.joints) if cj.dof and np.isfinite(cj.max_angle)], dtype=int)
+
+
+def _axis(f: int, angle: float) -> np.ndarray:
+    """``(3, 3)`` rotation by ``angle`` about coordinate axis ``f``."""
+    c, s = np.cos(angle), np.sin(angle)
+    if f == 0:
+        return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+    if f == 1:
+        return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+def trace_bounds(cones: np.ndarray) -> np.ndarray:
+    """Lower bounds on local-rotation traces for cone limits ``cones`` (radians): ``1 + 2 cos θ``."""
+    return 1.0 + 2.0 * np.cos(np.minimum(np.asarray(cones, dtype=float), np.pi))
 
 
 def _cost(chain_weights: np.ndarray, delta: ca.SX) -> ca.SX:
@@ -137,7 +186,8 @@ class FrameSolver:
     """Per-frame IK of one chain by IPOPT: a position goal for its effector, or a 6-D goal for its tip.
 
     Build once per chain (symbolic set-up and solver creation take a fraction of a second), then
-    call :meth:`solve` per frame.
+    call :meth:`solve` per frame. The box bounds on ``δ`` are the chain's exact limits; joints with
+    a cone limit get one inequality each on the trace of their local rotation.
     """
 
     def __init__(self, compiled: CompiledModel, chain: Chain, six: bool = False):
@@ -155,8 +205,10 @@ class FrameSolver:
             res = ca.vertcat(x - g[:3], ORIENTATION_SCALE * _orientation_residual(r, ca.reshape(g[3:], 3, 3)))
         else:
             res = self.fk.outputs[-1] - g
-        self.hard = ca.nlpsol("ik_hard", "ipopt", {"x": d, "p": pars, "f": cost, "g": res}, _IPOPT)
-        self._soft_nlp = {"x": d, "p": pars, "f": cost + SOFT_WEIGHT * ca.sumsqr(res)}
+        self.cone_rows = self.fk.cone_rows()
+        cone = ca.vertcat(*[self.fk.traces[i] for i in self.cone_rows]) if len(self.cone_rows) else ca.SX(0, 1)
+        self.hard = ca.nlpsol("ik_hard", "ipopt", {"x": d, "p": pars, "f": cost, "g": ca.vertcat(res, cone)}, _IPOPT)
+        self._soft_nlp = {"x": d, "p": pars, "f": cost + SOFT_WEIGHT * ca.sumsqr(res), "g": cone}
         self._soft: ca.Function | None = None
         self.n_res = res.shape[0]
         self.data = mujoco.MjData(compiled.model)
@@ -178,6 +230,7 @@ class FrameSolver:
         lower: np.ndarray,
         upper: np.ndarray,
         goal_rotation: np.ndarray | None = None,
+        cones: np.ndarray | None = None,
     ) -> IKResult:
         """Solve one frame from ``δ = 0``.
 
@@ -186,26 +239,33 @@ class FrameSolver:
             xpos, xmat: MuJoCo body frames of the current state (for the chain's base).
             goal: ``(3,)`` metres; ``goal_rotation`` ``(3, 3)`` for a 6-D solver.
             lower, upper: ``(n_dof,)`` bounds on ``δ``.
+            cones: ``(Jc,)`` this frame's cone limits (``Chain.cones``; default: each joint's
+                ``max_angle``).
         """
         p = self.fk.params(qpos_fk, xpos, xmat)
         g = np.asarray(goal, dtype=float)
+        goal_r = np.eye(3)  # used only when six
         if self.six:
             if goal_rotation is None:
                 raise MjmotionError("a 6-D solver needs goal_rotation")
-            g = np.concatenate([g, np.asarray(goal_rotation).ravel(order="F")])
+            goal_r = np.asarray(goal_rotation, dtype=float)
+            g = np.concatenate([g, goal_r.ravel(order="F")])
         pars = np.concatenate([p, g])
         x0 = np.zeros(self.chain.n_dof)
-        sol = self.hard(x0=x0, p=pars, lbx=lower, ubx=upper, lbg=0.0, ubg=0.0)
+        limit = np.array([j.max_angle for j in self.chain.joints]) if cones is None else np.asarray(cones, dtype=float)
+        lo_cone = trace_bounds(limit[self.cone_rows])
+        inf = np.full(len(self.cone_rows), np.inf)
+        zeros = np.zeros(self.n_res)
+        sol = self.hard(x0=x0, p=pars, lbx=lower, ubx=upper, lbg=np.concatenate([zeros, lo_cone]), ubg=np.concatenate([zeros, inf]))
         stats = self.hard.stats()
         if not stats["success"]:
-            sol = self.soft(x0=x0, p=pars, lbx=lower, ubx=upper)
+            sol = self.soft(x0=x0, p=pars, lbx=lower, ubx=upper, lbg=lo_cone, ubg=inf)
             stats = self.soft.stats()
-        delta = np.asarray(sol["x"]).ravel()
+        delta = np.clip(np.asarray(sol["x"]).ravel(), lower, upper)
         out = self.fk.function(delta, p)
         if self.six:
             x, r = np.asarray(out[0]).ravel(), np.asarray(out[1]).reshape(3, 3, order="F")
-            assert goal_rotation is not None
-            return IKResult(delta, float(np.linalg.norm(x - goal)), float(np.linalg.norm(rotation_error(goal_rotation, r))), int(stats["iter_count"]))
+            return IKResult(delta, float(np.linalg.norm(x - goal)), float(np.linalg.norm(rotation_error(goal_r, r))), int(stats["iter_count"]))
         e = np.asarray(out[-1]).ravel()
         return IKResult(delta, float(np.linalg.norm(e - goal)), 0.0, int(stats["iter_count"]))
 
@@ -239,7 +299,9 @@ def _time_hessian(frames: np.ndarray, inv_w: np.ndarray, smoothness: float) -> s
     """
     n = len(frames)
     pos = {int(f): i for i, f in enumerate(frames)}
-    rows, cols, vals = [], [], []
+    rows: list[int] = []
+    cols: list[int] = []
+    vals: list[float] = []
     for i, f in enumerate(frames):
         rows.append(i)
         cols.append(i)
@@ -293,9 +355,17 @@ class ShotSolver:
             res += [x2 - (x1 + r1 @ gs[3:6]), ORIENTATION_SCALE * _orientation_residual(r2, r1 @ ca.reshape(gs[6:15], 3, 3))]
         res_sx = ca.vertcat(*res)
         n_res = res_sx.shape[0]
-        lam = ca.SX.sym("lam", n_res)
-        frame_res = ca.Function("frame_res", [ds, ps, gs], [res_sx])
-        frame_hess = ca.Function("frame_hess", [ds, ps, gs, lam], [ca.densify(ca.hessian(ca.dot(lam, res_sx), ds)[0])])
+        # cone limits: the traces of the coned joints' local rotations, from the same parameters
+        self.cone_rows = self.fk.cone_rows()
+        trace_fn = ca.Function(
+            "traces", [self.fk.delta, self.fk.p], [ca.vertcat(*[self.fk.traces[i] for i in self.cone_rows])] if len(self.cone_rows) else [ca.SX(0, 1)]
+        )
+        cone_sx = trace_fn(ds, ps)
+        n_cone = len(self.cone_rows)
+        lam = ca.SX.sym("lam", n_res + n_cone)
+        frame_res = ca.Function("frame_res", [ds, ps, gs], [ca.vertcat(res_sx, cone_sx)])
+        lagr = ca.dot(lam, ca.vertcat(res_sx, cone_sx))
+        frame_hess = ca.Function("frame_hess", [ds, ps, gs, lam], [ca.densify(ca.hessian(lagr, ds)[0])])
         w = np.concatenate([lead.weights] + ([second.weights] if second is not None else []))
         q = _dm(_time_hessian(frames, 1.0 / np.maximum(w, 1e-9), smoothness))
         x = ca.MX.sym("x", nd * n_frames)
@@ -303,21 +373,25 @@ class ShotSolver:
         p = ca.reshape(pars[: self.fk.n_params * n_frames], self.fk.n_params, n_frames)
         g = ca.reshape(pars[self.fk.n_params * n_frames :], n_goal, n_frames)
         d = ca.reshape(x, nd, n_frames)
-        residuals = ca.vec(frame_res.map(n_frames)(d, p, g))
+        residuals = ca.vec(frame_res.map(n_frames)(d, p, g))  # per frame: goal residuals, then cone traces
         cost = 0.5 * ca.bilin(q, x, x)
-        lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", n_res * n_frames)
-        blocks = frame_hess.map(n_frames)(d, p, g, ca.reshape(lam_g, n_res, n_frames))
+        n_con = n_res + n_cone
+        lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", n_con * n_frames)
+        blocks = frame_hess.map(n_frames)(d, p, g, ca.reshape(lam_g, n_con, n_frames))
         hess = lam_f * 0.5 * (q + q.T) + ca.diagcat(*ca.horzsplit(blocks, nd))
         hess_lag = ca.Function("hess_lag", [x, pars, lam_f, lam_g], [ca.triu(hess)], ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
         opts = dict(_IPOPT)
         opts["ipopt.max_iter"] = 300
         opts["hess_lag"] = hess_lag
-        self.nd, self.n_goal = nd, n_goal
-        self._nlp: dict[str, Any] = {"x": x, "p": pars, "f": cost, "g": residuals}
-        self._soft_nlp: dict[str, Any] = {"x": x, "p": pars, "f": cost + SOFT_WEIGHT * ca.sumsqr(residuals)}
+        self.nd, self.n_goal, self.n_res, self.n_cone = nd, n_goal, n_res, n_cone
+        all_con = ca.reshape(residuals, n_con, n_frames)
+        goal_res = ca.vec(all_con[:n_res, :])
+        cone_g = ca.vec(all_con[n_res:, :])
+        self._nlp = {"x": x, "p": pars, "f": cost, "g": residuals}
+        self._soft_nlp = {"x": x, "p": pars, "f": cost + SOFT_WEIGHT * ca.sumsqr(goal_res), "g": cone_g}
         self.hard = ca.nlpsol("shot_hard", "ipopt", self._nlp, opts)
         self._soft: ca.Function | None = None
-        self.residual = ca.Function("res", [x, pars], [ca.reshape(residuals, n_res, n_frames)])
+        self.residual = ca.Function("res", [x, pars], [all_con[:n_res, :]])
 
     @property
     def soft(self) -> ca.Function:
@@ -328,7 +402,7 @@ class ShotSolver:
             self._soft = ca.nlpsol("shot_soft", "ipopt", self._soft_nlp, opts)
         return self._soft
 
-    def solve(self, params: np.ndarray, goals: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> ShotResult:
+    def solve(self, params: np.ndarray, goals: np.ndarray, lower: np.ndarray, upper: np.ndarray, cones: np.ndarray | None = None) -> ShotResult:
         """Solve the shot.
 
         Args:
@@ -337,17 +411,23 @@ class ShotSolver:
             goals: ``(N, 3)`` effector goals, or ``(N, 15)`` adding the second tip's source pose in
                 the lead tip's frame: position ``(3,)`` and rotation ``(9,)`` column-major.
             lower, upper: ``(N, nd)`` bounds on ``δ``.
+            cones: ``(N, Jc)`` per-frame cone limits of the joints of both chains (``Chain.cones``,
+                lead then second; default: each joint's ``max_angle``).
         """
         pars = np.concatenate([params.ravel(), goals.ravel()])
         x0 = np.zeros(self.nd * self.n)
         lbx, ubx = lower.ravel(), upper.ravel()
-        sol = self.hard(x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=0.0, ubg=0.0)
+        limit = np.broadcast_to([j.max_angle for j in self.fk.joints], (self.n, len(self.fk.joints))) if cones is None else np.asarray(cones, float)
+        lo_cone = trace_bounds(limit[:, self.cone_rows])  # (N, n_cone)
+        lbg = np.hstack([np.zeros((self.n, self.n_res)), lo_cone]).ravel()
+        ubg = np.hstack([np.zeros((self.n, self.n_res)), np.full(lo_cone.shape, np.inf)]).ravel()
+        sol = self.hard(x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         stats = self.hard.stats()
         ok = bool(stats["success"])
         if not ok:
-            sol = self.soft(x0=x0, p=pars, lbx=lbx, ubx=ubx)
+            sol = self.soft(x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=lo_cone.ravel(), ubg=np.inf)
             stats = self.soft.stats()
-        xs = np.asarray(sol["x"]).ravel()
+        xs = np.clip(np.asarray(sol["x"]).ravel(), lbx, ubx)
         res = np.asarray(self.residual(xs, pars))
         d = xs.reshape(self.n, self.nd)
         n1 = self.lead.n_dof

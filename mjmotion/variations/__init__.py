@@ -14,11 +14,13 @@ from .fixes import FEET_METHODS, CleanupReport, clean_up, copied_frames, grip_jo
 from .measure import effector_path_length, first_hand_for, fitted_club, grip_error_m, report
 from .paths import (
     DEFAULT_VARIANCE,
+    END_FADE,
     MAX_SCORE,
     SEGMENT_TAPER,
     ScorePath,
     aborted_path,
     default_abort_frames,
+    end_weights,
     explicit_path,
     read_scores,
     rest_in_place,
@@ -30,6 +32,7 @@ from .paths import (
 
 __all__ = [
     "DEFAULT_VARIANCE",
+    "END_FADE",
     "MAX_SCORE",
     "FEET_METHODS",
     "SEGMENT_TAPER",
@@ -39,6 +42,7 @@ __all__ = [
     "clean_up",
     "copied_frames",
     "default_abort_frames",
+    "end_weights",
     "effector_path_length",
     "explicit_path",
     "first_hand_for",

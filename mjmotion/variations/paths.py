@@ -6,7 +6,9 @@ components do not carry, and for where the feet and the second hand belong). Fro
 own path:
 
 * :func:`scaled_path` — exaggerate (factor > 1) or mute (< 1) by scaling the path about its
-  centre, or about the centre of a named segment with tapered ends (§3.2.3, Figure 3.7 red/green);
+  centre, fading to none at the first and last frames (:func:`end_weights`, the common start and
+  end poses of §2.2.5), or about the centre of a named segment with tapered ends (§3.2.3,
+  Figure 3.7 red/green);
 * :func:`aborted_path` — follow the source to frame ``f``, then leave for the rest pose's scores
   over ``N`` frames (§3.2.3, Figure 3.7 orange);
 * :func:`explicit_path` — a user's own scores (CSV/NPY).
@@ -33,6 +35,8 @@ from ..style import PoseSpace
 DEFAULT_VARIANCE = 0.9
 #: Fraction of a named segment (at each end) over which exaggeration fades in and out.
 SEGMENT_TAPER = 0.25
+#: Fraction of a path's farthest distance from its start (end) pose at which scaling is at full strength.
+END_FADE = 0.5
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:
@@ -112,15 +116,35 @@ def _check_segment(segment: tuple[int, int], n_frames: int) -> tuple[int, int]:
     return a, b
 
 
+def end_weights(controlled: np.ndarray, fade: float = END_FADE) -> np.ndarray:
+    """``(T,)`` 0 at the first and last frames of a path ``controlled: (T, k)``, 1 once it has left
+    its start pose (and before it settles into its end pose) by ``fade`` of its farthest distance
+    from it (seed 003 §2.2.5: the shots share common start and end poses, so their variants keep them).
+
+    ``w = smoothstep(m₀(t)/(fade·max m₀)) · smoothstep(m₁(t)/(fade·max m₁))`` with ``m₀(t)`` the
+    farthest the path has been from its first pose up to ``t`` and ``m₁(t)`` the farthest it will
+    be from its last pose after ``t``: still frames at either end (an address, a finish) stay at 0,
+    and a swing passing near its start pose again (a golf impact) keeps its full weight.
+    """
+    c = np.asarray(controlled, dtype=float)
+    d0 = np.maximum.accumulate(np.linalg.norm(c - c[0], axis=1))
+    d1 = np.maximum.accumulate(np.linalg.norm(c - c[-1], axis=1)[::-1])[::-1]
+    w0 = _smoothstep(d0 / max(fade * float(d0[-1]), 1e-12))
+    w1 = _smoothstep(d1 / max(fade * float(d1[0]), 1e-12))
+    return w0 * w1
+
+
 def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None = None) -> ScorePath:
     """Exaggerate (``factor`` > 1) or mute (< 1) ``path`` (§3.2.3, Figure 3.7).
 
     The controlled scores move away from (or toward) the centre ``c`` (mean over the segment,
-    or the whole path): ``s' = s + w(t)(factor − 1)(s − c)`` with ``w`` from :func:`segment_weights`.
+    or the whole path): ``s' = s + w(t)(factor − 1)(s − c)`` with ``w`` from :func:`segment_weights`
+    for a segment, else :func:`end_weights`: the first and last frames are the source's (the
+    common start and end poses of §2.2.5).
     """
     if not (np.isfinite(factor) and factor > 0):
         raise MjmotionError(f"scale factor must be a positive number, got {factor}")
-    w = segment_weights(path.n_frames, segment)
+    w = segment_weights(path.n_frames, segment) if segment is not None else end_weights(path.controlled)
     s = path.scores.copy()
     ctrl = s[:, : path.k]
     centre = ctrl[w > 0].mean(axis=0)  # the segment's centre (every frame of the segment has w > 0)
