@@ -888,6 +888,13 @@ def solve(
             d1, d2, _ = _solve_shot(problem, smoothness, _scaled_goals(problem, fraction))
     else:
         d1, d2, fraction, n = _solve_frames(problem, ik, oracle, frames, on_frame)
+    h = problem.hit
+    if fraction[h] < 1.0:
+        # frames beside the hit fell short and the gradual envelope took the hit with them: the
+        # target is where the hit now stops (so short_by_m and the message say how far short)
+        stopped = problem.effector_fk[h] + fraction[h] * (problem.target - problem.effector_fk[h])
+        asked = problem.requested if problem.requested is not None else problem.target
+        problem = replace(problem, target=stopped, requested=asked)
     if frames is not None:
         # between solved frames the δ of both chains is interpolated (it is 0 outside the blend)
         d1[active] = _interp_rows(active, frames, d1[frames])
