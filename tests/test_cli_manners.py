@@ -146,3 +146,24 @@ def test_hit_and_vary_show_their_steps_on_a_terminal(name, monkeypatch, tmp_path
     want = ("hit: 0/3, read", "hit: 1/3, solve", "hit: 2/3, write") if name == "hit" else ("vary: 2/6, synthesise", "vary: 3/6, clean up")
     assert all(w in shown for w in want), shown
     assert str(tmp_path / "out.bvh") in capsys.readouterr().out
+
+
+def test_hit_summary_is_rounded_and_names_a_grip_only_for_two_hands(tmp_path, capsys):
+    """Issue 20: ``hit`` printed 16 decimals and a "grip error" for a kick."""
+    import re
+
+    from mjmotion import bvh, synth
+
+    kick = tmp_path / "kick.bvh"
+    bvh.write(synth.kick().motion, kick)
+    assert (
+        cli.main(["hit", str(kick), "--effector", "right_foot", "--offset", "0", "0.05", "0", "--solver", "dls", "-o", str(tmp_path / "k.bvh")]) == 0
+    )
+    line = capsys.readouterr().out
+    assert "grip" not in line and "style_rmse" in line, line
+    assert not re.search(r"\d\.\d{5,}", line), line  # no number to more than 4 decimals
+    drive = tmp_path / "drive.bvh"
+    bvh.write(synth.drive().motion, drive)
+    assert cli.main(["hit", str(drive), "--offset", "0", "0.05", "0.05", "--solver", "dls", "-o", str(tmp_path / "d.bvh")]) == 0
+    line = capsys.readouterr().out
+    assert "grip error" in line and not re.search(r"\d\.\d{5,}", line), line

@@ -170,10 +170,12 @@ def run(args: argparse.Namespace) -> int:
             write_text_atomic(report_path, text + "\n")
     r = result.report
     written = f"{out} and {report_path}" if report_path is not None else str(out)
+    # human output to meaningful digits (the JSON keeps full precision); a grip only where two hands hold the prop
+    grip = f"grip error {r['grip_error_m'] * 1000:.3f} mm, " if result.problem.second is not None else ""
+    style = f"style_rmse {r['style_rmse']:.4f}, " if r["style_rmse"] is not None else ""
     print(
         f"wrote {written}: hit frame {r['hit_frame']} ({r['hit_rule']}; effector {r['source_effector_height_m']:.3f} m above the floor "
-        f"at {r['floor_m']:.3f} m), hit error {r['hit_error_m'] * 1000:.3f} mm, "
-        f"grip error {r['grip_error_m'] * 1000:.3f} mm, style_rmse {r['style_rmse']}, solver {r['solver']}"
+        f"at {r['floor_m']:.3f} m), hit error {r['hit_error_m'] * 1000:.3f} mm, {grip}{style}solver {r['solver']}"
     )
     if "delivery" in r:
         dl, ln = r["delivery"], r["delivery"]["launch"]
