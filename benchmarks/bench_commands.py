@@ -69,6 +69,7 @@ def prepare(d: Path, tmp: Path) -> dict[str, str]:
         "b600": str(tmp / "b600.bvh"),
         "stream": str(tmp / "stream.json"),
         "out": str(tmp / "out"),
+        "folder": str(d),
     }
 
 
@@ -107,6 +108,9 @@ def rows(f: dict[str, str]) -> dict[str, list[str]]:
             "-c",
             f"import sys, scipy.signal; from mjmotion.cli import main; sys.exit(main(['evaluate', {f['walk']!r}]))",
         ],
+        # issue 19.3: the whole shared folder, one process against two
+        "evaluate FOLDER --jobs 1": [*mj, "evaluate", f["folder"], "--jobs", "1"],
+        "evaluate FOLDER --jobs 2": [*mj, "evaluate", f["folder"], "--jobs", "2"],
         "cleanup walk": [*mj, "cleanup", f["walk"], "-o", o + ".bvh", "--force"],
         "render walk (60 frames, 640x360)": [
             *mj,
@@ -217,6 +221,13 @@ def main() -> int:
             "evaluate of one clip without scipy.signal's import (the judge's own Butterworth and Savitzky-Golay filters)",
             med[ev][0] < med[old][0],
             f"{med[old][0] / med[ev][0]:.2f}x faster wall, {med[old][2] / med[ev][2]:.2f}x CPU",
+        )
+    one, two = "evaluate FOLDER --jobs 1", "evaluate FOLDER --jobs 2"
+    if one in med and two in med:
+        goal(
+            "evaluate of the shared folder faster with --jobs 2 than --jobs 1",
+            med[two][0] < med[one][0],
+            f"{med[one][0] / med[two][0]:.2f}x faster wall",
         )
     return 0
 
