@@ -13,8 +13,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
-from scipy.spatial.transform import RotationSpline
 
 from .. import mjcf
 from .. import rotations as rot
@@ -37,10 +35,14 @@ TOP_HAND_GAP = 0.11  # the left (top) hand grips this far above the right one, m
 
 
 def _pchip(times: list[float], values: list | np.ndarray, t: np.ndarray) -> np.ndarray:
+    from scipy.interpolate import PchipInterpolator  # here: the gaits, and the judge's warm-up walk, never need it (0.35 s)
+
     return PchipInterpolator(np.asarray(times, dtype=float), np.asarray(values, dtype=float), axis=0)(t)
 
 
 def _rspline(times: list[float], quats: list[np.ndarray], t: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import RotationSpline
+
     q = rot.make_continuous(np.asarray(quats, dtype=float))
     spline = RotationSpline(np.asarray(times, dtype=float), rot.to_scipy(q))
     return rot.make_continuous(rot.from_scipy(spline(t)))
