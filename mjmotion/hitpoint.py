@@ -682,8 +682,14 @@ def stop_short(problem: HitProblem, ik: TwoHandIK, oracle: TwoHandIK | None = No
         return problem
     # not to the very edge: the frames around the hit, at the edge of the reach too, keep some room
     s *= 1.0 - SHORT_ROOM
-    target = problem.effector_fk[h] + s * (problem.target - problem.effector_fk[h])
-    return replace(problem, target=target, goals=_scaled_goals(problem, s), requested=problem.target)
+    return replace(_stopped_at(problem, s), goals=_scaled_goals(problem, s))
+
+
+def _stopped_at(problem: HitProblem, s: float) -> HitProblem:
+    """``problem`` with its target ``s`` of the way from the source hit point to it; the target asked for kept as ``requested``."""
+    e = problem.effector_fk[problem.hit]
+    asked = problem.requested if problem.requested is not None else problem.target
+    return replace(problem, target=e + s * (problem.target - e), requested=asked)
 
 
 def preview_frames(problem: HitProblem, n: int) -> np.ndarray:
@@ -888,13 +894,10 @@ def solve(
             d1, d2, _ = _solve_shot(problem, smoothness, _scaled_goals(problem, fraction))
     else:
         d1, d2, fraction, n = _solve_frames(problem, ik, oracle, frames, on_frame)
-    h = problem.hit
-    if fraction[h] < 1.0:
+    if fraction[problem.hit] < 1.0:
         # frames beside the hit fell short and the gradual envelope took the hit with them: the
         # target is where the hit now stops (so short_by_m and the message say how far short)
-        stopped = problem.effector_fk[h] + fraction[h] * (problem.target - problem.effector_fk[h])
-        asked = problem.requested if problem.requested is not None else problem.target
-        problem = replace(problem, target=stopped, requested=asked)
+        problem = _stopped_at(problem, float(fraction[problem.hit]))
     if frames is not None:
         # between solved frames the δ of both chains is interpolated (it is 0 outside the blend)
         d1[active] = _interp_rows(active, frames, d1[frames])
