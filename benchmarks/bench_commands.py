@@ -14,7 +14,10 @@ numbers), and ``mjmotion info`` of it.
 Goals (issue 19): ``mjmotion --help`` and ``info`` of a small clip within 2x ``import numpy``;
 the fresh read of the 3.4 MB clip faster than the ``bvh`` package's; ``register`` of two
 600-frame clips within 0.3 s of ``info`` of one of them. ``evaluate`` of one clip against the
-same with ``scipy.signal`` imported first (issue 13: the judge's filters no longer import it). Verbs of ``mjmotion`` without a row
+same with ``scipy.signal`` imported first (issue 13: the judge's filters no longer import it).
+``evaluate`` of the shared folder with ``--jobs 1`` and ``2``, now and as the package was at
+:data:`FILED` (exported from git, run by the same Python and libraries: the judge then had no
+ground-reaction optimisation, filters or ballistic fits). Verbs of ``mjmotion`` without a row
 here are listed at the end (add a row to ``ROWS`` for them).
 
     python benchmarks/bench_commands.py [--rounds 7] [--only info register ...]
@@ -43,6 +46,21 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 from mjmotion import bvh, cli
 
 LARGE = Path("cmu_iclone_ccrig") / "002_07.bvh"
+#: The commit issue 19 measured ("today" when it was filed: the first wave's last commit); its
+#: package is exported from git into the temporary folder and run by the same Python.
+FILED = "c21cd76"
+
+
+def export_filed(tmp: Path) -> str | None:
+    """The package as of :data:`FILED` under ``tmp/filed`` (its path), or None without git or that commit."""
+    dest = tmp / "filed"
+    dest.mkdir()
+    try:
+        archive = subprocess.run(["git", "-C", str(REPO), "archive", FILED, "mjmotion"], capture_output=True, check=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return str(dest)
 
 
 def prepare(d: Path, tmp: Path) -> dict[str, str]:
@@ -70,6 +88,7 @@ def prepare(d: Path, tmp: Path) -> dict[str, str]:
         "stream": str(tmp / "stream.json"),
         "out": str(tmp / "out"),
         "folder": str(d),
+        "filed": export_filed(tmp) or "",
     }
 
 
@@ -111,6 +130,16 @@ def rows(f: dict[str, str]) -> dict[str, list[str]]:
         # issue 19.3: the whole shared folder, one process against two
         "evaluate FOLDER --jobs 1": [*mj, "evaluate", f["folder"], "--jobs", "1"],
         "evaluate FOLDER --jobs 2": [*mj, "evaluate", f["folder"], "--jobs", "2"],
+        # ... and as the judge was when issue 19 was filed (its goal: today's at least 2x faster)
+        **{
+            f"evaluate FOLDER --jobs {j} (as filed, {FILED})": [
+                py,
+                "-c",
+                f"import sys; sys.path.insert(0, {f['filed']!r}); from mjmotion.cli import main; sys.exit(main(['evaluate', {f['folder']!r}, '--jobs', '{j}']))",
+            ]
+            for j in (1, 2)
+            if f["filed"]
+        },
         "cleanup walk": [*mj, "cleanup", f["walk"], "-o", o + ".bvh", "--force"],
         "render walk (60 frames, 640x360)": [
             *mj,
@@ -187,9 +216,10 @@ def main() -> int:
     print(
         f"fresh processes, {args.rounds} interleaved rounds after a warm-up round ({spent:.0f} s); load average {load[0]:.1f} on {os.cpu_count()} cores"
     )
-    print(f"{'command':<40}{'wall med s':>11}{'p90 s':>8}{'CPU med s':>10}{'wall/numpy':>11}{'CPU/numpy':>10}")
+    width = max(40, *(len(k) + 2 for k in med))
+    print(f"{'command':<{width}}{'wall med s':>11}{'p90 s':>8}{'CPU med s':>10}{'wall/numpy':>11}{'CPU/numpy':>10}")
     for k, (w, p90, c) in med.items():
-        print(f"{k:<40}{w:11.3f}{p90:8.3f}{c:10.3f}{w / bw:10.2f}x{c / bc:9.2f}x")
+        print(f"{k:<{width}}{w:11.3f}{p90:8.3f}{c:10.3f}{w / bw:10.2f}x{c / bc:9.2f}x")
     verbs = {m.NAME for m in cli._verbs()}
     timed = {argv[3] for argv in table.values() if argv[1:3] == ["-m", "mjmotion.cli"] and len(argv) > 3 and not argv[3].startswith("-")}
     missing = sorted(verbs - timed - set(NOT_TIMED))
@@ -229,6 +259,16 @@ def main() -> int:
             med[two][0] < med[one][0],
             f"{med[one][0] / med[two][0]:.2f}x faster wall",
         )
+    for j in (1, 2):
+        now, then = f"evaluate FOLDER --jobs {j}", f"evaluate FOLDER --jobs {j} (as filed, {FILED})"
+        if now in med and then in med:
+            goal(
+                f"evaluate of the shared folder --jobs {j} at least 2x faster than when issue 19 was filed",
+                med[then][0] >= 2 * med[now][0],
+                f"{med[then][0] / med[now][0]:.2f}x faster wall, {med[then][2] / med[now][2]:.2f}x CPU",
+            )
+    if not files["filed"]:
+        print(f"not timed: evaluate as filed ({FILED} is not in this clone's git history)")
     return 0
 
 

@@ -462,30 +462,32 @@ def planted_speeds(track: FootTrack, contact: np.ndarray) -> np.ndarray:
     # Run ids: frames of one contact run share an id, every other frame gets -1.
     starts = con & ~np.concatenate([np.zeros((1, n_feet), dtype=bool), con[:-1]], axis=0)
     run = np.where(con, np.cumsum(starts, axis=0), -1)  # (T, F)
+    # Only the lowest point's velocity is read: the regression runs on that material point alone,
+    # its positions at the frames around t gathered by t's lowest-point index (P times less work).
+    k = np.argmin(track.points[..., 2], axis=2)  # (T, F) the lowest point
     xy = track.points[..., :2]  # (T, F, P, 2)
-    sums = np.zeros((5, t_count, n_feet) + xy.shape[2:])  # n, Σd, Σd², Σy, Σd·y (relative to frame t)
+    xy_low = np.take_along_axis(xy, k[..., None, None], axis=2)[:, :, 0]  # (T, F, 2)
+    n = np.zeros((t_count, n_feet))
+    s1, s2 = np.zeros_like(n), np.zeros_like(n)
+    sy, sdy = np.zeros_like(xy_low), np.zeros_like(xy_low)  # Σy, Σd·y (relative to frame t)
     for d in range(-half, half + 1):
         lo, hi = max(0, -d), min(t_count, t_count - d)
         if lo >= hi:
             continue
-        same = np.zeros((t_count, n_feet), dtype=bool)
-        same[lo:hi] = con[lo:hi] & (run[lo + d : hi + d] == run[lo:hi])
-        w = same[..., None, None].astype(float)
-        dy = np.zeros_like(xy)
-        dy[lo:hi] = xy[lo + d : hi + d] - xy[lo:hi]
-        sums[0] += w
-        sums[1] += w * d
-        sums[2] += w * d * d
-        sums[3] += w * dy
-        sums[4] += w * d * dy
-    n, s1, s2, sy, sdy = sums
+        w = np.zeros((t_count, n_feet))
+        w[lo:hi] = con[lo:hi] & (run[lo + d : hi + d] == run[lo:hi])
+        dy = np.zeros_like(xy_low)
+        dy[lo:hi] = np.take_along_axis(xy[lo + d : hi + d], k[lo:hi, :, None, None], axis=2)[:, :, 0] - xy_low[lo:hi]
+        n += w
+        s1 += w * d
+        s2 += w * d * d
+        sy += w[..., None] * dy
+        sdy += w[..., None] * d * dy
     den = n * s2 - s1 * s1
     with np.errstate(invalid="ignore", divide="ignore"):
-        vel = (n * sdy - s1 * sy) / den * track.fps  # (T, F, P, 2)
-    k = np.argmin(track.points[..., 2], axis=2)  # (T, F) the lowest point
-    v_low = np.take_along_axis(vel, k[..., None, None], axis=2)[:, :, 0]
+        v_low = (n[..., None] * sdy - s1[..., None] * sy) / den[..., None] * track.fps  # (T, F, 2)
     speed = np.linalg.norm(v_low, axis=-1)
-    short = con & (np.take_along_axis(den, k[..., None, None], axis=2)[:, :, 0, 0] <= 0)
+    short = con & (den <= 0)
     speed[short] = track.speeds[short]
     return np.where(con, speed, np.nan)
 

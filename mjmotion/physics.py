@@ -336,15 +336,15 @@ def parallel_support_bound(
     h = o[:, 2] - height
     cop = np.stack([o[:, 0] - (tq[:, 1] + h * f[:, 0]) / f[:, 2], o[:, 1] + (tq[:, 0] - h * f[:, 1]) / f[:, 2]], axis=1)  # (U, 2)
     tri = np.array(list(itertools.combinations(range(n_pts), 3)))  # (K, 3)
-    p = pts[:, tri, :2]  # (U, K, 3, 2)
-    usable = act[:, tri].all(axis=2)  # (U, K)
-    e1, e2 = p[:, :, 1] - p[:, :, 0], p[:, :, 2] - p[:, :, 0]
-    rel = cop[:, None, :] - p[:, :, 0]
-    det = e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]
-    good = usable & (np.abs(det) > 1e-8)
+    # Barycentrics from the pairwise cross products of the points about the centre, S_ij = r_i × r_j
+    # (U, N, N), computed once: in triangle (i, j, k) the centre's weights are S_jk, S_ki, S_ij over their sum.
+    r = pts[..., :2] - cop[:, None, :]  # (U, N, 2)
+    cross = r[:, :, None, 0] * r[:, None, :, 1] - r[:, :, None, 1] * r[:, None, :, 0]
+    w0, w1, w2 = cross[:, tri[:, 1], tri[:, 2]], cross[:, tri[:, 2], tri[:, 0]], cross[:, tri[:, 0], tri[:, 1]]  # (U, K)
+    det = w0 + w1 + w2  # twice the signed area
+    good = act[:, tri].all(axis=2) & (np.abs(det) > 1e-8)
     sdet = np.where(good, det, 1.0)
-    b1 = (rel[..., 0] * e2[..., 1] - rel[..., 1] * e2[..., 0]) / sdet
-    b2 = (e1[..., 0] * rel[..., 1] - e1[..., 1] * rel[..., 0]) / sdet
+    b1, b2 = w1 / sdet, w2 / sdet
     inside = good & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1)
     has = inside.any(axis=1)
     k = np.argmax(inside, axis=1)
