@@ -435,3 +435,27 @@ def test_bad_input_is_one_error_line(corpus, tmp_path, capsys):
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(bad_map)], capsys, "missing_source.bvh not found")
     assert _snapshot(corpus) == before
     assert not any((tmp_path / f"o{i}").exists() for i in range(1, 6))
+
+
+def test_the_summary_draws_the_headline_metrics_that_vary(tmp_path, monkeypatch):
+    """summary.md's histograms are the headline metrics (audit.HEADLINE) that vary across the ok rows;
+    a constant one and a breakdown column are left to the tables."""
+    from mjmotion import plots
+
+    drawn = {}
+
+    def capture(values, out, **kw):
+        drawn.update(values)
+        Path(out).write_bytes(b"png")
+        return Path(out)
+
+    monkeypatch.setattr(plots, "histograms", capture)
+    rows = [
+        {"path": f"c{i}.bvh", "status": "ok", "planted_skate_mm_per_s": 10.0 * i, "penetrate_mm": 1.0, "sensitivity[h_c=0.03].skate_mm_per_s": float(i),
+         "max_root_step_m": 0.01 * i}
+        for i in range(4)
+    ]  # fmt: skip
+    files = audit.write_summary(tmp_path, rows, root=tmp_path, executor="serial", computed=4, seconds=1.0, timeout=None)
+    assert set(drawn) == {"planted_skate_mm_per_s"} and str(tmp_path / "histograms.png") in files
+    text = (tmp_path / "summary.md").read_text()
+    assert "max_root_step_m" in text and "sensitivity[h_c=0.03].skate_mm_per_s" in text  # still in the tables
