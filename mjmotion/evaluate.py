@@ -24,6 +24,9 @@ from :mod:`mjmotion.feet` and :mod:`mjmotion.thresholds`):
 
 from __future__ import annotations
 
+import hashlib
+import pickle
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -50,7 +53,7 @@ from .feet import (
     planted_speeds,
 )
 from .mjcf import CompiledModel
-from .skeleton import Motion
+from .skeleton import Motion, Skeleton
 from .thresholds import DEFAULTS, FLOAT_TOL, H_C, H_C_SENSITIVITY, HYSTERESIS, SKATE_WINDOW, V_C, Params
 
 __all__ = [
@@ -411,6 +414,27 @@ def _check_sources(motion: Motion, sources: Sequence[Motion]) -> None:
             raise MjmotionError(f"{label} is the result itself; judge a result against the clip(s) it was made from")
 
 
+#: Compiled models kept per process for the judge, by skeleton and props: a folder's clips often
+#: share one skeleton (cgspeed puts every subject on one), and a compile costs 10-15 ms of each clip.
+MODEL_CACHE = 16
+_models: OrderedDict[bytes, CompiledModel] = OrderedDict()
+
+
+def judge_model(skeleton: Skeleton, props: Sequence[mjcf.Prop] = ()) -> CompiledModel:
+    """``mjmotion.mjcf.compile(skeleton, props)``, reused for an equal skeleton and props (the
+    judge only reads the model: its kinematics and inverse dynamics run on their own ``MjData``)."""
+    key = hashlib.blake2b(pickle.dumps((skeleton, tuple(props)), protocol=pickle.HIGHEST_PROTOCOL), digest_size=20).digest()
+    hit = _models.get(key)
+    if hit is not None:
+        _models.move_to_end(key)
+        return hit
+    compiled = mjcf.compile(skeleton, tuple(props))
+    _models[key] = compiled
+    while len(_models) > MODEL_CACHE:
+        _models.popitem(last=False)
+    return compiled
+
+
 def evaluate(
     motion: Motion,
     props: Sequence[mjcf.Prop] = (),
@@ -431,7 +455,7 @@ def evaluate(
     """
     sources = list(sources)
     _check_sources(motion, sources)
-    compiled = mjcf.compile(motion.skeleton, tuple(props))
+    compiled = judge_model(motion.skeleton, props)
     pose = kinematics.forward(compiled, motion)
     track, soles, fl = judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], floor, params.speed_window)
     lz = lowest_body_point(compiled, pose, track.heights.min(axis=1) + fl.height)

@@ -240,7 +240,7 @@ def whole_body_wrench(compiled: CompiledModel, pose: kinematics.Pose, fps: float
     spin = rot.rotate(frame, local)  # (T, B, 3)
     force = np.einsum("b,tbi->ti", mass, acc)
     origin = pose.joint_positions[:, 0]
-    torque = np.einsum("b,tbi->ti", mass, np.cross(com - origin[:, None, :], acc)) + _central(spin, fps, 1).sum(axis=1)
+    torque = np.einsum("b,tbi->ti", mass, rot.cross(com - origin[:, None, :], acc)) + _central(spin, fps, 1).sum(axis=1)
     return force, torque
 
 
@@ -352,7 +352,7 @@ def parallel_support_bound(
     bary = np.stack([1 - b1[rows, k] - b2[rows, k], b1[rows, k], b2[rows, k]], axis=1)  # (U, 3)
     corners = pts[rows[:, None], tri[k]]  # (U, 3, 3)
     c = np.einsum("uk,uki->ui", bary, corners)
-    left = np.cross(c - o, f) - tq
+    left = rot.cross(c - o, f) - tq
     out[idx[has]] = np.linalg.norm(left[has], axis=1) / lever / weight
     return out
 
@@ -402,7 +402,7 @@ def ground_reaction_residual(
     if len(rows):
         # Generators of the frames to solve, built at once: (R, N, 4, 6) force and torque/lever columns.
         arm = points[rows] - origin[rows, None, :]
-        tq = np.cross(arm[:, :, None, :], d[None, None, :, :]) / lever
+        tq = rot.cross(arm[:, :, None, :], d[None, None, :, :]) / lever
         gen = np.concatenate([np.broadcast_to(d, tq.shape), tq], axis=-1) / weight
         for i, t in enumerate(rows):
             out[t] = nnls(gen[i, active[t]].reshape(-1, 6).T, w[t])[1]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -518,3 +519,25 @@ def test_cli_evaluate_refuses_a_bad_floor_or_source(case, tmp_path, capsys):
     assert main(["evaluate", target, *extra]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"error: {extra[0]} ") and err.count("\n") == 1 and "Traceback" not in err, err
+
+
+def test_the_judge_reuses_a_compiled_model_only_for_an_equal_skeleton_and_props(tmp_path):
+    """evaluate compiles a skeleton once per process (judge_model): an equal skeleton read again
+    gets the same model, other props or another skeleton a new one, and the report is the same
+    as from a fresh compile."""
+    from mjmotion import synth
+
+    walk = synth.walk(seconds=1.0).motion
+    bvh.write(walk, tmp_path / "walk.bvh")
+    walk = bvh.read(tmp_path / "walk.bvh")
+    again = bvh.read(tmp_path / "walk.bvh")  # an equal skeleton, another object
+    ev._models.clear()
+    first = ev.judge_model(walk.skeleton)
+    assert ev.judge_model(again.skeleton) is first
+    assert ev.judge_model(walk.skeleton, (mjcf.Prop(name="bat", joint="RightHand", **mjcf.PROP_PRESETS["bat"]),)) is not first
+    longer = walk.skeleton.offsets.copy()
+    longer[1:] *= 1.1
+    assert ev.judge_model(dataclasses.replace(walk.skeleton, offsets=longer)) is not first
+    warm = json.dumps(ev.evaluate(walk).to_dict())
+    ev._models.clear()
+    assert json.dumps(ev.evaluate(again).to_dict()) == warm

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from mjmotion import rotations as rot
@@ -74,3 +75,12 @@ def test_to_matrix_agrees_with_scipy_and_normalises():
     assert np.allclose(rot.to_matrix(rot.from_scipy(r) * 3.0), r.as_matrix(), atol=1e-12)
     q = rot.from_scipy(r).reshape(2, 1000, 4)
     assert rot.to_matrix(q).shape == (2, 1000, 3, 3) and np.allclose(rot.from_matrix(rot.to_matrix(q)), rot.positive_w(q), atol=1e-12)
+
+
+@pytest.mark.parametrize("shapes", [((50, 7, 3), (50, 7, 3)), ((50, 1, 3), (50, 7, 3)), ((20, 6, 1, 3), (1, 1, 4, 3)), ((3,), (3,))])
+def test_cross_is_numpys_bit_for_bit_with_broadcasting(shapes):
+    rng = np.random.default_rng(7)
+    a, b = rng.normal(size=shapes[0]), rng.normal(size=shapes[1])
+    out = rot.cross(a, b)
+    assert out.shape == np.broadcast_shapes(a.shape, b.shape) and np.array_equal(out, np.cross(a, b))
+    assert np.allclose(np.sum(out * np.broadcast_to(a, out.shape), axis=-1), 0.0)  # perpendicular to its factors
