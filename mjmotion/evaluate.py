@@ -52,6 +52,7 @@ from .feet import (
     lowest_points,
     planted_speeds,
 )
+from .filters import moving_mean
 from .mjcf import CompiledModel
 from .skeleton import Motion, Skeleton
 from .thresholds import DEFAULTS, FLOAT_TOL, H_C, H_C_SENSITIVITY, HYSTERESIS, SKATE_WINDOW, V_C, Params
@@ -101,10 +102,8 @@ def skate_mm_per_s(track: FootTrack | Motion, h_c: float = H_C) -> float:
 def skating_ratio(track: FootTrack | Motion, h_c: float = H_C, v: float = V_C, window: int = SKATE_WINDOW) -> float:
     """GMD's skating ratio: fraction of frames where some foot is low (t, t-1) while its horizontal
     speed averaged over a centred ``window``-frame window exceeds ``v`` m/s."""
-    from scipy.ndimage import uniform_filter1d
-
     tr = _track(track)
-    avg = uniform_filter1d(tr.speeds, size=window, axis=0, mode="nearest")
+    avg = moving_mean(tr.speeds, window, axis=0)
     skating = low_both(tr, h_c) & (avg > v)
     return float(skating.any(axis=1).mean())
 

@@ -134,3 +134,32 @@ def velocity(x: np.ndarray, fps: float, window: float | None) -> np.ndarray:
     out[:half] = np.tensordot(slope[:half], x[:frames], axes=1)
     out[n - half :] = np.tensordot(slope[frames - half :], x[n - frames :], axes=1)
     return out * fps
+
+
+def _windows(x: np.ndarray, size: int, axis: int, pad: str | float) -> np.ndarray:
+    """``x`` padded by ``size // 2`` along ``axis`` (its edge values, ``pad="edge"``, or the constant
+    ``pad``) and viewed as its centred ``size``-frame windows along a new last axis."""
+    half = size // 2
+    widths = [(0, 0)] * x.ndim
+    widths[axis] = (half, size - 1 - half)
+    padded = np.pad(x, widths, mode="edge") if pad == "edge" else np.pad(x, widths, mode="constant", constant_values=pad)
+    return np.lib.stride_tricks.sliding_window_view(padded, size, axis=axis)
+
+
+def dilate(mask: np.ndarray, size: int, axis: int = 0) -> np.ndarray:
+    """Boolean ``mask`` true wherever it is true within the centred ``size`` frames along ``axis``,
+    the ends extended by their own values (``scipy.ndimage.maximum_filter1d``, ``mode="nearest"``,
+    whose import the judge spares)."""
+    return _windows(np.asarray(mask, dtype=bool), size, axis, "edge").any(axis=-1)
+
+
+def erode(mask: np.ndarray, size: int, axis: int = 0) -> np.ndarray:
+    """Boolean ``mask`` true only where it is true over all the centred ``size`` frames along
+    ``axis``, false beyond the ends (``scipy.ndimage.minimum_filter1d``, ``mode="constant"``, ``cval=0``)."""
+    return _windows(np.asarray(mask, dtype=bool), size, axis, False).all(axis=-1)
+
+
+def moving_mean(x: np.ndarray, size: int, axis: int = 0) -> np.ndarray:
+    """Mean of the centred ``size`` frames along ``axis``, the ends extended by their own values
+    (``scipy.ndimage.uniform_filter1d``, ``mode="nearest"``; equal to rounding)."""
+    return _windows(np.asarray(x, dtype=float), size, axis, "edge").mean(axis=-1)

@@ -36,7 +36,7 @@ from . import feet, kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
 from .feet import FootTrack
-from .filters import lowpass, lowpass_quaternions
+from .filters import dilate, erode, lowpass, lowpass_quaternions
 from .mjcf import Ball, CompiledModel, Prop
 from .skeleton import Motion, Skeleton
 from .thresholds import Params
@@ -505,11 +505,9 @@ def residuals(
         # The filtered wrench at t averages the wrenches of the frames within half a cutoff period
         # (83 ms at 6 Hz): what supported any of them may supply it (a stance's push spreads into
         # the take-off and landing frames beside it).
-        from scipy.ndimage import maximum_filter1d
-
         k = round(0.5 / params.cutoff_hz * motion.fps)
         if k:
-            support = maximum_filter1d(support.astype(np.uint8), size=2 * k + 1, axis=0, mode="nearest").astype(bool)
+            support = dilate(support, 2 * k + 1, axis=0)
     lever = 0.5 * max(float(motion.skeleton.stature()), 0.3)
     points, active = _with_toes(motion.skeleton, track, support)
     residual = ground_reaction_residual(
@@ -531,10 +529,8 @@ def residuals(
     violation = (residual > np.where(fitted, params.flight_tol, params.residual_tol)) | penetrating
     # flight_residual uses flight frames away from take-off and landing (there the filter and the
     # difference stencil still see the ground's push) and from the clip's ends: 2 frames and 50 ms.
-    from scipy.ndimage import minimum_filter1d
-
     k = 2 + round(0.05 * motion.fps)
-    clean = minimum_filter1d(flight.astype(np.uint8), size=2 * k + 1, mode="constant", cval=0).astype(bool)
+    clean = erode(flight, 2 * k + 1)
     return Residuals(
         root_force_ratio=ratio,
         flight=flight,
