@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -52,6 +52,7 @@ from . import floor as floors
 from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError, require_number
+from .filters import lowpass
 from .ik import analytic
 from .skeleton import Motion
 from .thresholds import H_C, HYSTERESIS, SPEED_WINDOW, V_C
@@ -435,6 +436,9 @@ def contact_paths(plants: list[Plant], ankles_xy: np.ndarray, reach: np.ndarray)
 #: its window's step count (its share of the window's mean) is below this, linearly above (Huber,
 #: a few reweighted passes): a glitch in the captured foot's rotation is not chased by the leg.
 HUBER_SPEED = 0.2
+#: Through a plant, the hip-to-ankle distance the legs are solved to is low-passed at this cutoff (Hz):
+#: a held foot cannot follow a one-frame jerk of the captured pelvis, and the knee would take it as a pop.
+LEG_CUTOFF_HZ = 10.0
 HUBER_PASSES = 3
 
 
@@ -583,6 +587,20 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
     compiled = mjcf.compile(skel)
     pose = kinematics.forward(compiled, motion)
     track, soles, fl = ft.judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], params.floor)
+    if not fl.level.flat:
+        # A tilted captured floor: cleaned in the judge's levelled frame, on its level floor, and turned back.
+        lv = fl.level
+        level = ft.level_motion(lv, motion)
+        flat = cleanup(level, replace(params, floor=fl.height), [ft.level_motion(lv, s) for s in sources])
+        back = ft.level_motion(lv.inverse(), flat.motion)
+        # Frames the cleanup left alone are the input's own, bit for bit (not turned there and back).
+        same_root = np.all(flat.motion.root_positions == level.root_positions, axis=1)
+        same_joint = np.all(flat.motion.rotations == level.rotations, axis=2)  # (T, J): the root's orientation is never changed
+        back = back.replace(
+            root_positions=np.where(same_root[:, None], motion.root_positions, back.root_positions),
+            rotations=np.where(same_joint[..., None], motion.rotations, back.rotations),
+        )
+        return replace(flat, motion=back, floor=fl)
     legs = []
     for side in track.sides:
         ankle = feet[side][0]
@@ -669,6 +687,7 @@ def _pin(
     targets = ankles.copy()
     lifts = np.zeros((t_count, len(legs)))
     support = np.zeros((t_count, len(legs)), dtype=bool)
+    held_w = np.zeros((t_count, len(legs)))  # how much each foot is held (0..1, blended in and out)
     foot_rot = pose.joint_rotations[:, [a for _, _, a in legs]].copy()  # (T, F, 4) world
     # Where each foot must stay no lower than: on the floor (a captured foot in it is lifted out).
     floor_low = np.zeros_like(old_low)
@@ -677,6 +696,7 @@ def _pin(
         mine = sorted((p for p in plants if p.side == side), key=lambda p: p.start)
         _, w, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend)
         support[:, f] = w > 0
+        held_w[:, f] = w
         # The foot holds one orientation through a plant (that of its middle frame), blended in/out.
         if params.hold_orientation:
             held, w_rot = hold_orientations(mine, foot_rot[:, f], motion.fps, params.blend)
@@ -713,6 +733,14 @@ def _pin(
             targets[:, f, 2] += lift
             support[:, f] |= lift > 0
             lifts[:, f] = lift
+    # Held feet: the leg's length follows the captured hip only below LEG_CUTOFF_HZ (the target moves along the leg).
+    for f, (h, _, _) in enumerate(legs):
+        if held_w[:, f].any() and t_count >= 4:
+            vec = targets[:, f] - pose.joint_positions[:, h]
+            dist = np.linalg.norm(vec, axis=1)
+            smooth = lowpass(dist, motion.fps, LEG_CUTOFF_HZ)
+            scale = 1.0 + held_w[:, f] * (smooth - dist) / np.maximum(dist, 1e-9)
+            targets[:, f] = pose.joint_positions[:, h] + vec * scale[:, None]
     # Root: move towards targets the legs cannot reach, smoothed so it does not pop.
     shift = np.zeros((t_count, 3))
     for f, (h, k, a) in enumerate(legs):

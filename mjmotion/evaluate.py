@@ -47,6 +47,8 @@ from .feet import (
     foot_track,
     geom_frames,
     judged_feet,
+    level_motion,
+    level_pose,
     low_both,
     lowest_body_point,
     lowest_points,
@@ -336,6 +338,8 @@ class Report:
     root_jump_m: float | None
     soles_calibrated: bool
     hit: dict[str, Any] | None = field(default=None)
+    floor_tilt_deg: float = 0.0
+    floor_rise: tuple[float, float] = (0.0, 0.0)
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -365,8 +369,9 @@ class Report:
         return markdown_table(self.row(), header=("metric", self.name or "value"))
 
     def notes(self) -> list[str]:
-        """Lines worth telling the user (a detected floor far from z = 0)."""
-        note = floors.Floor(self.floor_m, self.floor_from).note(self.name)
+        """Lines worth telling the user (a detected floor far from z = 0 or tilted)."""
+        level = floors.Level(tilt_deg=self.floor_tilt_deg, rise=self.floor_rise)
+        note = floors.Floor(self.floor_m, self.floor_from, level).note(self.name)
         return [note] if note else []
 
     def row(self) -> dict[str, Any]:
@@ -385,6 +390,7 @@ class Report:
             "phys_err_mm": self.phys_err_mm,
             "floor_m": self.floor_m,
             "floor_from": self.floor_from,
+            "floor_tilt": self.floor_tilt_deg,
             "flight_resid": self.flight_residual,
             "phys_viol": self.physics_violation_ratio,
             "limit_viol": self.limit_violation_ratio,
@@ -457,6 +463,8 @@ def evaluate(
     compiled = judge_model(motion.skeleton, props)
     pose = kinematics.forward(compiled, motion)
     track, soles, fl = judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], floor, params.speed_window)
+    # A tilted stance floor is levelled: the body and its dynamics are measured in that frame too.
+    pose, motion = level_pose(fl.level, pose), level_motion(fl.level, motion)
     lz = lowest_body_point(compiled, pose, track.heights.min(axis=1) + fl.height)
     g = ground_metrics(lz, track, params.h_c, params.v_c, params.float_tol, params.hysteresis)
     res = physics.residuals(compiled, motion, track, params, ground=lz - fl.height, pose=pose)
@@ -498,6 +506,8 @@ def evaluate(
         max_root_step_m=float(steps.max()),
         floor_m=fl.height,
         floor_from=fl.from_,
+        floor_tilt_deg=fl.level.tilt_deg,
+        floor_rise=fl.level.rise,
         ground_residual_mean=float(np.mean(res.residual)),
         pop_frames=int(pops.sum()),
         sources=len(sources),

@@ -21,6 +21,7 @@ Reusable pieces:
 - :func:`calibrate_soles` ``(skeleton, poses) -> Soles``, :func:`sole_points` ``(soles, pose)``
 - :class:`FootTrack`, :func:`foot_track`, :func:`foot_heights_speeds`
 - :func:`judged_feet` ``(compiled, motion, pose, sources, floor) -> (FootTrack, Soles, Floor)``, :func:`judged_floor`: the judge's feet and floor
+- :func:`level_pose`, :func:`level_motion`: a clip in the levelled frame of a tilted floor (``Floor.level``)
 - :func:`low_both`, :func:`contacts`, :func:`flight_frames`
 """
 
@@ -381,6 +382,35 @@ def foot_heights_speeds(
     return tr.at_floor(tr.detected_floor() if floor is None else floor)
 
 
+def level_pose(level: floors.Level, pose: Pose) -> Pose:
+    """``pose`` in the levelled frame of ``level`` (every joint and site turned about its pivot)."""
+    if level.flat:
+        return pose
+    mat = rot.to_matrix(np.asarray(level.quat))
+    return replace(
+        pose,
+        joint_positions=level.positions(pose.joint_positions),
+        joint_rotations=level.rotations(pose.joint_rotations),
+        site_positions=level.positions(pose.site_positions) if pose.site_positions.size else pose.site_positions,
+        site_rotations=np.einsum("ij,...jk->...ik", mat, pose.site_rotations) if pose.site_rotations.size else pose.site_rotations,
+    )
+
+
+def level_motion(level: floors.Level, motion: Motion) -> Motion:
+    """``motion`` in the levelled frame of ``level``: its root turned about the pivot (the same
+    world poses as :func:`level_pose` of its kinematics; the local joint rotations are unchanged)."""
+    if level.flat:
+        return motion
+    q = motion.rotations.copy()
+    q[:, 0] = level.rotations(q[:, 0])
+    return motion.replace(root_positions=level.positions(motion.root_positions), rotations=q)
+
+
+def _stance(track: FootTrack) -> tuple[np.ndarray, np.ndarray]:
+    still = track.speeds if track.climb is None else np.hypot(track.speeds, track.climb)
+    return floors.stance_points(track.heights + track.floor, still, track.lowest[..., :2])
+
+
 def judged_feet(
     compiled: CompiledModel,
     motion: Motion,
@@ -393,16 +423,31 @@ def judged_feet(
     ``cleanup`` and ``render`` share them: soles calibrated on the ``sources`` (``(motion, pose)``
     of the clips it was made from; none: on the clip itself), and the floor of
     :func:`mjmotion.floor.resolve` — ``floor`` if given, else the sources' mean stance floor, else
-    the clip's own. Returns the track measured from that floor, the soles, and the floor."""
-    soles = calibrate_soles(motion.skeleton, [(p, s.fps) for s, p in sources] or [(pose, motion.fps)])
-    own = foot_heights_speeds(compiled, motion, pose, floor=0.0, soles=soles, speed_window=speed_window)
-    src_floors = [foot_heights_speeds(compiled, s, p, floor=0.0, soles=soles, speed_window=speed_window).detected_floor() for s, p in sources]
-    fl = floors.resolve(floor, src_floors, own.detected_floor())
+    the clip's own. Returns the track measured from that floor, the soles, and the floor.
+
+    Unless ``floor`` is given, a tilted stance floor (the sources', else the clip's:
+    :func:`mjmotion.floor.fit_tilt`) is levelled first: the track and soles are then those of the
+    levelled clip, and ``Floor.level`` says how to level its pose and motion
+    (:func:`level_pose`, :func:`level_motion`) for anything else measured against that floor."""
+
+    def tracks(p: Pose, src: Sequence[tuple[Motion, Pose]]) -> tuple[Soles, FootTrack, list[FootTrack]]:
+        soles = calibrate_soles(motion.skeleton, [(sp, s.fps) for s, sp in src] or [(p, motion.fps)])
+        own = foot_heights_speeds(compiled, motion, p, floor=0.0, soles=soles, speed_window=speed_window)
+        return soles, own, [foot_heights_speeds(compiled, s, sp, floor=0.0, soles=soles, speed_window=speed_window) for s, sp in src]
+
+    soles, own, src_tracks = tracks(pose, sources)
+    level = floors.FLAT
+    if floor is None:
+        pts = [_stance(t) for t in (src_tracks or [own])]
+        level = floors.fit_tilt(np.concatenate([xy for xy, _ in pts]), np.concatenate([z for _, z in pts]))
+        if not level.flat:
+            soles, own, src_tracks = tracks(level_pose(level, pose), [(level_motion(level, s), level_pose(level, sp)) for s, sp in sources])
+    fl = floors.resolve(floor, [t.detected_floor() for t in src_tracks], own.detected_floor(), level)
     return own.at_floor(fl.height), soles, fl
 
 
 def judged_floor(motion: Motion, sources: Sequence[Motion] = (), floor: float | None = None) -> floors.Floor:
-    """The floor :func:`judged_feet` gives ``motion`` judged against ``sources`` (same skeleton)."""
+    """The floor :func:`judged_feet` gives ``motion`` judged against ``sources`` (same skeleton), with its levelling."""
     compiled = mjcf.compile(motion.skeleton)
     src = [(s, kinematics.forward(compiled, s)) for s in sources]
     return judged_feet(compiled, motion, kinematics.forward(compiled, motion), src, floor)[2]

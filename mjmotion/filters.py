@@ -150,13 +150,13 @@ def dilate(mask: np.ndarray, size: int, axis: int = 0) -> np.ndarray:
     """Boolean ``mask`` true wherever it is true within the centred ``size`` frames along ``axis``,
     the ends extended by their own values (``scipy.ndimage.maximum_filter1d``, ``mode="nearest"``,
     whose import the judge spares)."""
-    return _windows(np.asarray(mask, dtype=bool), size, axis, "edge").any(axis=-1)
+    return np.asarray(_windows(np.asarray(mask, dtype=bool), size, axis, "edge").any(axis=-1))
 
 
 def erode(mask: np.ndarray, size: int, axis: int = 0) -> np.ndarray:
     """Boolean ``mask`` true only where it is true over all the centred ``size`` frames along
     ``axis``, false beyond the ends (``scipy.ndimage.minimum_filter1d``, ``mode="constant"``, ``cval=0``)."""
-    return _windows(np.asarray(mask, dtype=bool), size, axis, False).all(axis=-1)
+    return np.asarray(_windows(np.asarray(mask, dtype=bool), size, axis, False).all(axis=-1))
 
 
 def moving_mean(x: np.ndarray, size: int, axis: int = 0) -> np.ndarray:

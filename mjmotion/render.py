@@ -227,7 +227,8 @@ def build_scene(
         view: camera settings.
         floor: the floor height (m, world z) of the clips, drawn at the checker floor (default
             z = 0, as captured); None: the first clip's stance floor, as ``mjmotion evaluate``
-            detects it (:func:`mjmotion.feet.judged_floor`, docs/METRICS.md). Every character moves by the same amount, so one
+            detects it (:func:`mjmotion.feet.judged_floor`, docs/METRICS.md; a tilted stance floor is
+            levelled, every character with it). Every character moves by the same amount, so one
             floating over another's floor still shows.
     """
     if not actors:
@@ -240,7 +241,14 @@ def build_scene(
         from .feet import judged_floor
 
         first = actors[0].motion
-        floor = judged_floor(first).height if first.skeleton.feet() and first.n_frames > 1 else 0.0
+        judged = judged_floor(first) if first.skeleton.feet() and first.n_frames > 1 else None
+        floor = judged.height if judged is not None else 0.0
+        if judged is not None and not judged.level.flat:
+            from dataclasses import replace
+
+            from .feet import level_motion
+
+            actors = [replace(a, motion=level_motion(judged.level, a.motion)) for a in actors]  # drawn levelled, as judged
     if not np.isfinite(floor):
         raise MjmotionError(f"render: floor must be a finite height in metres, got {floor}")
     motions = [a.motion.resample(fps) for a in actors]

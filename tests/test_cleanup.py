@@ -9,7 +9,7 @@ import pytest
 from conftest import linear_blend, require_data, shared_clip
 from scipy.ndimage import binary_dilation
 
-from mjmotion import bvh, feet, kinematics
+from mjmotion import bvh, feet, kinematics, synth
 from mjmotion import cleanup as cl
 from mjmotion import evaluate as ev
 from mjmotion import rotations as rot
@@ -479,3 +479,24 @@ def test_swing_lifting_is_an_option_off_by_default(library_blends):
 def test_new_parameters_are_checked(field, value):
     with pytest.raises(cl.MjmotionError, match=f"CleanupParams.{field}"):
         cl.CleanupParams(**{field: value})
+
+
+def test_cleanup_of_a_walk_on_a_tilted_floor_keeps_its_feet_on_that_floor():
+    """A linear blend of the bundled walk and run, turned so its floor rises 2 cm per metre: cleanup
+    works in the judge's levelled frame and turns the result back, so against its inputs the
+    result stands on their tilted floor (judged as the level original's cleanup is)."""
+    from mjmotion import floor as floors
+    from mjmotion.feet import level_motion
+
+    phi = -np.arctan(0.02)
+    tilt = floors.Level((float(np.cos(phi / 2)), 0.0, float(np.sin(phi / 2)), 0.0), (0.0, 0.0, 0.0), float(np.degrees(-phi)))
+    walk, run = synth.walk(seconds=3.0).motion, synth.run(seconds=3.0).motion
+    n = min(walk.n_frames, run.n_frames)
+    mixed = linear_blend(walk[:n], run[:n])
+    inputs = [level_motion(tilt, walk[:n]), level_motion(tilt, run[:n])]
+    res = cl.cleanup(level_motion(tilt, mixed), sources=inputs)
+    assert res.floor.level.tilt_deg == pytest.approx(np.degrees(-phi), abs=0.15)
+    after = ev.evaluate(res.motion, sources=inputs)
+    level = ev.evaluate(cl.cleanup(mixed, sources=[walk[:n], run[:n]]).motion, sources=[walk[:n], run[:n]])
+    assert after.penetrate_mm <= 2.0 and after.float_mm <= level.float_mm + 2.0
+    assert after.planted_skate_mm_per_s <= level.planted_skate_mm_per_s + 5.0

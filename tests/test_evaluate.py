@@ -541,3 +541,28 @@ def test_the_judge_reuses_a_compiled_model_only_for_an_equal_skeleton_and_props(
     warm = json.dumps(ev.evaluate(walk).to_dict())
     ev._models.clear()
     assert json.dumps(ev.evaluate(again).to_dict()) == warm
+
+
+def test_a_walk_on_a_tilted_floor_is_levelled_before_it_is_judged(tmp_path):
+    """The bundled walk (a level floor) turned 1.2° about y, so its floor rises 2.1 cm per metre
+    along x: the judge finds the tilt and reads what it reads on the level original; measured from
+    a flat floor (--floor) the ends of the walk would sink into it and float above it."""
+    from mjmotion import floor as floors
+    from mjmotion import synth
+    from mjmotion.feet import level_motion
+
+    walk = synth.walk(seconds=4.0).motion
+    phi = -np.radians(1.2)
+    tilt = floors.Level((float(np.cos(phi / 2)), 0.0, float(np.sin(phi / 2)), 0.0), (0.0, 0.0, 0.0), 1.2)
+    tilted = level_motion(tilt, walk)
+    flat, judged = ev.evaluate(walk), ev.evaluate(tilted)
+    assert flat.floor_tilt_deg == 0.0
+    assert judged.floor_tilt_deg == pytest.approx(1.2, abs=0.1) and judged.floor_rise[0] == pytest.approx(np.tan(np.radians(1.2)), abs=2e-3)
+    for k in ("planted_skate_mm_per_s", "penetrate_mm", "float_mm", "flight_fraction", "physics_violation_ratio"):
+        assert getattr(judged, k) == pytest.approx(getattr(flat, k), abs=2.0 if k.endswith("_s") or k.endswith("mm") else 0.03), k
+    assert any("tilts 1.2°" in n for n in judged.notes())
+    level_z = ev.evaluate(tilted, floor=judged.floor_m)  # a given floor is level
+    assert level_z.floor_tilt_deg == 0.0 and level_z.penetrate_mm + level_z.float_mm > flat.penetrate_mm + flat.float_mm + 10
+    # Judged against its tilted source, a copy lifted 5 cm floats by the 5 cm (less the 5 mm tolerance).
+    up = tilted.replace(root_positions=tilted.root_positions + [0.0, 0.0, 0.05])
+    assert ev.evaluate(up, sources=[tilted]).float_mm >= judged.float_mm + 42

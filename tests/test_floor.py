@@ -42,6 +42,30 @@ def test_resolve_precedence_and_the_note():
         floors.Floor(0.0, "guessed")
 
 
+def test_fit_tilt_recovers_a_walks_slope_and_levels_it():
+    """A straight walk over a floor rising 2 cm per metre along x: the tilt is found along the walk,
+    not across it (where the feet's own height difference would read as slope), and the Level maps
+    the stance points onto one level plane."""
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-2.0, 2.0, 400)
+    y = np.where(rng.random(400) < 0.5, 0.1, -0.1)  # two feet, 20 cm apart
+    z = 0.03 + 0.02 * x + np.where(y > 0, 0.012, 0.0) + rng.normal(0, 0.002, 400)  # the left foot 12 mm higher
+    lv = floors.fit_tilt(np.column_stack([x, y]), z)
+    assert lv.tilt_deg == pytest.approx(np.degrees(np.arctan(0.02)), abs=0.02)
+    assert lv.rise == pytest.approx((0.02, 0.0), abs=1e-3)  # the 12 mm between the feet is no cross slope
+    levelled = lv.positions(np.column_stack([x, y, z - np.where(y > 0, 0.012, 0.0)]))
+    assert np.std(levelled[:, 2]) < 0.003 and np.std(z) > 0.02
+    back = lv.inverse().positions(levelled)
+    assert np.allclose(back, np.column_stack([x, y, z - np.where(y > 0, 0.012, 0.0)]), atol=1e-12)
+    # Within the scatter, beyond belief, or too few points: the floor stays as captured.
+    assert floors.fit_tilt(np.column_stack([x, y]), 0.03 + 0.005 * x).flat
+    assert floors.fit_tilt(np.column_stack([x, y]), 0.03 + 0.1 * x).flat
+    assert floors.fit_tilt(np.column_stack([x, y])[:10], z[:10]).flat
+    assert floors.fit_tilt(np.column_stack([0.1 * x, y]), z).flat  # 12 cm of walk: no direction to fit along
+    note = floors.Floor(0.031, "detected", lv).note("07_01")
+    assert f"tilts {lv.tilt_deg:.1f}°" in note and "+2.0 cm/m along x" in note
+
+
 def test_render_draws_the_clip_on_its_floor():
     """``render.build_scene(floor=...)`` moves every character so the given floor is the drawn one."""
     m = shared_clip("cmu_asfamc_converted/64_04.bvh")[:60]

@@ -33,8 +33,10 @@ ball, the hitting metrics and a simulated ball launch.
 
 The floor every ground metric measures from is, in order: --floor METRES; the source clip(s) of a
 result (--source, repeatable: the clips it was made from, same skeleton and frame rate); otherwise
-the clip's own stance floor (a note is printed when it is more than 1 cm from z = 0). A result
-lifted or sunk against its source reads as floating or penetrating only with --source. Sources
+the clip's own stance floor (a note is printed when it is more than 1 cm from z = 0). Unless
+--floor is given, a stance floor that tilts 0.5-2 degrees (CMU subjects 07 and 08: ~1.1) is
+levelled first and every metric measures the levelled clip (floor_tilt). A result lifted or sunk
+against its source reads as floating or penetrating only with --source. Sources
 also calibrate the feet and give the per-joint speed and pop references (worst_joint_speed_ratio).
 
 Leading T-pose/transition frames (cgspeed daz clips: 0-3) are detected and skipped (in sources too)
@@ -63,6 +65,7 @@ _COLUMNS = (
     ("phys_err_mm", 11, ".1f"),
     ("floor_m", 7, "+.3f"),
     ("floor_from", 10, "s"),
+    ("floor_tilt", 10, ".2f"),
     ("flight_resid", 12, ".2f"),
     ("phys_viol", 9, ".2f"),
     ("limit_viol", 10, ".2f"),
@@ -136,7 +139,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_input_options(p)
 
 
-FLOOR_HELP = "the floor height (world z, m, within ±100) every ground metric measures from (default: from --source, else detected)"
+FLOOR_HELP = "the floor height (world z, m, within ±100) every ground metric measures from, level (default: from --source, else detected; a tilted stance floor is levelled first, docs/METRICS.md)"
 SOURCE_HELP = (
     "a clip the input was made from (repeatable; same skeleton and frame rate): gives the floor, "
     "calibrates the feet, and is the reference of the per-joint speed ratio and pops"

@@ -157,6 +157,13 @@ def run(args: argparse.Namespace) -> int:
             actors.append(render.Actor(m, label=label, props=props, trail=trail, skin=args.skin == "only"))
     _check_scene([a.motion for a in actors], args.fps)
     floor = scene_floor(args, actors[0].motion)
+    if floor is not None and not floor.level.flat:
+        from dataclasses import replace
+
+        from ..feet import level_motion
+
+        # A tilted captured floor is drawn as the judge measures it: every character levelled with the first clip's floor.
+        actors = [replace(a, motion=level_motion(floor.level, a.motion)) for a in actors]
     ball = mjcf.Ball(position=tuple(args.ball)) if args.ball else None
     view = render.View(azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
     try:
@@ -173,6 +180,7 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"wrote {out}: {scene.n_frames} frames, {args.width}x{args.height} at {args.fps:g} fps, {len(actors)} character(s), "
         f"floor {'z = 0 (no feet to find one on)' if floor is None else f'{floor.height:+.3f} m ({floor.from_})'}"
+        + (f", levelled from a {floor.level.tilt_deg:.1f}° tilt" if floor is not None and not floor.level.flat else "")
     )
     return 0
 
