@@ -252,10 +252,12 @@ def shot(kind: str, seed: int = 0) -> SynthClip:
         ftrack[side], contacts[:, i], p = _steps(t, st[side.lower()], steps, FPS, side)
         prints += p
     lower_pelvis(pb, {s: ftrack[s]["ankle"] for s in ftrack}, FPS)
-    for side in ("Left", "Right"):
+    for i, side in enumerate(("Left", "Right")):
         f = ftrack[side]
         pelvis_fwd = rot.rotate(pb.wrot("Hips"), np.array([1.0, 0.0, 0.0]))
-        pb.leg(side, f["ankle"], f["foot"], f["toe"], pelvis_fwd + np.stack([np.cos(f["heading"]), np.sin(f["heading"]), 0 * t], axis=1))
+        pb.leg(
+            side, f["ankle"], f["foot"], f["toe"], pelvis_fwd + np.stack([np.cos(f["heading"]), np.sin(f["heading"]), 0 * t], axis=1), contacts[:, i]
+        )
     # Arms: the bat frame fixes the right hand; the left hand grips the handle above it.
     bat_q = _rspline(keys, bats, t)
     grip_t = _pchip(keys, grip_j, t)
@@ -349,8 +351,8 @@ def kick(seed: int = 0) -> SynthClip:
     right_foot = compose(fwd, axis_angle("y", np.radians(_pchip(keys, pitch, t)) * moving))
     lower_pelvis(pb, {"Left": left["ankle"], "Right": right_ankle}, FPS)
     pelvis_fwd = rot.rotate(pb.wrot("Hips"), np.array([1.0, 0.0, 0.0]))
-    pb.leg("Left", left["ankle"], left["foot"], left["toe"], pelvis_fwd)
-    pb.leg("Right", right_ankle, right_foot, right_foot, pelvis_fwd + np.array([0.0, 0.0, 0.3]))
+    pb.leg("Left", left["ankle"], left["foot"], left["toe"], pelvis_fwd, c_left)
+    pb.leg("Right", right_ankle, right_foot, right_foot, pelvis_fwd + np.array([0.0, 0.0, 0.3]), ~moving)
     _hang(pb, _pchip(keys, raise_deg, t))
     contacts = np.column_stack([c_left, ~moving])
     a, b = int(np.floor(keys[lift_key] * FPS + 1e-9)), int(np.ceil(keys[land_key] * FPS - 1e-9))
@@ -411,8 +413,8 @@ def punch(seed: int = 0) -> SynthClip:
         prints += p
     lower_pelvis(pb, {s: feet[s]["ankle"] for s in feet}, FPS)
     pelvis_fwd = rot.rotate(pb.wrot("Hips"), np.array([1.0, 0.0, 0.0]))
-    for side in ("Left", "Right"):
-        pb.leg(side, feet[side]["ankle"], feet[side]["foot"], feet[side]["toe"], pelvis_fwd)
+    for i, side in enumerate(("Left", "Right")):
+        pb.leg(side, feet[side]["ankle"], feet[side]["foot"], feet[side]["toe"], pelvis_fwd, contacts[:, i])
     # Wrist goals in the chest frame: hanging (from the gaits' arm pose), guard, punch.
     rest = PoseBuilder(1, np.array([STAND["root"]]))
     _hang(rest)

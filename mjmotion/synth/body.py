@@ -252,17 +252,30 @@ class PoseBuilder:
         self.local[:, j] = rot.multiply(rot.conjugate(parent), world)
         self.world_rot[:, j] = world  # type: ignore[index]
 
-    def leg(self, side: str, ankle: np.ndarray, foot_world: np.ndarray, toe_world: np.ndarray, pole: np.ndarray) -> np.ndarray:
+    def leg(self, side: str, ankle: np.ndarray, foot_world: np.ndarray, toe_world: np.ndarray, pole: np.ndarray, planted: np.ndarray) -> np.ndarray:
         """Place a leg: ankle position ``(T, 3)``, foot and toe world rotations ``(T, 4)``, knee
-        bulging toward ``pole (T, 3)``. Returns the reached ankle positions ``(T, 3)``."""
+        bulging toward ``pole (T, 3)``. Returns the reached ankle positions ``(T, 3)``.
+
+        ``planted (T,)`` bool: frames whose foot keeps ``foot_world`` exactly (it stands on its
+        footprint). In the other frames the ankle's rotation is held inside the judge's range
+        (:func:`ankle_limited`), the toe turning with the foot.
+        """
         hip = self.pos(f"{side}UpLeg")
         knee, reached, n = two_bone_ik(hip, ankle, THIGH, SHIN, pole)
         down, fwd = np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0])
         # Each bone's pole is n × bone: in the bending plane, toward the bulge, never along the bone.
         self._set_world(f"{side}UpLeg", frame_rotation(knee - hip, np.cross(n, knee - hip), down, fwd))
-        self._set_world(f"{side}Leg", frame_rotation(reached - knee, np.cross(n, reached - knee), down, fwd))
-        self._set_world(f"{side}Foot", foot_world)
-        self._set_world(f"{side}Toe", toe_world)
+        shin = frame_rotation(reached - knee, np.cross(n, reached - knee), down, fwd)
+        self._set_world(f"{side}Leg", shin)
+        local = rot.multiply(rot.conjugate(shin), foot_world)
+        limited = ankle_limited(local, self.skel.index(f"{side}Foot"))
+        # Only free frames the limit changes are recomputed: planted feet stay bit-exact on their plan.
+        bent = ~np.asarray(planted, dtype=bool) & np.any(limited != local, axis=-1)
+        foot, toe = foot_world.copy(), toe_world.copy()
+        foot[bent] = rot.multiply(shin[bent], limited[bent])
+        toe[bent] = rot.multiply(foot[bent], rot.multiply(rot.conjugate(foot_world[bent]), toe_world[bent]))
+        self._set_world(f"{side}Foot", foot)
+        self._set_world(f"{side}Toe", toe)
         return reached
 
     def arm(self, side: str, wrist: np.ndarray, pole: np.ndarray, hand_world: np.ndarray | None = None) -> np.ndarray:
@@ -281,6 +294,32 @@ class PoseBuilder:
     def motion(self, fps: float, name: str) -> Motion:
         q = rot.make_continuous(rot.normalize(self.local), axis=0)
         return Motion(skeleton=self.skel, fps=float(fps), root_positions=self.root.copy(), rotations=q, name=name)
+
+
+#: How far inside the judge's range a free foot's ankle stays (its rotation saturates at the range minus this).
+ANKLE_MARGIN = np.radians(5.0)
+#: The saturation starts this far below that ceiling (identity below it, so ordinary gaits are untouched).
+ANKLE_KNEE = np.radians(12.0)
+
+
+def ankle_limited(local: np.ndarray, ankle: int) -> np.ndarray:
+    """Ankle local rotations ``(N, 4)`` (``local``, the same shape) with their angle smoothly saturated below the judge's
+    range (:func:`mjmotion.limits.joint_limits`) of joint ``ankle``: unchanged up to
+    ``range − ANKLE_MARGIN − ANKLE_KNEE``, then approaching ``range − ANKLE_MARGIN`` along a tanh
+    (slope 1 at the knee, so the foot's motion stays smooth), about the same axis.
+
+    A swinging foot whose sole the plan keeps level while the shin swings back and up (a run's
+    heel kick, a kick's chamber) would otherwise bend the ankle 80–90°; limited, it follows the shin.
+    """
+    from ..limits import joint_limits
+
+    ceiling = float(joint_limits(skeleton())[ankle]) - ANKLE_MARGIN
+    knee = ceiling - ANKLE_KNEE
+    r = rot.log(local)
+    a = np.linalg.norm(r, axis=-1)
+    over = a > knee
+    limited = knee + ANKLE_KNEE * np.tanh((a - knee) / ANKLE_KNEE)
+    return np.where(over[:, None], rot.exp(r * (limited / np.maximum(a, 1e-12))[:, None]), local)
 
 
 def min_jerk(s: np.ndarray) -> np.ndarray:

@@ -304,7 +304,7 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
     _fit_pelvis_height(pb, style, ankles, base, mid_l, right_stance, ballistic, fps)
     for i, side in enumerate(SIDES):
         f = feet[side]
-        reached = pb.leg(side, f["ankle"], f["foot"], f["toe"], _dir(f["heading"]) + pelvis_fwd)
+        reached = pb.leg(side, f["ankle"], f["foot"], f["toe"], _dir(f["heading"]) + pelvis_fwd, contacts[:, i])
         miss = np.linalg.norm(reached - f["ankle"], axis=1)[contacts[:, i]]
         if miss.size and miss.max() > 1e-6:
             raise MjmotionError(
