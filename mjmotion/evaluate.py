@@ -464,6 +464,7 @@ def evaluate(
     pose = kinematics.forward(compiled, motion)
     track, soles, fl = judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], floor, params.speed_window)
     # A tilted stance floor is levelled: the body and its dynamics are measured in that frame too.
+    captured = motion  # the ball and its velocity are given in the captured frame
     pose, motion = level_pose(fl.level, pose), level_motion(fl.level, motion)
     lz = lowest_body_point(compiled, pose, track.heights.min(axis=1) + fl.height)
     g = ground_metrics(lz, track, params.h_c, params.v_c, params.float_tol, params.hysteresis)
@@ -479,7 +480,7 @@ def evaluate(
     if ball is not None:
         if hit_frame is None:
             raise MjmotionError("a ball needs a hit frame (--frame H)")
-        hit = physics.hit_metrics(motion, ball, hit_frame, props=tuple(props), launch=launch, ball_velocity=ball_velocity)
+        hit = physics.hit_metrics(captured, ball, hit_frame, props=tuple(props), launch=launch, ball_velocity=ball_velocity)
     con = contacts(track, params.h_c, params.v_c, params.hysteresis)
     return Report(
         name=motion.name,

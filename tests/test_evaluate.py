@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import clip_params, linear_blend, require_data, shared_clip
 
-from mjmotion import bvh, kinematics, mjcf
+from mjmotion import bvh, kinematics, mjcf, physics
 from mjmotion import evaluate as ev
 from mjmotion import rotations as rot
 from mjmotion.cli import main
@@ -563,6 +563,10 @@ def test_a_walk_on_a_tilted_floor_is_levelled_before_it_is_judged(tmp_path):
     assert any("tilts 1.2°" in n for n in judged.notes())
     level_z = ev.evaluate(tilted, floor=judged.floor_m)  # a given floor is level
     assert level_z.floor_tilt_deg == 0.0 and level_z.penetrate_mm + level_z.float_mm > flat.penetrate_mm + flat.float_mm + 10
+    # A ball is given in the captured frame: the hitting metrics are those of the clip as captured.
+    ball = mjcf.Ball(position=tuple(float(v) for v in kinematics.forward(mjcf.compile(tilted.skeleton), tilted).joint_positions[100, 20]))
+    with_ball = ev.evaluate(tilted, ball=ball, hit_frame=100, launch=False)
+    assert json.dumps(with_ball.hit) == json.dumps(physics.hit_metrics(tilted, ball, 100, launch=False))
     # Judged against its tilted source, a copy lifted 5 cm floats by the 5 cm (less the 5 mm tolerance).
     up = tilted.replace(root_positions=tilted.root_positions + [0.0, 0.0, 0.05])
     assert ev.evaluate(up, sources=[tilted]).float_mm >= judged.float_mm + 42
