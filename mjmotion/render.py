@@ -249,6 +249,8 @@ def build_scene(
             from .feet import level_motion
 
             actors = [replace(a, motion=level_motion(judged.level, a.motion)) for a in actors]  # drawn levelled, as judged
+            if ball is not None:  # given in the captured frame: levelled with the characters
+                ball = replace(ball, position=_xyz(judged.level.positions(np.asarray(ball.position))))
     if not np.isfinite(floor):
         raise MjmotionError(f"render: floor must be a finite height in metres, got {floor}")
     motions = [a.motion.resample(fps) for a in actors]
@@ -820,3 +822,8 @@ def render(
 
         with tqdm(total=len(indices), unit="frame", desc=f"render {Path(path).name}", file=sys.stderr) as bar:
             return write_video(r.frames(indices), path, scene.fps, (width, height), bar.update)
+
+
+def _xyz(p: np.ndarray) -> tuple[float, float, float]:
+    """A point ``(3,)`` as a tuple of three floats."""
+    return (float(p[0]), float(p[1]), float(p[2]))

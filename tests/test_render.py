@@ -269,3 +269,22 @@ def test_cli_render_draws_the_floor_the_judge_uses(gl_works, mocap, tmp_path, ca
     capsys.readouterr()
     assert main(["render", str(lifted), *small, "--source", str(lifted), "-o", str(tmp_path / "d.gif")]) == 2
     assert "--source" in capsys.readouterr().err
+
+
+def test_a_tilted_floor_is_drawn_level_with_the_ball_turned_along():
+    """With the judge's floor (floor=None), a walk on a floor tilted 1.2° is drawn levelled, as the
+    judge measures it, and a ball given in the captured frame is turned with the characters."""
+    from mjmotion import floor as floors
+    from mjmotion import synth
+    from mjmotion.feet import judged_floor, level_motion
+
+    phi = -np.radians(1.2)
+    tilt = floors.Level((float(np.cos(phi / 2)), 0.0, float(np.sin(phi / 2)), 0.0), (0.0, 0.0, 0.0), 1.2)
+    tilted = level_motion(tilt, synth.walk(seconds=4.0).motion)
+    judged = judged_floor(tilted)
+    assert judged.level.tilt_deg == pytest.approx(1.2, abs=0.1)
+    ball = mjcf.Ball(position=(4.0, 0.0, 0.2))
+    scene = render.build_scene([render.Actor(tilted)], fps=30.0, ball=ball, floor=None)
+    placed = scene.model.body("ball0").pos + [0.0, 0.0, judged.height]
+    assert np.allclose(placed, judged.level.positions(np.asarray(ball.position)), atol=1e-9)
+    assert abs(placed[2] - ball.position[2]) > 0.02  # 1.4 m from the stance centre along a 1.2° floor: turned, not left where given

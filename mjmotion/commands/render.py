@@ -8,6 +8,7 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import argparse
+from typing import Any
 
 from ..caps import MAX_MODEL_JOINTS, check_motion_size
 from ..errors import MjmotionError, printable
@@ -131,6 +132,8 @@ def scene_floor(args: argparse.Namespace, first) -> Floor | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from .. import mjcf, render
 
     out = output_path(args, *args.files)
@@ -165,6 +168,10 @@ def run(args: argparse.Namespace) -> int:
         # A tilted captured floor is drawn as the judge measures it: every character levelled with the first clip's floor.
         actors = [replace(a, motion=level_motion(floor.level, a.motion)) for a in actors]
     ball = mjcf.Ball(position=tuple(args.ball)) if args.ball else None
+    if ball is not None and floor is not None and not floor.level.flat:
+        from dataclasses import replace
+
+        ball = replace(ball, position=_xyz(floor.level.positions(np.asarray(ball.position))))  # levelled with the characters
     view = render.View(azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
     try:
         scene = render.build_scene(actors, fps=args.fps, ball=ball, spacing=args.spacing, view=view, floor=0.0 if floor is None else floor.height)
@@ -220,3 +227,8 @@ def _trail(motion, props, text: str | None) -> str | None:
     if "right" not in hands:
         raise MjmotionError("--trail: no prop and no right hand found by name; say which joint, e.g. --trail rwrist")
     return motion.skeleton.names[hands["right"]]
+
+
+def _xyz(p: Any) -> tuple[float, float, float]:
+    """A point ``(3,)`` as a tuple of three floats."""
+    return (float(p[0]), float(p[1]), float(p[2]))
