@@ -7,8 +7,8 @@ still (neither sliding nor rising or falling). Flight frames (no foot still) and
 A result lifted or sunk against its source keeps the source's floor, so it reads as floating or
 penetrating; detected on its own it would just find its new floor.
 
-A captured floor need not be level: the stance feet of CMU subjects 07 and 08 rise 2-6 cm per
-metre of walk (1-3.5°; the same trial in its daz and iClone conversions alike), so a flat floor
+A captured floor need not be level: the stance feet of CMU subjects 07 and 08 rise about 2 cm per
+metre of walk (1.0-1.3°; the same trial in its daz and iClone conversions alike), so a flat floor
 at their median height has one end of the walk in the floor and the other above it. When the
 floor is not given, the plane through the stance points (:func:`fit_tilt`, the clip's or its
 sources') is made level first (:class:`Level`: a rigid rotation about the stance centre; gravity
