@@ -141,6 +141,7 @@ class CleanupResult:
             "raised_plants": self.raised_plants,
             "floor_m": self.floor.height,
             "floor_from": self.floor.from_,
+            "floor_tilt_deg": self.floor.level.tilt_deg,
             "params": self.params.__dict__,
         }
 

@@ -500,3 +500,17 @@ def test_cleanup_of_a_walk_on_a_tilted_floor_keeps_its_feet_on_that_floor():
     level = ev.evaluate(cl.cleanup(mixed, sources=[walk[:n], run[:n]]).motion, sources=[walk[:n], run[:n]])
     assert after.penetrate_mm <= 2.0 and after.float_mm <= level.float_mm + 2.0
     assert after.planted_skate_mm_per_s <= level.planted_skate_mm_per_s + 5.0
+
+
+def test_cli_cleanup_says_when_it_levelled_a_tilted_floor(tmp_path, capsys):
+    from mjmotion import floor as floors
+    from mjmotion.feet import level_motion
+
+    phi = -np.radians(1.2)
+    tilt = floors.Level((float(np.cos(phi / 2)), 0.0, float(np.sin(phi / 2)), 0.0), (0.0, 0.0, 0.0), 1.2)
+    src = tmp_path / "tilted.bvh"
+    bvh.write(level_motion(tilt, synth.walk(seconds=3.0).motion), src)
+    rep = tmp_path / "r.json"
+    assert main(["cleanup", str(src), "-o", str(tmp_path / "out.bvh"), "--json", str(rep)]) == 0
+    assert "levelled from a 1.2° tilt" in capsys.readouterr().out
+    assert json.loads(rep.read_text())["floor_tilt_deg"] == pytest.approx(1.2, abs=0.1)
