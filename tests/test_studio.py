@@ -240,3 +240,17 @@ def test_studio_verb_port_in_use_is_one_error_line():
         out, err = p.communicate(timeout=60)
     assert p.returncode == 2 and out == ""
     assert err.count("\n") == 1 and err.startswith(f"error: --port {port}:")
+
+
+def test_the_evaluate_tabs_marks_measure_from_the_judges_floor():
+    """The timeline's penetration marks use the judge's floor, as the report's penetrate_mm does: a
+    walk sunk 5 cm on its own has a detected floor 5 cm lower and nothing in it; a 3 cm dip of the
+    root over six frames marks those frames (measured from z = 0 the sunk walk was all red)."""
+    walk = synth.walk(seconds=2.0).motion
+    sunk = walk.replace(root_positions=walk.root_positions - [0.0, 0.0, 0.05])
+    e = engine.evaluate(sunk)
+    assert not e.penetrating.any() and dict(e.rows)["penetrate_mm"] < 1.0
+    root = walk.root_positions.copy()
+    root[60:66, 2] -= 0.03
+    dipped = engine.evaluate(walk.replace(root_positions=root))
+    assert dipped.penetrating[60:66].all() and dipped.penetrating.sum() <= 6

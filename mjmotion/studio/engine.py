@@ -328,7 +328,8 @@ class Evaluation:
     Attributes:
         rows: ``(label, value)`` of every scalar the report has.
         foot_geoms: ``{side: geom ids}``; ``contacts``: ``(T, F)`` bool per side in ``sides``.
-        penetrating: ``(T,)`` a body geom more than :data:`PENETRATION_TOL` below the floor; ``skating``: ``(T,)`` a low foot moving faster than ``v_c``.
+        penetrating: ``(T,)`` the body more than :data:`PENETRATION_TOL` below the judge's floor
+            (:func:`mjmotion.feet.judged_feet`, as ``penetrate_mm``); ``skating``: ``(T,)`` a low foot moving faster than ``v_c``.
     """
 
     rows: list[tuple[str, Any]]
@@ -343,17 +344,20 @@ def evaluate(motion: Motion, props: tuple[mjcf.Prop, ...] = (), progress: Progre
     """:func:`mjmotion.evaluate.evaluate` plus the per-frame contacts, penetration and skate."""
     from .. import evaluate as ev
     from .. import kinematics
+    from ..feet import judged_feet, level_pose
 
     progress(0.1, "report")
     report = ev.evaluate(motion, props)
     rows = [(k, v) for k, v in report.to_dict().items() if isinstance(v, (int, float, str)) and k != "name"]
     progress(0.7, "per-frame contacts")
-    compiled = mjcf.compile(motion.skeleton, props)
+    compiled = ev.judge_model(motion.skeleton, props)
     pose = kinematics.forward(compiled, motion)
-    track = ev.foot_heights_speeds(compiled, motion, pose)
+    # The judge's feet and floor (levelled where it tilts), so the marks agree with the report's rows.
+    track, _, fl = judged_feet(compiled, motion, pose)
     contacts = ev.contacts(track)
     skating = np.asarray((ev.low_both(track) & (track.speeds > ev.V_C)).any(axis=1))
-    penetrating = np.asarray(ev.lowest_body_point(compiled, pose) < -PENETRATION_TOL)
+    low = ev.lowest_body_point(compiled, level_pose(fl.level, pose), track.heights.min(axis=1) + fl.height) - fl.height
+    penetrating = np.asarray(low < -PENETRATION_TOL)
     return Evaluation(rows, track.sides, dict(compiled.foot_geoms), contacts, penetrating, skating)
 
 
