@@ -14,7 +14,7 @@ import time
 import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -31,8 +31,15 @@ from .skinned import register_skin_modes
 register_skin_modes()  # the Character menu: capsules, skin (LBS), skin (DQS), both
 
 if TYPE_CHECKING:
-    from .app import Studio
     from .live import StreamFrame
+
+
+class Host(Protocol):
+    """What a session needs of the server that opened it (:class:`~.app.Studio`): its clips and output folder."""
+
+    library: ClipLibrary
+    out_dir: Path
+
 
 #: Playback ticks per second (each tick draws the current frame; the stream may advance several).
 TICK_HZ = 30.0
@@ -62,7 +69,7 @@ class Actor:
 class Session:
     """The state and GUI of one page."""
 
-    def __init__(self, studio: Studio, client: Any):
+    def __init__(self, studio: Host, client: Any):
         self.studio = studio
         self.client = client
         self.library: ClipLibrary = studio.library
