@@ -75,10 +75,12 @@ def test_no_import_circle_in_the_package():
 
 
 def test_imports_only_a_type_checker_runs_are_not_dependencies():
-    # The studio's session names its app in annotations only; the app creates sessions.
-    assert "mjmotion.studio.app" in import_graph()["mjmotion.studio.session"]
-    assert "mjmotion.studio.app" not in import_graph(runtime_only=True)["mjmotion.studio.session"]
+    # The studio's session names the live stream's frame in annotations only; the app creates sessions.
+    assert "mjmotion.studio.live" in import_graph()["mjmotion.studio.session"]
+    assert "mjmotion.studio.live" not in import_graph(runtime_only=True)["mjmotion.studio.session"]
     assert "mjmotion.studio.session" in import_graph(runtime_only=True)["mjmotion.studio.app"]
+    # ... and needs of the app only what its Host protocol names: no import of it at all.
+    assert "mjmotion.studio.app" not in import_graph()["mjmotion.studio.session"]
 
 
 # --- the README's module map -----------------------------------------------------------------
