@@ -14,7 +14,8 @@ numbers), and ``mjmotion info`` of it.
 Goals (issue 19): ``mjmotion --help`` and ``info`` of a small clip within 2x ``import numpy``;
 the fresh read of the 3.4 MB clip faster than the ``bvh`` package's; ``register`` of two
 600-frame clips within 0.3 s of ``info`` of one of them. ``evaluate`` of one clip against the
-same with ``scipy.signal`` imported first (issue 13: the judge's filters no longer import it).
+same with ``scipy.signal`` imported first (it loads ``scipy.optimize`` and ``scipy.linalg`` too:
+the judge's filters and ground-reaction solves once came from them and now import no SciPy).
 ``evaluate`` of the shared folder with ``--jobs 1`` and ``2``, now and as the package was at
 :data:`FILED` (exported from git, run by the same Python and libraries: the judge then had no
 ground-reaction optimisation, filters or ballistic fits). Verbs of ``mjmotion`` without a row
@@ -121,7 +122,8 @@ def rows(f: dict[str, str]) -> dict[str, list[str]]:
         "hit swing (nlp)": [*mj, "hit", f["swing"], "--offset", "0", "0.1", "0.1", "-o", o + ".bvh", "--force"],
         "vary swing --scale 1.3": [*mj, "vary", f["swing"], "--scale", "1.3", "-o", o + ".bvh", "--force"],
         "evaluate walk": [*mj, "evaluate", f["walk"]],
-        # The judge's filters once came from scipy.signal (butter, filtfilt, savgol_filter): its import, timed as it was paid.
+        # The judge's filters once came from scipy.signal (butter, filtfilt, savgol_filter) and its NNLS from
+        # scipy.optimize: scipy.signal's import loads both (and scipy.linalg), timed as it was paid.
         "evaluate walk + import scipy.signal": [
             py,
             "-c",
@@ -248,7 +250,7 @@ def main() -> int:
     ev, old = "evaluate walk", "evaluate walk + import scipy.signal"
     if ev in med and old in med:
         goal(
-            "evaluate of one clip without scipy.signal's import (the judge's own Butterworth and Savitzky-Golay filters)",
+            "evaluate of one clip without SciPy's import (the judge's own Butterworth and Savitzky-Golay filters and NNLS)",
             med[ev][0] < med[old][0],
             f"{med[old][0] / med[ev][0]:.2f}x faster wall, {med[old][2] / med[ev][2]:.2f}x CPU",
         )

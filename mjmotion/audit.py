@@ -256,19 +256,42 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
     return same_file(row)
 
 
+def _standing_bvh(frames: int = 60, fps: float = 120.0) -> str:
+    """A small biped (hips, spine, head, legs with feet and toes; centimetres, Y up) standing and
+    swaying its hips a centimetre, as BVH text: the warm-up's clip. Written out here rather than
+    synthesized: the synthesizer's frame maths would load SciPy's spatial package (0.3 s) into a
+    process that, forked, becomes every worker."""
+    joints = []
+
+    def joint(name: str, offset: tuple[float, float, float], children: str, end: tuple[float, float, float] | None = None) -> str:
+        joints.append(name)
+        inner = children or f"End Site\n{{\nOFFSET {end[0]} {end[1]} {end[2]}\n}}\n" if end else children
+        return f"JOINT {name}\n{{\nOFFSET {offset[0]} {offset[1]} {offset[2]}\nCHANNELS 3 Zrotation Xrotation Yrotation\n{inner}}}\n"
+
+    legs = ""
+    for side, x in (("Left", 9.0), ("Right", -9.0)):
+        toe = joint(f"{side}ToeBase", (0.0, -6.0, 12.0), "", end=(0.0, 0.0, 5.0))
+        legs += joint(f"{side}UpLeg", (x, 0.0, 0.0), joint(f"{side}Leg", (0.0, -42.0, 0.0), joint(f"{side}Foot", (0.0, -40.0, 0.0), toe)))
+    spine = joint("Spine", (0.0, 10.0, 0.0), joint("Head", (0.0, 50.0, 0.0), "", end=(0.0, 15.0, 0.0)))
+    head = f"HIERARCHY\nROOT Hips\n{{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n{legs}{spine}}}\n"
+    rows = []
+    for t in range(frames):
+        sway = math.sin(2.0 * math.pi * t / frames)
+        rows.append(" ".join(f"{v:.4f}" for v in [sway, 88.0, 0.0, 0.0, 0.0, 0.0] + [0.0] * (3 * len(joints))))
+    return head + f"MOTION\nFrames: {frames}\nFrame Time: {1.0 / fps:.8f}\n" + "\n".join(rows) + "\n"
+
+
 def warm_up() -> None:
-    """Evaluate a short synthetic walk in this process through the tasks' own one-file evaluation, so
-    that whatever the judge loads on first use (SciPy's signal package alone takes about a second to
-    import) is loaded once here, before local workers are forked, instead of once in every worker."""
+    """Evaluate a short standing clip in this process through the tasks' own one-file evaluation,
+    so that whatever the judge loads on first use (MuJoCo, its modules, the first compile) is
+    loaded once here, before local workers are forked, instead of once in every worker."""
     import tempfile
 
-    from . import bvh
     from .commands.evaluate import evaluate_one
-    from .synth import walk
 
     with tempfile.TemporaryDirectory(prefix="mjmotion-warm-up-") as tmp:
-        path = Path(tmp) / "walk.bvh"
-        bvh.write(walk(seconds=0.5).motion, path)
+        path = Path(tmp) / "standing.bvh"
+        path.write_text(_standing_bvh())
         evaluate_one(str(path), judge_options())
 
 

@@ -204,17 +204,27 @@ def _rest_up(skeleton: Skeleton) -> np.ndarray:
     return up / n if n > 1e-9 else np.array([0.0, 0.0, 1.0])
 
 
-def _quiet_up(poses: Sequence[tuple[Pose, float]], joint: int, ankle: int) -> np.ndarray | None:
-    """Mean world up seen from ``joint``'s frame over the quiet stance frames of ``ankle``, or None."""
-    ups = []
+def _quiet_frames(poses: Sequence[tuple[Pose, float]], ankles: Sequence[int]) -> dict[int, list[tuple[Pose, np.ndarray]]]:
+    """Per ankle, the ``(pose, quiet (T,) bool)`` of every pose long enough to calibrate from:
+    its quiet stance frames (low and slow; every ankle's track filtered in one call per pose)."""
+    out: dict[int, list[tuple[Pose, np.ndarray]]] = {a: [] for a in ankles}
     for pose, fps in poses:
-        p = pose.joint_positions[:, ankle]
+        p = pose.joint_positions[:, list(ankles)]  # (T, A, 3)
         if len(p) < MIN_CALIBRATION_FRAMES:
             continue
-        v = np.linalg.norm(np.gradient(lowpass(p[:, :2], fps, CUTOFF_HZ), axis=0), axis=1)
-        low = p[:, 2] <= np.quantile(p[:, 2], QUIET_HEIGHT_QUANTILE)
-        quiet = low & (v <= np.quantile(v[low], QUIET_SPEED_QUANTILE))
-        r = pose.joint_rotations[quiet, joint]
+        v = np.linalg.norm(np.gradient(lowpass(p[..., :2], fps, CUTOFF_HZ), axis=0), axis=-1)  # (T, A)
+        for i, a in enumerate(ankles):
+            low = p[:, i, 2] <= np.quantile(p[:, i, 2], QUIET_HEIGHT_QUANTILE)
+            out[a].append((pose, low & (v[:, i] <= np.quantile(v[low, i], QUIET_SPEED_QUANTILE))))
+    return out
+
+
+def _quiet_up(quiet: Sequence[tuple[Pose, np.ndarray]], joint: int) -> np.ndarray | None:
+    """Mean world up seen from ``joint``'s frame over the ``quiet`` frames of its foot's ankle
+    (:func:`_quiet_frames`), or None."""
+    ups = []
+    for pose, frames in quiet:
+        r = pose.joint_rotations[frames, joint]
         ups.append(rot.rotate(rot.conjugate(r), np.broadcast_to([0.0, 0.0, 1.0], r.shape[:-1] + (3,))))
     if not ups:
         return None
@@ -248,9 +258,10 @@ def calibrate_soles(skeleton: Skeleton, poses: Sequence[tuple[Pose, float]] = ()
     sides = tuple(s for s in ("left", "right") if s in feet)
     joints, local, normals = [], [], []
     calibrated = True
+    quiet = _quiet_frames(poses, [feet[side][0] for side in sides])
     for side in sides:
         ankle, toe = feet[side]
-        n_a = _quiet_up(poses, ankle, ankle)
+        n_a = _quiet_up(quiet[ankle], ankle)
         if n_a is None:
             n_a, calibrated = up_rest, False
         below = skeleton.descendants(ankle)
@@ -270,7 +281,7 @@ def calibrate_soles(skeleton: Skeleton, poses: Sequence[tuple[Pose, float]] = ()
         j_pts = [ankle] * 4
         p_pts = [heel + half_w * lat, heel - half_w * lat, ball + half_w * lat, ball - half_w * lat]
         if toe is not None:
-            n_t = _quiet_up(poses, toe, ankle) if calibrated else None
+            n_t = _quiet_up(quiet[ankle], toe) if calibrated else None
             n_t = n_a if n_t is None else n_t
             t_pts = [rest[c] - rest[toe] for c in skeleton.descendants(toe)]
             t_pts += [ends[e] - rest[toe] for e in range(len(ends)) if skeleton.end_parents[e] in [*skeleton.descendants(toe), toe]]

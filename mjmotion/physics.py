@@ -375,8 +375,8 @@ def ground_reaction_residual(
     should produce the needed wrench — ``force[t]`` and ``torque[t]`` about ``origin[t]``. The
     forces minimising ``‖(r_F, r_τ / lever)‖`` (``r`` the wrench left over; ``lever`` turns a
     torque into a force, e.g. half the stature) solve a non-negative least-squares problem
-    (Lawson–Hanson, ``scipy.optimize.nnls``: exact, at most 6 forces active); the residual is that
-    norm over ``weight``, ``(T,)``. A frame with no active point returns the whole wrench (flight:
+    (Lawson–Hanson, :func:`mjmotion.nnls.solve` on every frame at once: exact, at most 6 forces
+    active); the residual is that norm over ``weight``, ``(T,)``. A frame with no active point returns the whole wrench (flight:
     gravity alone must explain the motion).
 
     With ``tol``, frames that :func:`parallel_support_bound` already proves within ``tol`` keep
@@ -385,7 +385,7 @@ def ground_reaction_residual(
 
     ``force, torque, origin: (T, 3)``; ``points: (T, N, 3)``; ``active: (T, N)`` bool.
     """
-    from scipy.optimize import nnls
+    from . import nnls
 
     t_count, n_pts = active.shape
     d = np.concatenate([mu * _EDGES, np.ones((4, 1))], axis=1)
@@ -404,8 +404,9 @@ def ground_reaction_residual(
         arm = points[rows] - origin[rows, None, :]
         tq = rot.cross(arm[:, :, None, :], d[None, None, :, :]) / lever
         gen = np.concatenate([np.broadcast_to(d, tq.shape), tq], axis=-1) / weight
-        for i, t in enumerate(rows):
-            out[t] = nnls(gen[i, active[t]].reshape(-1, 6).T, w[t])[1]
+        a = gen.reshape(len(rows), n_pts * 4, 6).transpose(0, 2, 1)  # (R, 6, 4N)
+        allowed = np.repeat(active[rows], 4, axis=1)  # each point's 4 edges
+        out[rows] = nnls.solve(a, w[rows], allowed).residual
     return out
 
 

@@ -144,3 +144,22 @@ def test_info_loads_only_numpy_even_for_the_largest_clip(mocap):
     )
     assert out.pop("numpy") is True
     assert out == {str(small): [], str(large): []}
+
+
+def test_the_judge_loads_no_scipy(mocap):
+    """``evaluate`` of a clip of every flavour, and the audit's warm-up (run before local workers
+    fork), load MuJoCo but no SciPy: its filters and ground-reaction solves are the judge's own
+    (``mjmotion.filters``, ``mjmotion.nnls``); SciPy's optimize and linalg cost 0.3 s a process."""
+    clips = [mocap / "cmu_cgspeed_daz" / "09_01.bvh", mocap / "cmu_asfamc_converted" / "16_15.bvh", mocap / "cmu_iclone_ccrig" / "002_03.bvh"]
+    out = _loaded_after(
+        "import contextlib, io\n"
+        "from mjmotion.cli import main\n"
+        "from mjmotion import audit\n"
+        f"for f in {[str(c) for c in clips]!r}:\n"
+        "    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):\n"
+        "        assert main(['evaluate', f]) == 0\n"
+        "    out[f] = heavy()\n"
+        "audit.warm_up()\n"
+        "out['warm_up'] = heavy()\n"
+    )
+    assert all(v == ["mujoco"] for v in out.values()), out
