@@ -326,3 +326,17 @@ def test_setting_the_ball_in_the_gui_gives_an_adapted_shot_that_reaches_it(page)
     # shown: the exact solve from the shot's set-up (tests/test_studio.py: `mjmotion hit --solver dls`'s answer), not the preview
     assert hit.result.report["solver"] == "dls" and hit.result.report["hit_error_m"] < 1e-3
     np.testing.assert_array_equal(page.session.shown.motion.rotations, hit.result.motion.rotations)
+
+
+def test_the_floor_grid_stands_at_the_judges_floor(page):
+    """A clip standing 4 cm up (the walk lifted, as a daz clip's feet are) is drawn over a grid
+    4 cm up, where ``evaluate`` finds its floor; the stream's gaits put it back at z = 0."""
+    from mjmotion.feet import judged_floor
+
+    walk = synth.walk(seconds=2.0).motion
+    lifted = walk.replace(name="lifted", root_positions=walk.root_positions + [0.0, 0.0, 0.04])
+    page.session.show([("lifted", lifted, ())])
+    z = page.session.scene_floor.position[2]
+    assert z == pytest.approx(judged_floor(lifted).height, abs=1e-9) and z == pytest.approx(judged_floor(walk).height + 0.04, abs=2e-3)
+    page.stream()
+    assert page.session.scene_floor.position[2] == 0.0

@@ -340,6 +340,20 @@ class Evaluation:
     skating: np.ndarray
 
 
+def floor_height(motion: Motion) -> float:
+    """The height (m) the scene's floor grid is drawn at for ``motion``: the judge's floor
+    (:func:`mjmotion.feet.judged_floor`, detected from its stance, as ``evaluate`` and ``render``
+    use), or 0 for a clip without feet or of one frame."""
+    from ..feet import judged_floor
+
+    if not motion.skeleton.feet() or motion.n_frames < 2:
+        return 0.0
+    try:
+        return float(judged_floor(motion).height)
+    except MjmotionError:
+        return 0.0
+
+
 def evaluate(motion: Motion, props: tuple[mjcf.Prop, ...] = (), progress: ProgressFn = _no_progress) -> Evaluation:
     """:func:`mjmotion.evaluate.evaluate` plus the per-frame contacts, penetration and skate."""
     from .. import evaluate as ev

@@ -22,6 +22,7 @@ from .. import kinematics, mjcf
 from .. import rotations as rot
 from ..errors import MjmotionError
 from ..skeleton import Motion
+from . import engine
 from .clips import MAX_CLIP_BYTES, ClipLibrary
 from .jobs import Job, Worker
 from .player import SPEEDS, Player
@@ -207,6 +208,8 @@ class Session:
                 self.clear_cast()
                 for label, m, props in placed:
                     self.add_actor(label, m, props)
+                # The grid at the main clip's floor as the judge finds it (a daz clip's stands 3 cm up).
+                self.scene_floor.position = (0.0, 0.0, engine.floor_height(motions[main][1]))
             n = max(m.n_frames for _, m, _ in motions)
             self.player = Player(n, motions[main][1].fps, speed=float(self.speed.value), loop=bool(self.loop.value))
             self.timeline.max = max(n - 1, 1)
@@ -280,6 +283,7 @@ class Session:
             self.clear_cast()
             first = live._loco[0]
             self.add_actor("stream", first, props, precompute=False)
+            self.scene_floor.position = (0.0, 0.0, 0.0)  # the stream's gaits are planned on z = 0
             self.live = live
             self.live_record = []
             self._stream_debt = 0.0
