@@ -482,17 +482,22 @@ def evaluate(
             raise MjmotionError("a ball needs a hit frame (--frame H)")
         hit = physics.hit_metrics(captured, ball, hit_frame, props=tuple(props), launch=launch, ball_velocity=ball_velocity)
     con = contacts(track, params.h_c, params.v_c, params.hysteresis)
+    sens = skate_sensitivity(track, params.h_c_sensitivity, params.v_c, params.hysteresis)
+    # The headline footskate is the sensitivity row at the report's own h_c when there is one (same arguments).
+    at_h_c = next((r for r in sens if r["h_c"] == float(params.h_c)), None)
     return Report(
         name=motion.name,
         n_frames=motion.n_frames,
         fps=float(motion.fps),
         params=params,
-        skate_mm_per_s=skate_mm_per_s(track, params.h_c),
-        planted_skate_mm_per_s=planted_skate_mm_per_s(track, params.h_c, params.v_c, params.hysteresis),
+        skate_mm_per_s=at_h_c["skate_mm_per_s"] if at_h_c else skate_mm_per_s(track, params.h_c),
+        planted_skate_mm_per_s=at_h_c["planted_skate_mm_per_s"]
+        if at_h_c
+        else planted_skate_mm_per_s(track, params.h_c, params.v_c, params.hysteresis),
         skating_ratio=skating_ratio(track, params.h_c, params.v_c, params.skate_window),
         contact_fraction=float(con.any(axis=1).mean()),
         flight_fraction=float((~con.any(axis=1)).mean()),
-        sensitivity=tuple(skate_sensitivity(track, params.h_c_sensitivity, params.v_c, params.hysteresis)),
+        sensitivity=tuple(sens),
         penetrate_mm=g.penetrate_mm,
         float_mm=g.float_mm,
         phys_err_mm=g.phys_err_mm,
