@@ -265,7 +265,7 @@ def _standing_bvh(frames: int = 60, fps: float = 120.0) -> str:
 
     def joint(name: str, offset: tuple[float, float, float], children: str, end: tuple[float, float, float] | None = None) -> str:
         joints.append(name)
-        inner = children or f"End Site\n{{\nOFFSET {end[0]} {end[1]} {end[2]}\n}}\n" if end else children
+        inner = f"End Site\n{{\nOFFSET {end[0]} {end[1]} {end[2]}\n}}\n" if end is not None else children
         return f"JOINT {name}\n{{\nOFFSET {offset[0]} {offset[1]} {offset[2]}\nCHANNELS 3 Zrotation Xrotation Yrotation\n{inner}}}\n"
 
     legs = ""

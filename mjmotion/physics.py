@@ -32,7 +32,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from . import feet, kinematics, mjcf
+from . import feet, kinematics, mjcf, nnls
 from . import rotations as rot
 from .errors import MjmotionError
 from .feet import FootTrack
@@ -376,8 +376,8 @@ def ground_reaction_residual(
     forces minimising ``‖(r_F, r_τ / lever)‖`` (``r`` the wrench left over; ``lever`` turns a
     torque into a force, e.g. half the stature) solve a non-negative least-squares problem
     (Lawson–Hanson, :func:`mjmotion.nnls.solve` on every frame at once: exact, at most 6 forces
-    active); the residual is that norm over ``weight``, ``(T,)``. A frame with no active point returns the whole wrench (flight:
-    gravity alone must explain the motion).
+    active); the residual is that norm over ``weight``, ``(T,)``. A frame with no active point
+    returns the whole wrench (flight: gravity alone must explain the motion).
 
     With ``tol``, frames that :func:`parallel_support_bound` already proves within ``tol`` keep
     that upper bound instead of the exact optimum (the pass/fail decision at ``tol`` is exact
@@ -385,8 +385,6 @@ def ground_reaction_residual(
 
     ``force, torque, origin: (T, 3)``; ``points: (T, N, 3)``; ``active: (T, N)`` bool.
     """
-    from . import nnls
-
     t_count, n_pts = active.shape
     d = np.concatenate([mu * _EDGES, np.ones((4, 1))], axis=1)
     d /= np.linalg.norm(d, axis=1, keepdims=True)  # (4, 3)
