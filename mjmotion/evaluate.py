@@ -181,7 +181,7 @@ def joint_angular_speeds(motion: Motion) -> np.ndarray:
     """``(T-1, J)`` angular speed (rad/s) of every joint's local rotation between frames."""
     q = motion.rotations
     d = rot.multiply(rot.conjugate(q[:-1]), q[1:])
-    return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0])) * motion.fps
+    return 2.0 * np.arctan2(rot.norm(d[..., 1:]), np.abs(d[..., 0])) * motion.fps
 
 
 def joint_angular_accelerations(motion: Motion) -> np.ndarray:
@@ -193,7 +193,7 @@ def joint_angular_accelerations(motion: Motion) -> np.ndarray:
         return out
     q = motion.rotations
     omega = rot.log(rot.multiply(rot.conjugate(q[:-1]), q[1:])) * (2.0 * motion.fps)  # (T-1, J, 3)
-    out[1:-1] = np.linalg.norm(np.diff(omega, axis=0), axis=-1) * motion.fps
+    out[1:-1] = rot.norm(np.diff(omega, axis=0)) * motion.fps
     return out
 
 
@@ -471,7 +471,7 @@ def evaluate(
     res = physics.residuals(compiled, motion, track, params, ground=lz - fl.height, pose=pose)
     lim, nlim = limit_violation_ratio(compiled, motion)
     speeds = joint_angular_speeds(motion) if motion.n_frames > 1 else np.zeros((1, 1))
-    steps = np.linalg.norm(np.diff(motion.root_positions, axis=0), axis=1) if motion.n_frames > 1 else np.zeros(1)
+    steps = rot.norm(np.diff(motion.root_positions, axis=0)) if motion.n_frames > 1 else np.zeros(1)
     pops = pop_frames(motion, sources or None, params.pop_factor, params.peak_percentile, params.accel_floor)
     worst, joint = (None, None)
     if sources:

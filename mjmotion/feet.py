@@ -27,6 +27,7 @@ Reusable pieces:
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -351,6 +352,24 @@ class FootTrack:
         """The same track measured from another floor height."""
         return replace(self, heights=self.heights + self.floor - float(floor), floor=float(floor))
 
+    @functools.cached_property
+    def lowest_steps(self) -> np.ndarray:
+        """``(2·half+1, T, F, 2)``: where each frame's lowest sole point is, horizontally, ``d``
+        frames later (``d = −half … half``, ``half`` that of the speed window), relative to frame t;
+        0 where ``t + d`` is outside the clip. What :func:`planted_speeds` regresses on, whatever
+        the contact labels, gathered once per track (the judge asks for several labellings)."""
+        t_count, n_feet = self.heights.shape
+        half = _speed_frames(self) // 2
+        k = np.argmin(self.points[..., 2], axis=2)  # (T, F) the lowest point
+        xy = self.points[..., :2]  # (T, F, P, 2)
+        t = np.arange(t_count)
+        src = t[None, :] + np.arange(-half, half + 1)[:, None]  # (D, T)
+        inside = (src >= 0) & (src < t_count)
+        at = xy[np.clip(src, 0, t_count - 1)[:, :, None], np.arange(n_feet)[None, None, :], k[None]]  # (D, T, F, 2)
+        at -= xy[t[:, None], np.arange(n_feet)[None, :], k][None]
+        at[~inside] = 0.0
+        return at
+
     def detected_floor(self) -> float:
         """This clip's own stance floor (:func:`mjmotion.floor.detect`; a foot moving up or down is not still)."""
         still = self.speeds if self.climb is None else np.hypot(self.speeds, self.climb)
@@ -368,7 +387,7 @@ def foot_track(sides: tuple[str, ...], points: np.ndarray, fps: float, floor: fl
     lowest = np.take_along_axis(points, k[..., None, None], axis=2)[:, :, 0]
     vel = velocity(points, fps, speed_window)  # (T, F, P, 3), per second
     v_low = np.take_along_axis(vel, k[..., None, None], axis=2)[:, :, 0]
-    speeds = np.linalg.norm(v_low[..., :2], axis=-1)
+    speeds = rot.norm(v_low[..., :2])
     return FootTrack(sides, float(fps), points, heights, lowest, speeds, float(floor), climb=v_low[..., 2], speed_window=speed_window)
 
 
@@ -514,27 +533,23 @@ def planted_speeds(track: FootTrack, contact: np.ndarray) -> np.ndarray:
     t_count, n_feet = con.shape
     if con.shape != track.heights.shape:
         raise MjmotionError(f"planted_speeds: contact labels {con.shape} and the track's {track.heights.shape} must match")
-    frames = max(5, int(round(track.speed_window * track.fps)) | 1) if track.speed_window is not None else 3
-    half = frames // 2
+    half = _speed_frames(track) // 2
     # Run ids: frames of one contact run share an id, every other frame gets -1.
     starts = con & ~np.concatenate([np.zeros((1, n_feet), dtype=bool), con[:-1]], axis=0)
     run = np.where(con, np.cumsum(starts, axis=0), -1)  # (T, F)
     # Only the lowest point's velocity is read: the regression runs on that material point alone,
-    # its positions at the frames around t gathered by t's lowest-point index (P times less work).
-    k = np.argmin(track.points[..., 2], axis=2)  # (T, F) the lowest point
-    xy = track.points[..., :2]  # (T, F, P, 2)
-    xy_low = np.take_along_axis(xy, k[..., None, None], axis=2)[:, :, 0]  # (T, F, 2)
+    # its positions at the frames around t taken at t's lowest-point index (P times less work).
+    steps = track.lowest_steps  # (D, T, F, 2)
     n = np.zeros((t_count, n_feet))
     s1, s2 = np.zeros_like(n), np.zeros_like(n)
-    sy, sdy = np.zeros_like(xy_low), np.zeros_like(xy_low)  # Σy, Σd·y (relative to frame t)
+    sy, sdy = np.zeros((t_count, n_feet, 2)), np.zeros((t_count, n_feet, 2))  # Σy, Σd·y (relative to frame t)
     for d in range(-half, half + 1):
         lo, hi = max(0, -d), min(t_count, t_count - d)
         if lo >= hi:
             continue
         w = np.zeros((t_count, n_feet))
         w[lo:hi] = con[lo:hi] & (run[lo + d : hi + d] == run[lo:hi])
-        dy = np.zeros_like(xy_low)
-        dy[lo:hi] = np.take_along_axis(xy[lo + d : hi + d], k[lo:hi, :, None, None], axis=2)[:, :, 0] - xy_low[lo:hi]
+        dy = steps[d + half]
         n += w
         s1 += w * d
         s2 += w * d * d
@@ -543,10 +558,15 @@ def planted_speeds(track: FootTrack, contact: np.ndarray) -> np.ndarray:
     den = n * s2 - s1 * s1
     with np.errstate(invalid="ignore", divide="ignore"):
         v_low = (n[..., None] * sdy - s1[..., None] * sy) / den[..., None] * track.fps  # (T, F, 2)
-    speed = np.linalg.norm(v_low, axis=-1)
+    speed = rot.norm(v_low)
     short = con & (den <= 0)
     speed[short] = track.speeds[short]
     return np.where(con, speed, np.nan)
+
+
+def _speed_frames(track: FootTrack) -> int:
+    """The odd number of frames of ``track``'s speed window (:func:`mjmotion.filters.velocity`'s; 3 without one)."""
+    return max(5, int(round(track.speed_window * track.fps)) | 1) if track.speed_window is not None else 3
 
 
 def flight_frames(track: FootTrack | Motion, h_c: float = H_C, v_c: float = V_C, hysteresis: float = HYSTERESIS) -> np.ndarray:

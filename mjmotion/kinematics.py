@@ -82,13 +82,15 @@ def forward(compiled: CompiledModel, motion_or_qpos: Motion | np.ndarray) -> Pos
     xquat = np.empty((t, m.nbody, 4))
     spos = np.empty((t, m.nsite, 3))
     smat = np.empty((t, m.nsite, 9))
+    # MjData's arrays are views of its buffers: taken once, not per frame (attribute access is ~1 µs each).
+    d_qpos, d_xpos, d_xquat, d_spos, d_smat = d.qpos, d.xpos, d.xquat, d.site_xpos, d.site_xmat
     for i in range(t):
-        d.qpos[:] = q[i]
+        d_qpos[:] = q[i]
         mujoco.mj_kinematics(m, d)
-        xpos[i] = d.xpos
-        xquat[i] = d.xquat
-        spos[i] = d.site_xpos
-        smat[i] = d.site_xmat
+        xpos[i] = d_xpos
+        xquat[i] = d_xquat
+        spos[i] = d_spos
+        smat[i] = d_smat
     names = tuple(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_SITE, s) or f"site{s}" for s in range(m.nsite))
     ids = compiled.body_ids
     return Pose(

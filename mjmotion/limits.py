@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import rotations as rot
 from .skeleton import Skeleton
 
 #: Anatomical default per joint class, degrees of rotation from the rest orientation.
@@ -161,7 +162,7 @@ def joint_limits(skeleton: Skeleton) -> np.ndarray:
 
 def rotation_angles(rotations: np.ndarray) -> np.ndarray:
     """Rotation angle (radians, in [0, π]) of unit quaternions ``(..., 4)`` wxyz: ``(...)``."""
-    return 2.0 * np.arctan2(np.linalg.norm(rotations[..., 1:], axis=-1), np.abs(rotations[..., 0]))
+    return 2.0 * np.arctan2(rot.norm(rotations[..., 1:]), np.abs(rotations[..., 0]))
 
 
 def violations(skeleton: Skeleton, rotations: np.ndarray, limits: np.ndarray | None = None) -> np.ndarray:

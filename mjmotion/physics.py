@@ -228,8 +228,10 @@ def whole_body_wrench(compiled: CompiledModel, pose: kinematics.Pose, fps: float
     mass = m.body_mass[ids]  # (B,)
     com = pos + rot.rotate(quat, np.broadcast_to(m.body_ipos[ids], pos.shape))
     frame = rot.multiply(quat, np.broadcast_to(m.body_iquat[ids], quat.shape))  # principal axes, world
-    com = lowpass(com, fps, cutoff_hz)
-    frame = lowpass_quaternions(frame, fps, cutoff_hz)
+    if cutoff_hz is not None and len(com) >= 4:
+        # One filter call for centres and orientations (lowpass_quaternions' steps, its columns beside the centres').
+        both = lowpass(np.concatenate([com, rot.make_continuous(frame)], axis=-1), fps, cutoff_hz)
+        com, frame = both[..., :3], rot.normalize(both[..., 3:])
     acc = _central(com, fps, 2) - np.array([0.0, 0.0, -GRAVITY])
     frame_c = rot.make_continuous(frame)
     omega = np.zeros_like(com)
@@ -257,6 +259,14 @@ def centre_of_mass(compiled: CompiledModel, pose: kinematics.Pose) -> np.ndarray
 MIN_FLIGHT = 0.05
 
 
+def flights(airborne: np.ndarray, fps: float, min_flight: float = MIN_FLIGHT) -> list[tuple[int, int]]:
+    """``[(start, stop), …]`` frame ranges of the airborne stretches (``airborne: (T,)``) at least
+    ``min_flight`` seconds (and 5 frames) long: those :func:`ballistic_residual` fits."""
+    shortest = max(5, round(min_flight * fps))
+    edges = np.diff(np.concatenate([[False], np.asarray(airborne, dtype=bool), [False]]).astype(np.int8))
+    return [(int(a), int(b)) for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)) if b - a >= shortest]
+
+
 def ballistic_residual(com: np.ndarray, airborne: np.ndarray, fps: float, min_flight: float = MIN_FLIGHT) -> np.ndarray:
     """``(T,)`` per frame of each airborne stretch (``airborne: (T,)``, no supporting point) at
     least ``min_flight`` seconds long: how far the stretch's mean acceleration is from free fall,
@@ -269,12 +279,7 @@ def ballistic_residual(com: np.ndarray, airborne: np.ndarray, fps: float, min_fl
     read there as missing force), and a higher cutoff amplifies marker noise instead.
     """
     out = np.full(len(com), np.nan)
-    shortest = max(5, round(min_flight * fps))
-    air = np.concatenate([[False], np.asarray(airborne, dtype=bool), [False]]).astype(np.int8)
-    edges = np.diff(air)
-    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
-        if b - a < shortest:
-            continue
+    for a, b in flights(airborne, fps, min_flight):
         t = (np.arange(a, b) - 0.5 * (a + b - 1)) / fps
         basis = np.stack([np.ones_like(t), t, 0.5 * t * t], axis=1)
         coef = np.linalg.lstsq(basis, com[a:b], rcond=None)[0]  # (3, 3): position, velocity, acceleration
@@ -353,7 +358,7 @@ def parallel_support_bound(
     corners = pts[rows[:, None], tri[k]]  # (U, 3, 3)
     c = np.einsum("uk,uki->ui", bary, corners)
     left = rot.cross(c - o, f) - tq
-    out[idx[has]] = np.linalg.norm(left[has], axis=1) / lever / weight
+    out[idx[has]] = rot.norm(left[has]) / lever / weight
     return out
 
 
@@ -389,7 +394,7 @@ def ground_reaction_residual(
     d = np.concatenate([mu * _EDGES, np.ones((4, 1))], axis=1)
     d /= np.linalg.norm(d, axis=1, keepdims=True)  # (4, 3)
     w = np.concatenate([force, torque / lever], axis=1) / weight  # (T, 6)
-    out = np.linalg.norm(w, axis=1)
+    out = rot.norm(w)
     solve = active.any(axis=1)
     if tol is not None:
         bound = parallel_support_bound(force, torque, origin, points, active, weight, mu, lever)
@@ -459,7 +464,7 @@ def _with_toes(skeleton: Skeleton, track: FootTrack, support: np.ndarray) -> tup
             continue
         heel, ball = track.points[:, f, 0:2], track.points[:, f, 2:4]  # (T, 2, 3): the sole's corners
         along = ball[..., :2] - heel[..., :2]
-        length = np.linalg.norm(along, axis=-1, keepdims=True)
+        length = rot.norm(along, keepdims=True)
         toes = ball.copy()
         toes[..., :2] += along / np.maximum(length, 1e-9) * np.maximum(reach - length, 0.0)
         points.append(toes)
@@ -491,7 +496,7 @@ def residuals(
     force, torque = whole_body_wrench(compiled, pose, motion.fps, params.cutoff_hz)
     mass = total_mass(compiled)
     weight = mass * GRAVITY
-    ratio = np.linalg.norm(force, axis=1) / weight
+    ratio = rot.norm(force) / weight
     con = feet.contacts(track, params.h_c, params.v_c, params.hysteresis)  # (T, F)
     flight = np.asarray(~con.any(axis=1))
     # Support: sole points touching the floor (within support_height), and those of feet in
@@ -521,7 +526,11 @@ def residuals(
         params.residual_tol,
     )
     # Flights long enough to fit are judged by their ballistic fit, not the filtered wrench.
-    ballistic = ballistic_residual(centre_of_mass(compiled, pose), airborne, motion.fps)
+    # (A walk has no such flight: its centre of mass is not needed.)
+    if flights(airborne, motion.fps):
+        ballistic = ballistic_residual(centre_of_mass(compiled, pose), airborne, motion.fps)
+    else:
+        ballistic = np.full(len(airborne), np.nan)
     fitted = ~np.isnan(ballistic)
     residual = np.where(fitted, ballistic, residual)
     penetrating = ground < -params.penetration_tol

@@ -84,3 +84,14 @@ def test_cross_is_numpys_bit_for_bit_with_broadcasting(shapes):
     out = rot.cross(a, b)
     assert out.shape == np.broadcast_shapes(a.shape, b.shape) and np.array_equal(out, np.cross(a, b))
     assert np.allclose(np.sum(out * np.broadcast_to(a, out.shape), axis=-1), 0.0)  # perpendicular to its factors
+
+
+@pytest.mark.parametrize("shape", [(3,), (450, 31, 4), (200, 2, 8, 3), (100, 2), (50, 6), (40, 7), (30, 1), (20, 9), (0, 3)])
+def test_norm_is_numpys_bit_for_bit(shape):
+    rng = np.random.default_rng(11)
+    v = rng.normal(size=shape) * rng.uniform(1e-6, 1e6, size=shape[:-1] + (1,))
+    for x in (v, v[..., ::-1], v[..., 1:] if shape[-1] > 1 else v):  # strided views too
+        ref = np.linalg.norm(x, axis=-1)
+        assert np.array_equal(rot.norm(x), ref)
+        assert np.array_equal(rot.norm(x, keepdims=True), np.linalg.norm(x, axis=-1, keepdims=True))
+    assert np.array_equal(rot.norm([3.0, 4.0]), 5.0)
