@@ -95,3 +95,11 @@ def test_norm_is_numpys_bit_for_bit(shape):
         assert np.array_equal(rot.norm(x), ref)
         assert np.array_equal(rot.norm(x, keepdims=True), np.linalg.norm(x, axis=-1, keepdims=True))
     assert np.array_equal(rot.norm([3.0, 4.0]), 5.0)
+
+
+@pytest.mark.parametrize("shapes", [((450, 31, 4), (450, 31, 4)), ((100, 4), (4,)), ((60, 3), (60, 3)), ((10, 9), (10, 9)), ((4,), (4,))])
+def test_dot_is_numpys_sum_bit_for_bit(shapes):
+    rng = np.random.default_rng(12)
+    a, b = rng.normal(size=shapes[0]) * 1e3, rng.normal(size=shapes[1])
+    assert np.array_equal(rot.dot(a, b), np.sum(a * b, axis=-1))
+    assert np.array_equal(rot.dot(a[..., ::-1], b), np.sum(a[..., ::-1] * b, axis=-1))  # a strided view
