@@ -24,7 +24,6 @@ optimisation per frame, solved for all frames at once (:func:`ground_reaction_re
 from __future__ import annotations
 
 import copy
-import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -320,45 +319,35 @@ def parallel_support_bound(
     mu: float = 1.0,
     lever: float = 1.0,
 ) -> np.ndarray:
-    """An upper bound of :func:`ground_reaction_residual` from one direct construction, ``(T,)``
+    """An upper bound of :func:`ground_reaction_residual` from a direct construction, ``(T,)``
     (``inf`` where it does not apply).
 
-    Where the needed force lies in the friction pyramid (``|F_x| + |F_y| ≤ mu F_z``) and its
-    centre of pressure inside a triangle of active points, forces parallel to ``F`` at the
-    triangle's corners, weighted by the centre's barycentric coordinates, supply the force and
-    (for coplanar points) the horizontal torques exactly; what they leave over — mostly the
-    vertical "free moment" — bounds the optimum from above. Vectorised over frames and triangles.
+    Where the needed force lies in the friction pyramid (``|F_x| + |F_y| ≤ mu F_z``), forces
+    parallel to ``F`` at active points, with non-negative shares summing to one, supply the force
+    exactly and the torque ``(c − o) × F`` of their centre ``c``; the needed torque they leave
+    over bounds the optimum from above. The centres tried lie on each segment between two active
+    points (a point alone included): the leftover is affine along a segment, so the centre leaving
+    the least of it is closed form; the least over segments is kept. What is left is the vertical
+    "free moment" and the force times the centre of pressure's distance from the nearest segment,
+    inside the support or a little outside it. Vectorised over frames and segments.
     """
     t_count, n_pts = active.shape
     out = np.full(t_count, np.inf)
-    ok = (np.abs(force[:, 0]) + np.abs(force[:, 1]) <= mu * force[:, 2]) & (force[:, 2] > 0) & (active.sum(axis=1) >= 3)
-    if not ok.any() or n_pts < 3:
+    ok = (np.abs(force[:, 0]) + np.abs(force[:, 1]) <= mu * force[:, 2]) & (force[:, 2] > 0) & active.any(axis=1)
+    if not ok.any():
         return out
     idx = np.flatnonzero(ok)
     pts, act = points[idx], active[idx]
-    height = np.sum(pts[..., 2] * act, axis=1) / act.sum(axis=1)  # (U,) the support plane
     f, tq, o = force[idx], torque[idx], origin[idx]
-    h = o[:, 2] - height
-    cop = np.stack([o[:, 0] - (tq[:, 1] + h * f[:, 0]) / f[:, 2], o[:, 1] + (tq[:, 0] - h * f[:, 1]) / f[:, 2]], axis=1)  # (U, 2)
-    tri = np.array(list(itertools.combinations(range(n_pts), 3)))  # (K, 3)
-    # Barycentrics from the pairwise cross products of the points about the centre, S_ij = r_i × r_j
-    # (U, N, N), computed once: in triangle (i, j, k) the centre's weights are S_jk, S_ki, S_ij over their sum.
-    r = pts[..., :2] - cop[:, None, :]  # (U, N, 2)
-    cross = r[:, :, None, 0] * r[:, None, :, 1] - r[:, :, None, 1] * r[:, None, :, 0]
-    w0, w1, w2 = cross[:, tri[:, 1], tri[:, 2]], cross[:, tri[:, 2], tri[:, 0]], cross[:, tri[:, 0], tri[:, 1]]  # (U, K)
-    det = w0 + w1 + w2  # twice the signed area
-    good = act[:, tri].all(axis=2) & (np.abs(det) > 1e-8)
-    sdet = np.where(good, det, 1.0)
-    b1, b2 = w1 / sdet, w2 / sdet
-    inside = good & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1)
-    has = inside.any(axis=1)
-    k = np.argmax(inside, axis=1)
-    rows = np.arange(len(idx))
-    bary = np.stack([1 - b1[rows, k] - b2[rows, k], b1[rows, k], b2[rows, k]], axis=1)  # (U, 3)
-    corners = pts[rows[:, None], tri[k]]  # (U, 3, 3)
-    c = np.einsum("uk,uki->ui", bary, corners)
-    left = rot.cross(c - o, f) - tq
-    out[idx[has]] = rot.norm(left[has]) / lever / weight
+    # All the force at point n leaves base[n] of the torque; at c = p_i + s (p_j − p_i) it leaves
+    # base[i] + s (base[j] − base[i]) (the cross product is linear in c).
+    base = rot.cross(pts - o[:, None, :], f[:, None, :]) - tq[:, None, :]  # (U, N, 3)
+    i, j = np.triu_indices(n_pts)  # (K,) segments, i == j a single point
+    start, along = base[:, i], base[:, j] - base[:, i]  # (U, K, 3)
+    dd = rot.dot(along, along)
+    s = np.clip(-rot.dot(start, along) / np.where(dd > 0.0, dd, 1.0), 0.0, 1.0)
+    left = rot.norm(start + s[..., None] * along)  # (U, K)
+    out[idx] = np.where(act[:, i] & act[:, j], left, np.inf).min(axis=1) / lever / weight
     return out
 
 
