@@ -9,7 +9,8 @@ Start-up is what a user feels first, so the front end imports every verb module 
 of verbs) but calls ``add_arguments`` only for the verb being run, and a verb module imports
 nothing heavier than the standard library at its top: NumPy, SciPy, MuJoCo, CasADi,
 Matplotlib and Numba load inside ``run()`` (``tests/test_cli.py`` checks this for every
-verb module, new ones included). A new verb adds its name to :data:`VERB_ORDER` only to
+verb module, new ones included). A verb that renders nothing sets ``MUJOCO_WITHOUT_GL = True``
+and MuJoCo is imported for it without the OpenGL backend its package would load. A new verb adds its name to :data:`VERB_ORDER` only to
 choose its place in ``--help``.
 """
 
@@ -107,7 +108,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         p.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS, help="show the traceback of an error")
         if argv is None or mod.NAME == chosen:
             mod.add_arguments(p)
-        p.set_defaults(_run=mod.run)
+        p.set_defaults(_run=mod.run, _mujoco_without_gl=getattr(mod, "MUJOCO_WITHOUT_GL", False))
     return parser
 
 
@@ -176,10 +177,33 @@ def _main(argv: Sequence[str] | None) -> int:
     if not getattr(args, "verb", None):
         parser.print_help()
         return 2
+    if args._mujoco_without_gl:
+        _import_mujoco_without_gl()
     try:
         return _run(args)
     finally:
         reset_claims()  # a library write after this command is not bound by its outputs' --force
+
+
+def _import_mujoco_without_gl() -> None:
+    """Import MuJoCo with the OpenGL backend its package loads at import switched off
+    (``MUJOCO_GL=disable`` for the import alone; the user's value is restored at once). The verbs
+    that ask for it (``MUJOCO_WITHOUT_GL``) render nothing, and that backend costs 40-50 ms of
+    start-up (glfw's library search, or EGL's); mjmotion's renders never use it either
+    (:func:`mjmotion.render.open_gl_context` opens its own context)."""
+    if "mujoco" in sys.modules:
+        return
+    saved = os.environ.get("MUJOCO_GL")
+    os.environ["MUJOCO_GL"] = "disable"
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        pass  # the verb's own import reports it
+    finally:
+        if saved is None:
+            os.environ.pop("MUJOCO_GL", None)
+        else:
+            os.environ["MUJOCO_GL"] = saved
 
 
 def _run(args: argparse.Namespace) -> int:

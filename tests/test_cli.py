@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 
 import mujoco
 import numpy as np
@@ -144,6 +145,39 @@ def test_info_loads_only_numpy_even_for_the_largest_clip(mocap):
     )
     assert out.pop("numpy") is True
     assert out == {str(small): [], str(large): []}
+
+
+@pytest.mark.parametrize("gl", [None, "egl"])
+def test_verbs_that_render_nothing_import_mujoco_without_its_gl_backend(mocap, gl):
+    """``evaluate`` imports MuJoCo without the OpenGL backend its package loads at import (glfw or
+    EGL through PyOpenGL: 40-50 ms), leaves ``MUJOCO_GL`` as the user set it, and a render context
+    still opens in the same process afterwards (mjmotion opens its own)."""
+    import subprocess
+    import sys
+
+    clip = mocap / "cmu_asfamc_converted" / "16_15.bvh"
+    code = (
+        "import contextlib, io, json, os, sys\n"
+        "from mjmotion.cli import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        f"    assert main(['evaluate', {str(clip)!r}]) == 0\n"
+        "out = {'gl': sorted({m.split('.')[0] for m in sys.modules} & {'glfw', 'OpenGL'}), 'env': os.environ.get('MUJOCO_GL')}\n"
+        "from mjmotion import render\n"
+        "from mjmotion.errors import MjmotionError\n"
+        "try:\n"
+        "    render.open_gl_context(16, 16).free()\n"
+        "    out['render'] = 'ok'\n"
+        "except MjmotionError as e:\n"
+        "    out['render'] = str(e)\n"
+        "print(json.dumps(out))\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"} | ({"MUJOCO_GL": gl} if gl else {})
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["gl"] == [] and out["env"] == (gl or "egl")  # (the render verb's module defaults it to egl)
+    if "no offscreen OpenGL backend" not in out["render"]:  # (a machine without EGL or OSMesa)
+        assert out["render"] == "ok", out
 
 
 def test_the_judge_loads_no_scipy(mocap):

@@ -13,6 +13,8 @@ from ._options import number
 
 NAME = "audit"
 HELP = "judge every .bvh under a folder on Dask workers into one table (CSV + Parquet), resumable, with a summary"
+#: This verb renders nothing: the CLI imports MuJoCo without its import-time OpenGL backend.
+MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Evaluate every .bvh file under DIR (recursively; links out of DIR are not followed) with
 the judge's defaults (the same one-file evaluation as 'mjmotion evaluate', so the numbers are the
 same) and write to OUT_DIR:

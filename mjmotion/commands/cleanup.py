@@ -13,6 +13,8 @@ from .evaluate import _finite, _nan_to_none, add_judge_options, check_floor, loa
 
 NAME = "cleanup"
 HELP = "remove footskate: hold foot plants on the floor, two-bone leg IK, root adjustment, smooth blending"
+#: This verb renders nothing: the CLI imports MuJoCo without its import-time OpenGL backend.
+MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Find foot plants with the judge's contact labels (docs/METRICS.md: sole within --h-c of the
 floor and slower than --v-c, with hysteresis), hold the point each plant touches the floor with
 still while the foot turns as captured, raise a plant that is below the floor onto it, lift any

@@ -10,6 +10,8 @@ from ._progress import steps
 
 NAME = "compile"
 HELP = "compile a BVH skeleton to a MuJoCo model (.xml)"
+#: This verb renders nothing: the CLI imports MuJoCo without its import-time OpenGL backend.
+MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Compile the skeleton of a BVH file to MJCF: a free root, a ball joint per BVH joint,
 capsules along the bones, foot boxes, masses for the character's size, a floor, lights and a
 tracking camera. The file loads with mujoco.MjModel.from_xml_path to the same kinematics.

@@ -23,6 +23,8 @@ if TYPE_CHECKING:
 
 NAME = "evaluate"
 HELP = "footskate, ground, inverse-dynamics, limit, pop and hitting metrics of a clip (or every clip in a folder)"
+#: This verb renders nothing: the CLI imports MuJoCo without its import-time OpenGL backend.
+MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Evaluate clips with the definitions of docs/METRICS.md (thresholds are options; the
 report states them): foot contacts (with hysteresis) and planted footskate, the height-weighted
 footskate and the h_c sensitivity table, ground penetration, float and PhysDiff error, MuJoCo

@@ -12,6 +12,8 @@ from ._progress import steps
 
 NAME = "fk"
 HELP = "forward kinematics of a BVH clip to an .npz of world positions (metres, Z-up)"
+#: This verb renders nothing: the CLI imports MuJoCo without its import-time OpenGL backend.
+MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Run forward kinematics through the compiled MuJoCo model and save arrays:
   joint_names (J,), positions (T, J, 3) metres in the model's world frame (Z up), fps;
 with --prop also site_names (S,) and site_positions (T, S, 3) (grip, sweet spot, tip).

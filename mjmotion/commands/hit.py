@@ -14,6 +14,8 @@ from ._progress import steps
 
 NAME = "hit"
 HELP = "move a swing's hit point (IK with importance-based blending, keeping the style)"
+#: This verb renders nothing: the CLI imports MuJoCo without its import-time OpenGL backend.
+MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Adapt SHOT.bvh so its effector (a club's sweet spot, a foot, a fist, or a site) meets a new
 ball position at the hit frame, blending IK in and out by the effector's distance to the hit
 point (Hicks 2010, §2.2.5). Coordinates are metres in the model's world frame (Z up).

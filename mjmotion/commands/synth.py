@@ -13,6 +13,8 @@ from ._progress import steps
 
 NAME = "synth"
 HELP = "generate a bundled clip (walk, run, sneak, limp, drive, pull, kick, punch) or the whole library"
+#: This verb renders nothing: the CLI imports MuJoCo without its import-time OpenGL backend.
+MUJOCO_WITHOUT_GL = True
 KINDS = ("walk", "run", "sneak", "limp", "drive", "pull", "kick", "punch")
 DESCRIPTION = """Generate clean procedural motion on the bundled 22-joint humanoid (Y-up BVH, centimetres,
 60 fps), deterministic for the same arguments. Gaits follow a footstep plan along +X from the

@@ -15,6 +15,8 @@ from ._progress import steps
 
 NAME = "vary"
 HELP = "exaggerate, mute or abort a shot by moving along its PCA score path"
+#: This verb renders nothing: the CLI imports MuJoCo without its import-time OpenGL backend.
+MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Build the principal-component space of a shot (root translation and every joint's
 quaternion, standardised), take the shot's own path of scores through it and change the path:
   --scale F        exaggerate (F > 1) or mute (F < 1) about the path's centre, fading to none
