@@ -227,15 +227,16 @@ def whole_body_wrench(compiled: CompiledModel, pose: kinematics.Pose, fps: float
     mass = m.body_mass[ids]  # (B,)
     com = pos + rot.rotate(quat, np.broadcast_to(m.body_ipos[ids], pos.shape))
     frame = rot.multiply(quat, np.broadcast_to(m.body_iquat[ids], quat.shape))  # principal axes, world
+    frame = rot.make_continuous(frame)
     if cutoff_hz is not None and len(com) >= 4:
-        # One filter call for centres and orientations (lowpass_quaternions' steps, its columns beside the centres').
-        both = lowpass(np.concatenate([com, rot.make_continuous(frame)], axis=-1), fps, cutoff_hz)
+        # One filter call for centres and orientations (lowpass_quaternions' steps, its columns
+        # beside the centres'); continuous quaternions stay continuous through it.
+        both = lowpass(np.concatenate([com, frame], axis=-1), fps, cutoff_hz)
         com, frame = both[..., :3], rot.normalize(both[..., 3:])
     acc = _central(com, fps, 2) - np.array([0.0, 0.0, -GRAVITY])
-    frame_c = rot.make_continuous(frame)
     omega = np.zeros_like(com)
     # World angular velocity of each body: log(q_{t+1} q_{t-1}⁻¹) / (2 dt), ends copied.
-    omega[1:-1] = rot.log(rot.multiply(frame_c[2:], rot.conjugate(frame_c[:-2]))) * (0.5 * fps)
+    omega[1:-1] = rot.log(rot.multiply(frame[2:], rot.conjugate(frame[:-2]))) * (0.5 * fps)
     omega[0], omega[-1] = omega[1], omega[-2]
     local = rot.rotate(rot.conjugate(frame), omega) * m.body_inertia[ids]  # I ω in principal axes
     spin = rot.rotate(frame, local)  # (T, B, 3)
