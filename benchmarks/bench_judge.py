@@ -8,7 +8,7 @@ what it replaces:
 - the ground-reaction feasibility solves: :func:`mjmotion.nnls.solve` (batched Lawson-Hanson,
   every frame of a clip at once) against ``scipy.optimize.nnls`` called frame by frame;
 - the Butterworth passes of :func:`mjmotion.filters.lowpass` (an FFT convolution with the impulse
-  response for a few columns, a blocked recursion for many) against the same ``lowpass`` with each
+  response for a few columns, blocked matrix products for many) against the same ``lowpass`` with each
   pass run by ``scipy.signal.lfilter`` from the steady state of the first sample (what
   ``filtfilt`` does): the same padding, only the passes differ.
 

@@ -14,7 +14,7 @@ Both are written out here (SciPy's ``butter``/``filtfilt`` and ``savgol_filter``
 numbers, ``tests/test_filters.py``) because importing ``scipy.signal`` pulls in ``scipy.stats``,
 ``interpolate`` and ``optimize``: over a second, half of a one-clip ``mjmotion evaluate``. The
 recursion runs in NumPy alone (even ``scipy.linalg`` costs 0.15-0.2 s to import in every fresh
-process): an FFT convolution with its impulse response for a few columns, a blocked recursion for
+process): an FFT convolution with its impulse response for a few columns, blocked matrix products for
 many; ``benchmarks/bench_judge.py`` times both against ``filtfilt``.
 """
 
@@ -49,7 +49,7 @@ def lowpass(x: np.ndarray, fps: float, cutoff_hz: float | None, axis: int = 0) -
     return np.moveaxis(out, 0, axis)
 
 
-#: From this many columns up a pass runs as the blocked recursion (its Python loops cost ~0.4 ms
+#: From this many columns up a pass runs blockwise (its fixed cost, ~0.1-0.2 ms,
 #: whatever the width), below as an FFT convolution (``benchmarks/bench_judge.py``).
 BLOCKED_MIN_COLUMNS = 16
 
@@ -60,7 +60,7 @@ def _iir_pass(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
     the input: SciPy's ``lfilter`` with ``lfilter_zi(b, a) · x[0]``, what ``filtfilt`` does).
 
     Narrow inputs: a convolution with the impulse response by FFT (:func:`_fft_pass`); wide ones
-    (the judge's body centres and orientations, 100-230 columns): the recursion run blockwise
+    (the judge's body centres and orientations, 100-230 columns): blockwise matrix products
     (:func:`_blocked_pass`)."""
     n = x.shape[0]
     flat = x.reshape(n, -1)
@@ -85,26 +85,23 @@ def _fft_pass(b: np.ndarray, a: np.ndarray, flat: np.ndarray) -> np.ndarray:
 
 
 def _blocked_pass(b: np.ndarray, a: np.ndarray, flat: np.ndarray) -> np.ndarray:
-    """:func:`_iir_pass` of ``flat (N, K)`` in ``nb`` blocks of ``B ≈ √N`` frames: the recursion
-    runs across all blocks at once from rest (a loop over the B frames of a block), then each
+    """:func:`_iir_pass` of ``flat (N, K)`` in ``nb`` blocks of ``B ≈ √N`` frames: each block's
+    response from rest is one matrix product of its inputs (and the two before it) with the
+    filter's response matrix (:func:`_block_response`), every block and column at once; then each
     block's start state is carried from the block before (a loop over the blocks, 2 × K numbers
-    each) and its response added (two precomputed free responses). Two loops of √N steps instead
-    of one of N, each step a vector operation over blocks and columns."""
+    each) and its free response added. Matrix products and one loop of √N steps instead of a loop
+    of N (the inputs are read in place, as overlapping windows: no copies per block)."""
     n, k = flat.shape
     size = max(4, int(np.sqrt(n)))
     nb = -(-n // size)
     a1, a2 = float(a[1]), float(a[2])
-    z = np.zeros((nb * size, k))
-    z[:n] = b[0] * flat
-    z[1:n] += b[1] * flat[:-1]
-    z[2:n] += b[2] * flat[:-2]
-    z[0] += (b[1] + b[2]) * flat[0]  # the inputs before the first sample: x[0]
-    if n > 1:
-        z[1] += b[2] * flat[0]
-    z = z.reshape(nb, size, k)  # turned in place into each block's response from rest
-    z[:, 1] -= a1 * z[:, 0]
-    for i in range(2, size):
-        z[:, i] -= a1 * z[:, i - 1] + a2 * z[:, i - 2]
+    # The inputs before the first sample are x[0] (the steady state); those after the last, 0.
+    padded = np.zeros((nb * size + 2, k))
+    padded[:2] = flat[0]
+    padded[2 : n + 2] = flat
+    step = padded.strides[0]
+    windows = np.lib.stride_tricks.as_strided(padded, (nb, size + 2, k), (size * step, step, padded.strides[1]), writeable=False)
+    z = np.matmul(_block_response(float(b[0]), float(b[1]), float(b[2]), a1, a2, size), windows)  # (nb, B, K)
     free = _free_responses(a1, a2, size)  # (B, 2): to y[-1] = 1 and to y[-2] = 1
     ends = free[[size - 1, size - 2]]  # (2, 2): a block's last two outputs from its start state
     state = np.empty((nb, 2, k))  # (y[-1], y[-2]) before each block
@@ -113,8 +110,30 @@ def _blocked_pass(b: np.ndarray, a: np.ndarray, flat: np.ndarray) -> np.ndarray:
     for j in range(nb):
         state[j] = prev
         prev = last[j] + ends @ prev
-    z += np.einsum("ic,jck->jik", free, state)
+    z += np.matmul(free, state)
     return z.reshape(nb * size, k)[:n]
+
+
+@functools.lru_cache(maxsize=64)
+def _block_response(b0: float, b1: float, b2: float, a1: float, a2: float, size: int) -> np.ndarray:
+    """``(size, size + 2)``: a block's outputs from rest, ``y = H u``, from its inputs ``u`` (the two
+    before the block, then its own): the moving average ``b0 x[i] + b1 x[i−1] + b2 x[i−2]``, then the
+    recursion ``y[i] = z[i] − a1 y[i−1] − a2 y[i−2]`` from rest — the lower-triangular Toeplitz
+    matrix of its impulse response ``g``."""
+    g = np.zeros(size)
+    g[0] = 1.0
+    if size > 1:
+        g[1] = -a1
+    for i in range(2, size):
+        g[i] = -a1 * g[i - 1] - a2 * g[i - 2]
+    lag = np.subtract.outer(np.arange(size), np.arange(size))
+    rest = np.where(lag >= 0, g[np.maximum(lag, 0)], 0.0)  # (size, size)
+    fir = np.zeros((size, size + 2))
+    idx = np.arange(size)
+    fir[idx, idx], fir[idx, idx + 1], fir[idx, idx + 2] = b2, b1, b0
+    out = rest @ fir
+    out.flags.writeable = False
+    return out
 
 
 @functools.lru_cache(maxsize=64)

@@ -49,16 +49,19 @@ def test_lowpass_quaternions_stay_unit_and_ignore_sign_flips():
 
 
 @pytest.mark.parametrize("fps, cutoff", [(120.0, 6.0), (60.0, 6.0), (30.0, 12.0)])
-def test_lowpass_is_scipys_butterworth_filtfilt(fps, cutoff):
-    """The hand-written Butterworth design and banded recursion equal SciPy's butter(2) and
-    filtfilt (padtype=None) on the same padded signal, for any number of channels."""
+@pytest.mark.parametrize("shape", [(257, 4, 3), (257, 8, 5), (5, 20), (17, 16), (1201, 40)], ids=str)
+def test_lowpass_is_scipys_butterworth_filtfilt(fps, cutoff, shape):
+    """The hand-written Butterworth design and its passes (an FFT convolution below 16 columns, the
+    blocked matrix products from 16 up) equal SciPy's butter(2), lfilter and filtfilt
+    (padtype=None) on the same padded signal, for any length and number of channels."""
     from scipy.signal import butter, filtfilt, lfilter, lfilter_zi
 
     b, a = filters._butter(cutoff / (0.5 * fps))
     b2, a2 = butter(2, cutoff / (0.5 * fps))
     assert np.allclose(b, b2, rtol=1e-12, atol=0) and np.allclose(a, a2, rtol=1e-12, atol=0)
-    x = np.random.default_rng(1).normal(size=(257, 4, 3)).cumsum(axis=0)
-    assert np.allclose(filters._iir_pass(b, a, x), lfilter(b2, a2, x, axis=0, zi=lfilter_zi(b2, a2)[:, None, None] * x[0])[0], atol=1e-10)
+    x = np.random.default_rng(1).normal(size=shape).cumsum(axis=0)
+    zi = lfilter_zi(b2, a2).reshape((2,) + (1,) * (x.ndim - 1))
+    assert np.allclose(filters._iir_pass(b, a, x), lfilter(b2, a2, x, axis=0, zi=zi * x[0])[0], atol=1e-10)
     y = filters.lowpass(x, fps, cutoff)
     pad = int(np.ceil(3.0 * fps / cutoff))
     fit = max(3, pad // 2)
