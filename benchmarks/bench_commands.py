@@ -18,8 +18,11 @@ same with ``scipy.signal`` imported first (it loads ``scipy.optimize`` and ``sci
 the judge's filters and ground-reaction solves once came from them and now import no SciPy).
 ``evaluate`` of the shared folder with ``--jobs 1`` and ``2``, now and as the package was at
 :data:`FILED` (exported from git, run by the same Python and libraries: the judge then had no
-ground-reaction optimisation, filters or ballistic fits). Verbs of ``mjmotion`` without a row
-here are listed at the end (add a row to ``ROWS`` for them).
+ground-reaction optimisation, filters or ballistic fits). ``audit`` of the shared folder with two
+workers (``bench_audit.py`` sets it against ``evaluate --jobs 2``); the studio, a server, from its
+launch until its page answers over HTTP (a wrapper process starts it on a free port of 127.0.0.1
+and stops it), and with ``--check``. Verbs of ``mjmotion`` without a row here are listed at the
+end (add a row to ``ROWS`` for them).
 
     python benchmarks/bench_commands.py [--rounds 7] [--only info register ...]
 """
@@ -79,6 +82,7 @@ def prepare(d: Path, tmp: Path) -> dict[str, str]:
         "commands": [{"time": 0, "weights": {"walk": 1}}, {"time": 1.5, "weights": {"walk": 0.5, "fast": 0.5}, "ramp": 0.8}],
     }
     (tmp / "stream.json").write_text(json.dumps(script))
+    (tmp / "studio_served.py").write_text(STUDIO_SERVED)
     return {
         "small": str(d / "cmu_cgspeed_daz" / "09_01.bvh"),  # 199 kB, 43 joints
         "large": str(d / LARGE),
@@ -87,6 +91,8 @@ def prepare(d: Path, tmp: Path) -> dict[str, str]:
         "a600": str(tmp / "a600.bvh"),
         "b600": str(tmp / "b600.bvh"),
         "stream": str(tmp / "stream.json"),
+        "studio_served": str(tmp / "studio_served.py"),
+        "studio_out": str(tmp / "studio_out"),
         "out": str(tmp / "out"),
         "folder": str(d),
         "filed": export_filed(tmp) or "",
@@ -143,6 +149,11 @@ def rows(f: dict[str, str]) -> dict[str, list[str]]:
             if f["filed"]
         },
         "cleanup walk": [*mj, "cleanup", f["walk"], "-o", o + ".bvh", "--force"],
+        # issue 16's verb on the shared folder (bench_audit.py sets it against evaluate --jobs 2)
+        "audit FOLDER --workers 2": [*mj, "audit", f["folder"], "-o", o + "_audit", "--workers", "2", "--force"],
+        # a server: from its launch until its page answers over HTTP, then stopped (a wrapper process starts it)
+        "studio walk swing, until its page answers": [py, f["studio_served"], f["walk"], f["swing"], "--out", f["studio_out"]],
+        "studio walk swing --check": [*mj, "studio", f["walk"], f["swing"], "--check", "--out", f["studio_out"]],
         "render walk (60 frames, 640x360)": [
             *mj,
             "render",
@@ -159,6 +170,33 @@ def rows(f: dict[str, str]) -> dict[str, list[str]]:
         ],
     }
 
+
+#: The studio row's wrapper: starts ``mjmotion studio ARGS`` on a free port of 127.0.0.1, polls its
+#: page until it answers, stops it (its wall and CPU, the wrapper's ~0.04 s start included).
+STUDIO_SERVED = """\
+import socket, subprocess, sys, time, urllib.request
+s = socket.socket()
+s.bind(("127.0.0.1", 0))
+port = s.getsockname()[1]
+s.close()
+cmd = [sys.executable, "-m", "mjmotion.cli", "studio", *sys.argv[1:], "--port", str(port)]
+p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+try:
+    deadline = time.monotonic() + 120
+    while True:
+        if p.poll() is not None:
+            sys.exit(f"studio exited ({p.returncode}): {p.stderr.read().decode()[-500:]}")
+        try:
+            urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2).read()
+            break
+        except OSError:
+            if time.monotonic() > deadline:
+                sys.exit("studio did not answer within 120 s")
+            time.sleep(0.02)
+finally:
+    p.terminate()
+    p.wait(30)
+"""
 
 #: Verbs timed elsewhere or not at all, and why (printed with the table).
 NOT_TIMED = {"demo": "runs every experiment (minutes); its parts are the rows above"}
