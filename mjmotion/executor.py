@@ -27,7 +27,6 @@ import argparse
 import contextlib
 import sys
 import time
-import uuid
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, TextIO
@@ -325,6 +324,8 @@ class Dask(Executor):
     def _run(
         self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int, meanwhile: Callable[[], object]
     ) -> Iterator[Outcome]:
+        import uuid  # here: the CLI's start-up does not pay for it
+
         from distributed import KilledWorker, as_completed
 
         batch = uuid.uuid4().hex[:8]

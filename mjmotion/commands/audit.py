@@ -7,7 +7,6 @@ import os
 from pathlib import Path
 
 from ..errors import MjmotionError
-from ..executor import add_options
 from ._common import add_input_options
 from ._options import number
 
@@ -54,6 +53,8 @@ def _default_workers() -> int:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from ..executor import add_options  # here: listing the verbs (every command's start) does not load it
+
     p.add_argument("dir", metavar="DIR", help="folder of .bvh files (searched recursively)")
     p.add_argument("-o", "--output", required=True, metavar="OUT_DIR", help="folder for audit.csv, audit.parquet, summary.md (not inside DIR)")
     add_options(p, default="default: one per core of this machine")
