@@ -190,7 +190,9 @@ def _import_mujoco_without_gl() -> None:
     (``MUJOCO_GL=disable`` for the import alone; the user's value is restored at once). The verbs
     that ask for it (``MUJOCO_WITHOUT_GL``) render nothing, and that backend costs 40-50 ms of
     start-up (glfw's library search, or EGL's); mjmotion's renders never use it either
-    (:func:`mjmotion.render.open_gl_context` opens its own context)."""
+    (:func:`mjmotion.render.open_gl_context` opens its own context). The value restored is the
+    one set at that moment; MuJoCo stays imported so for the process (``mujoco.Renderer`` then has
+    no context class: a library user calling :func:`main` in-process who needs it imports MuJoCo first)."""
     if "mujoco" in sys.modules:
         return
     saved = os.environ.get("MUJOCO_GL")

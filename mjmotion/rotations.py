@@ -243,9 +243,6 @@ def euler_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
     for k, axis in enumerate(axes.upper()):
         half = 0.5 * angles[:, k]
         c, s = np.cos(half), np.sin(half)
-        if k == 0:  # the identity ⊗ (c, s e_a) is (c, s e_a): the same values, no arithmetic
-            out[0], out[1 + "XYZ".index(axis)] = c, s
-            continue
         # out ⊗ (c, s e_a): the non-zero terms of `multiply`, in its order (identical floats).
         a = "XYZ".index(axis)
         i, j = 1 + (a + 1) % 3, 1 + (a + 2) % 3

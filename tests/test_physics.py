@@ -120,6 +120,7 @@ def test_ground_reaction_residual_is_the_least_squares_optimum():
     assert np.all(bound >= r - 1e-9)
     fast = ph.ground_reaction_residual(force, torque, origin, pts, act, w, mu, lever, tol=0.15)
     assert np.array_equal(fast > 0.15, r > 0.15)
+    assert (act.any(axis=1) & (bound <= 0.15)).any()  # some frames were decided by the bound
 
 
 def test_parallel_support_bound_known_answers():
