@@ -300,7 +300,7 @@ def test_time_limit_turns_a_pathological_clip_into_an_error_row(tmp_path, dask2)
     m = bvh.read(root / "short.bvh")
     text = (root / "short.bvh").read_text().splitlines()
     k = next(i for i, ln in enumerate(text) if ln.startswith("Frame Time"))
-    body = text[k + 1 :] * 400  # 24,000 frames of the same walk (the clip a stuck export might produce)
+    body = text[k + 1 :] * 1600  # 49,600 frames of the same walk, 32 MB (the clip a stuck export might produce): several s
     (root / "long.bvh").write_text("\n".join([*text[: k - 1], f"Frames: {len(body)}", text[k], *body]) + "\n")
     res = audit.run(root, tmp_path / "audit", dask2, timeout=1.0, progress=False)
     by = {r["path"]: r for r in res.rows}
