@@ -10,8 +10,8 @@ of verbs) but calls ``add_arguments`` only for the verb being run, and a verb mo
 nothing heavier than the standard library at its top: NumPy, SciPy, MuJoCo, CasADi,
 Matplotlib and Numba load inside ``run()`` (``tests/test_cli.py`` checks this for every
 verb module, new ones included). A verb that renders nothing sets ``MUJOCO_WITHOUT_GL = True``
-and MuJoCo is imported for it without the OpenGL backend its package would load. A new verb adds its name to :data:`VERB_ORDER` only to
-choose its place in ``--help``.
+and MuJoCo is imported for it without the OpenGL backend its package would load. A new verb
+adds its name to :data:`VERB_ORDER` only to choose its place in ``--help``.
 """
 
 from __future__ import annotations
@@ -187,12 +187,12 @@ def _main(argv: Sequence[str] | None) -> int:
 
 def _import_mujoco_without_gl() -> None:
     """Import MuJoCo with the OpenGL backend its package loads at import switched off
-    (``MUJOCO_GL=disable`` for the import alone; the user's value is restored at once). The verbs
+    (``MUJOCO_GL=disable`` for the import alone; the value it had is restored at once). The verbs
     that ask for it (``MUJOCO_WITHOUT_GL``) render nothing, and that backend costs 40-50 ms of
     start-up (glfw's library search, or EGL's); mjmotion's renders never use it either
-    (:func:`mjmotion.render.open_gl_context` opens its own context). The value restored is the
-    one set at that moment; MuJoCo stays imported so for the process (``mujoco.Renderer`` then has
-    no context class: a library user calling :func:`main` in-process who needs it imports MuJoCo first)."""
+    (:func:`mjmotion.render.open_gl_context` opens its own context). MuJoCo stays imported so for
+    the process: ``mujoco.Renderer`` then has no context class, so a library user who calls
+    :func:`main` in-process and needs it imports MuJoCo first."""
     if "mujoco" in sys.modules:
         return
     saved = os.environ.get("MUJOCO_GL")

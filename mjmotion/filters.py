@@ -120,12 +120,8 @@ def _block_response(b0: float, b1: float, b2: float, a1: float, a2: float, size:
     before the block, then its own): the moving average ``b0 x[i] + b1 x[i−1] + b2 x[i−2]``, then the
     recursion ``y[i] = z[i] − a1 y[i−1] − a2 y[i−2]`` from rest — the lower-triangular Toeplitz
     matrix of its impulse response ``g``."""
-    g = np.zeros(size)
-    g[0] = 1.0
-    if size > 1:
-        g[1] = -a1
-    for i in range(2, size):
-        g[i] = -a1 * g[i - 1] - a2 * g[i - 2]
+    # g[0] = 1, then the free response to y[-1] = 1 (the same recursion, the same floats).
+    g = np.concatenate([[1.0], _free_responses(a1, a2, size)[: size - 1, 0]])
     lag = np.subtract.outer(np.arange(size), np.arange(size))
     rest = np.where(lag >= 0, g[np.maximum(lag, 0)], 0.0)  # (size, size)
     fir = np.zeros((size, size + 2))

@@ -328,9 +328,10 @@ def parallel_support_bound(
     exactly and the torque ``(c − o) × F`` of their centre ``c``; the needed torque they leave
     over bounds the optimum from above. The centres tried lie on each segment between two active
     points (a point alone included): the leftover is affine along a segment, so the centre leaving
-    the least of it is closed form; the least over segments is kept. What is left is the vertical
-    "free moment" and the force times the centre of pressure's distance from the nearest segment,
-    inside the support or a little outside it. Vectorised over frames and segments.
+    the least of it is closed form; the least over segments is kept. What is left is the torque about
+    the force's own line (the "free moment", vertical for a vertical force) and the force times the
+    centre of pressure's distance from the nearest segment, inside the support or a little outside
+    it. Vectorised over frames and segments.
     """
     t_count, n_pts = active.shape
     out = np.full(t_count, np.inf)
