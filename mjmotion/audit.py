@@ -32,6 +32,7 @@ from . import __version__
 from .errors import MjmotionError
 from .executor import one_line
 from .outputs import write_text_atomic, write_with
+from .thresholds import JUDGE_REVISION
 
 #: Columns every row has, before the metrics (``status`` is ``ok`` or ``error``).
 META = (
@@ -494,8 +495,10 @@ def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = No
 
 
 def options_text(opts: Mapping[str, Any], clip: Clip) -> str:
-    """What a row's numbers depend on besides the file: the judge's options and the sources' hashes."""
+    """What a row's numbers depend on besides the file: the judge's options and revision
+    (:data:`mjmotion.thresholds.JUDGE_REVISION`) and the sources' hashes."""
     d = {k: v for k, v in sorted(opts.items())}
+    d["judge_revision"] = JUDGE_REVISION
     if clip.sources:
         d["source_sha256"] = list(clip.source_sha256)
     return json.dumps(d, sort_keys=True, default=list, separators=(",", ":"))

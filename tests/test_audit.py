@@ -266,6 +266,20 @@ def test_resume_recomputes_only_what_changed(corpus, tmp_path, dask2):
     assert sorted(_rows(out)) == _listed(root)
 
 
+def test_resume_recomputes_rows_of_another_judge_revision(tmp_path, dask2, monkeypatch):
+    root = tmp_path / "clips"
+    root.mkdir()
+    assert cli.main(["synth", "walk", "--seconds", "0.5", "-o", str(root / "walk.bvh")]) == 0
+    out = tmp_path / "audit"
+    first = audit.run(root, out, dask2, progress=False)
+    assert first.computed == 1 and json.loads(first.rows[0]["options"])["judge_revision"] == audit.JUDGE_REVISION
+    assert audit.run(root, out, dask2, resume=True, progress=False).computed == 0
+    # A table an older judge wrote (same bytes, options and package version) is not reused.
+    monkeypatch.setattr(audit, "JUDGE_REVISION", audit.JUDGE_REVISION + 1)
+    newer = audit.run(root, out, dask2, resume=True, progress=False)
+    assert newer.computed == 1 and json.loads(newer.rows[0]["options"])["judge_revision"] == audit.JUDGE_REVISION
+
+
 def test_a_worker_killed_mid_run_still_gives_every_file_once(corpus, tmp_path, dask2):
     root = tmp_path / "clips"
     shutil.copytree(corpus, root, symlinks=True)

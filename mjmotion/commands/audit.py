@@ -32,9 +32,9 @@ and its message; a worker that dies is replaced and its clips rerun by Dask; a c
 than --timeout is an error row. Nothing in DIR is written. The exit status is 0 when every file has
 its row, error rows included.
 
-With --resume, rows whose file (SHA-256), judge options, sources and mjmotion version are
-unchanged are kept and not recomputed (errors that might go away -- a time limit, a lost worker --
-are retried); a changed or new file is evaluated.
+With --resume, rows whose file (SHA-256), judge options, sources, judge revision and mjmotion
+version are unchanged are kept and not recomputed (errors that might go away -- a time limit, a
+lost worker -- are retried); a changed or new file is evaluated.
 
 --source-map FILE is a JSON object from a clip's path under DIR to the clip (or list of clips) it
 was made from, relative to FILE's folder: those rows add the source-relative measures
