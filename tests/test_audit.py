@@ -280,6 +280,31 @@ def test_resume_recomputes_rows_of_another_judge_revision(tmp_path, dask2, monke
     assert newer.computed == 1 and json.loads(newer.rows[0]["options"])["judge_revision"] == audit.JUDGE_REVISION
 
 
+def test_a_changed_row_value_comes_with_a_new_judge_revision():
+    """Resume keys on the revision, so a row value (or column) that moves for the same file and options
+    without ``JUDGE_REVISION`` being raised would mix two judges in one table: the record says."""
+    import judge_record
+
+    data = require_data()
+    record = json.loads(judge_record.RECORD.read_text())
+    fresh = judge_record.rows(data)
+    changed = judge_record.differences(record["rows"], fresh)
+    how = "then rewrite the record: MJMOTION_DATA=../shared/mocap python tests/judge_record.py"
+    if record["judge_revision"] == audit.JUDGE_REVISION:
+        assert not changed, (
+            f"row values changed under judge revision {audit.JUDGE_REVISION}: raise mjmotion.thresholds.JUDGE_REVISION, {how}:\n" + "\n".join(changed)
+        )
+    else:
+        pytest.fail(f"the record is of judge revision {record['judge_revision']}, the judge's is {audit.JUDGE_REVISION}: {how}")
+    # The comparison is not blind: a value off by more than its tolerance, or a new column, is found.
+    clip = next(iter(fresh))
+    moved = {**fresh, clip: {**fresh[clip], "penetrate_mm": fresh[clip]["penetrate_mm"] * (1 + 3 * judge_record.RTOL) + 1e-6}}
+    assert judge_record.differences(record["rows"], moved) == [
+        f"{clip}: penetrate_mm was {record['rows'][clip]['penetrate_mm']!r}, now {moved[clip]['penetrate_mm']!r}"
+    ]
+    assert judge_record.differences(record["rows"], {**fresh, clip: {**fresh[clip], "new_metric": 1.0}}) == [f"{clip}: column new_metric new"]
+
+
 def test_a_worker_killed_mid_run_still_gives_every_file_once(corpus, tmp_path, dask2):
     root = tmp_path / "clips"
     shutil.copytree(corpus, root, symlinks=True)
