@@ -20,7 +20,7 @@ from typing import Any
 RECORD = Path(__file__).resolve().parent / "data" / "judge_record.json"
 
 #: ``(clip, sources)`` under the shared data folder: one clip per skeleton flavour (walks and a run,
-#: a turn, a T-pose start), and one judged against another take of the same subject (``--source-map``).
+#: tilted floors, daz's leading T-pose), and one judged against another take of the same subject (``--source-map``).
 CLIPS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("cmu_asfamc_converted/16_15.bvh", ()),
     ("cmu_cgspeed_daz/09_01.bvh", ()),
@@ -43,7 +43,8 @@ def rows(data: Path) -> dict[str, dict[str, Any]]:
     out = {}
     for rel, sources in CLIPS:
         path = data / rel
-        row = audit.audit_clip(str(path), audit.sha256_file(path), opts, tuple(str(data / s) for s in sources))
+        sha, listed = audit.fingerprint(path)  # listed: the row's worker trusts the bytes hashed here, as audit's own do
+        row = audit.audit_clip(str(path), sha, opts, tuple(str(data / s) for s in sources), listed)
         out[rel] = {k: row[k] for k in sorted(row) if k != "params"}  # params: the options, recorded beside
     return out
 
