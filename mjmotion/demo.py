@@ -1,8 +1,9 @@
 """``mjmotion demo``: a short version of every experiment, plots and videos, in a few minutes.
 
 On the bundled procedural clips by default (no mocap needed), or on real mocap with
-``data_dir``. Writes ``out/<experiment>/table.md`` and PNGs for each experiment, MP4 videos,
-and ``out/summary.md`` linking everything.
+``data_dir``. Writes ``out/<experiment>/table.md`` and PNGs for each experiment, MP4 videos with
+``out/demo_frames.png`` (a frame of each; the README's first picture), and ``out/summary.md``
+linking everything.
 """
 
 from __future__ import annotations
@@ -64,7 +65,7 @@ def _walk_run(data_dir: Path | None):
 
 
 def _shot(data_dir: Path | None):
-    """A swing, the same swing adapted to a ball 15 cm higher, the prop and the new ball."""
+    """A swing, the same swing adapted to a ball 15 cm higher, the prop, the new ball and the hit's time (s)."""
     from . import bvh, hitpoint, mjcf, synth
 
     if data_dir is None:
@@ -76,12 +77,47 @@ def _shot(data_dir: Path | None):
     # "club" is the sweet spot of whichever stick is held: the bundled bat or the fitted club.
     adapted = hitpoint.adapt(source, offset=np.array([0.0, 0.0, 0.15]), frame=frame, effector="club", solver="dls", prop=prop, style=False)
     target = np.asarray(adapted.report["target"], dtype=float)
-    return source, adapted.motion, prop, mjcf.Ball(position=tuple(target), radius=0.036)
+    hit_s = float(adapted.report["hit_frame"]) / source.fps
+    return source, adapted.motion, prop, mjcf.Ball(position=tuple(target), radius=0.036), hit_s
+
+
+def swing_fps(hit_s: float, near: float = 25.0) -> float:
+    """The swing video's frame rate: the one nearest ``near`` that puts the hit (``hit_s`` seconds in)
+    on a frame; a bat moves a metre in 1/25 s, so a frame half a step off shows it far from the ball."""
+    steps = round(hit_s * near)
+    return float(steps / hit_s) if steps > 0 else near
+
+
+def _render_keeping(scene, path: Path, width: int, height: int, keep: int) -> np.ndarray:
+    """Render ``scene`` to the video ``path`` and return its frame ``keep`` as drawn, ``(H, W, 3) uint8``
+    (before the video's lossy encoding)."""
+    from tqdm import tqdm
+
+    from . import render
+
+    keep = int(np.clip(keep, 0, scene.n_frames - 1))
+    held: list[np.ndarray] = []
+
+    def frames(r: render.Renderer):
+        for i, f in enumerate(r.frames()):
+            if i == keep:
+                held.append(np.array(f, copy=True))
+            yield f
+
+    with render.Renderer(scene, width, height, shadows=True, reflections=False) as r:
+        with tqdm(total=scene.n_frames, unit="frame", desc=f"render {path.name}", file=sys.stderr) as bar:
+            render.write_video(frames(r), path, scene.fps, (width, height), bar.update)
+    return held[0]
 
 
 def render_videos(out: Path, data_dir: Path | None, width: int = 640, height: int = 360) -> list[str]:
-    """Two short videos: walk | run | blend side by side, and source | adapted swing with the ball."""
+    """Two short videos: walk | run | blend side by side, and source | adapted swing with the ball;
+    and ``demo_frames.png``, a frame of each (the blend's middle frame over the swing's hit), the
+    README's first picture."""
+    import imageio.v3 as iio
+
     from . import render
+    from .outputs import atomic_path
 
     files = []
     walk, run, mixed, linear = _walk_run(data_dir)
@@ -96,18 +132,23 @@ def render_videos(out: Path, data_dir: Path | None, width: int = 640, height: in
     scene = render.build_scene(actors, fps=25.0, spacing=1.5, view=render.View(elevation=-22.0))
     path = out / "blend.mp4"
     _say("video: walk | registered blend | linear blend | run …")
-    render.render(scene, path, width, height, shadows=True, reflections=False)
+    stills = [_render_keeping(scene, path, width, height, scene.n_frames // 2)]
     files.append(str(path))
-    source, adapted, prop, ball = _shot(data_dir)
+    source, adapted, prop, ball, hit_s = _shot(data_dir)
     actors = [
         render.Actor(source, "source", props=(prop,), trail=prop.site),
         render.Actor(adapted, "adapted: ball 15 cm higher", props=(prop,), trail=prop.site),
     ]
-    scene = render.build_scene(actors, fps=25.0, ball=ball, spacing=1.6, view=render.View(elevation=-12.0, distance=3.6))
+    fps = swing_fps(hit_s)
+    scene = render.build_scene(actors, fps=fps, ball=ball, spacing=1.6, view=render.View(elevation=-12.0, distance=3.6))
     path = out / "hitpoint.mp4"
     _say("video: source | adapted swing …")
-    render.render(scene, path, width, height, shadows=True, reflections=False)
+    stills.append(_render_keeping(scene, path, width, height, int(round(hit_s * fps))))
     files.append(str(path))
+    png = out / "demo_frames.png"
+    with atomic_path(png) as tmp:
+        iio.imwrite(tmp, np.concatenate(stills, axis=0), extension=".png")
+    files.append(str(png))
     return files
 
 
@@ -124,8 +165,10 @@ def summary(out: Path, steps: list[Step], videos: list[str], data_dir: Path | No
         "|---|---|---|",
     ]
     lines += [f"| {s.name} | {s.seconds:.1f} | [{s.name}/table.md]({s.name}/table.md) |" for s in steps]
-    if videos:
-        lines += ["", "Videos: " + ", ".join(f"[{Path(v).name}]({Path(v).name})" for v in videos)]
+    clips = [v for v in videos if not v.endswith(".png")]
+    if clips:
+        lines += ["", "Videos: " + ", ".join(f"[{Path(v).name}]({Path(v).name})" for v in clips)]
+    lines += [f"![a frame of each video]({Path(v).name})" for v in videos if v.endswith(".png")]
     for s in steps:
         if s.table is not None:
             body = s.table.markdown().replace("](", f"]({s.name}/")

@@ -26,6 +26,31 @@ def test_demo_writes_tables_and_two_videos(tmp_path, capsys):
             assert video.shape[0] == expect_frames  # 4 s at 25 fps
         # Not a blank picture: the characters differ from the background.
         assert np.ptp(video[len(video) // 2].astype(int)) > 100
+    # The README's first picture is a frame of each video: the blend's middle frame over the swing's hit.
+    stills = iio.imread(out / "demo_frames.png")
+    assert stills.shape == (720, 640, 3)
+    assert "demo_frames.png" in summary
+    blend = iio.imread(out / "blend.mp4", index=None)
+    swing = iio.imread(out / "hitpoint.mp4", index=None)
+    hit = int(np.argmin([np.abs(f.astype(int) - stills[360:]).mean() for f in swing]))
+
+    def off(a, b):
+        return float(np.abs(a.astype(int) - b.astype(int)).mean())
+
+    # Equal to the decoded frame up to H.264's loss, and farther from other frames of the same video.
+    assert off(stills[:360], blend[50]) < 2.0 < off(stills[:360], blend[30])
+    assert off(stills[360:], swing[hit]) < 2.0
+    hit_s = demo._shot(None)[4]
+    frame = hit_s * demo.swing_fps(hit_s)  # the hit's video frame, a whole number
+    assert abs(frame - round(frame)) < 1e-9 and abs(hit - frame) <= 1, (hit, frame)
+
+
+def test_the_swing_video_has_a_frame_at_the_hit():
+    for hit_s in (0.3, 1.1, 1.234, 2.019):
+        fps = demo.swing_fps(hit_s)
+        assert abs(fps - 25.0) <= 0.5 / hit_s + 1e-9  # the nearest such rate: half a frame over the hit time
+        assert abs(hit_s * fps - round(hit_s * fps)) < 1e-9
+    assert demo.swing_fps(0.0) == 25.0
 
 
 def test_demo_refuses_unknown_experiments(tmp_path):
