@@ -83,31 +83,19 @@ def _shot(data_dir: Path | None):
 
 def swing_fps(hit_s: float, near: float = 25.0) -> float:
     """The swing video's frame rate: the one nearest ``near`` that puts the hit (``hit_s`` seconds in)
-    on a frame; a bat moves a metre in 1/25 s, so a frame half a step off shows it far from the ball."""
+    on a frame: near impact the bat moves tens of centimetres between frames at 25 fps, so the frame
+    nearest the hit can show it well away from the ball."""
     steps = round(hit_s * near)
     return float(steps / hit_s) if steps > 0 else near
 
 
-def _render_keeping(scene, path: Path, width: int, height: int, keep: int) -> np.ndarray:
-    """Render ``scene`` to the video ``path`` and return its frame ``keep`` as drawn, ``(H, W, 3) uint8``
+def _still(scene, width: int, height: int, i: int) -> np.ndarray:
+    """Video frame ``i`` of ``scene`` drawn as :func:`render_videos` draws its videos, ``(H, W, 3) uint8``
     (before the video's lossy encoding)."""
-    from tqdm import tqdm
-
     from . import render
 
-    keep = int(np.clip(keep, 0, scene.n_frames - 1))
-    held: list[np.ndarray] = []
-
-    def frames(r: render.Renderer):
-        for i, f in enumerate(r.frames()):
-            if i == keep:
-                held.append(np.array(f, copy=True))
-            yield f
-
-    with render.Renderer(scene, width, height, shadows=True, reflections=False) as r:
-        with tqdm(total=scene.n_frames, unit="frame", desc=f"render {path.name}", file=sys.stderr) as bar:
-            render.write_video(frames(r), path, scene.fps, (width, height), bar.update)
-    return held[0]
+    with render.Renderer(scene, width, height, shadows=True, reflections=False) as r:  # as the videos are drawn
+        return r.frame(int(np.clip(i, 0, scene.n_frames - 1)))
 
 
 def render_videos(out: Path, data_dir: Path | None, width: int = 640, height: int = 360) -> list[str]:
@@ -132,7 +120,8 @@ def render_videos(out: Path, data_dir: Path | None, width: int = 640, height: in
     scene = render.build_scene(actors, fps=25.0, spacing=1.5, view=render.View(elevation=-22.0))
     path = out / "blend.mp4"
     _say("video: walk | registered blend | linear blend | run …")
-    stills = [_render_keeping(scene, path, width, height, scene.n_frames // 2)]
+    render.render(scene, path, width, height, shadows=True, reflections=False)
+    stills = [_still(scene, width, height, scene.n_frames // 2)]
     files.append(str(path))
     source, adapted, prop, ball, hit_s = _shot(data_dir)
     actors = [
@@ -143,7 +132,8 @@ def render_videos(out: Path, data_dir: Path | None, width: int = 640, height: in
     scene = render.build_scene(actors, fps=fps, ball=ball, spacing=1.6, view=render.View(elevation=-12.0, distance=3.6))
     path = out / "hitpoint.mp4"
     _say("video: source | adapted swing …")
-    stills.append(_render_keeping(scene, path, width, height, int(round(hit_s * fps))))
+    render.render(scene, path, width, height, shadows=True, reflections=False)
+    stills.append(_still(scene, width, height, int(round(hit_s * fps))))
     files.append(str(path))
     png = out / "demo_frames.png"
     with atomic_path(png) as tmp:
