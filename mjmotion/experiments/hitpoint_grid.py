@@ -425,6 +425,35 @@ def _first_per_shot(done: list[GridResult]) -> list[GridResult]:
     return list(seen.values())
 
 
+def launch_figures(g: GridResult, out_dir: Path) -> list[Path]:
+    """Figure 2.6 of one task: its launch directions over its hit points, ``launch_<shot>_<wrist>.png``
+    (``foot`` for a kick), and for a delivered ball ``launch_<shot>_<wrist>_delivered.png``; nothing
+    without launches. Each depends on this task alone (``docs/make_images.py`` draws 64_01's so)."""
+    from .. import plots
+
+    if g.predictability is None:
+        return []
+    pr = g.predictability
+    dirs = np.array([[ln.azimuth_deg, ln.elevation_deg] for ln in pr.launches])
+    wrist = {"locked": "locked wrist", "swing": "2-DOF wrist"}.get(g.wrist, "kick")
+    files = [
+        plots.hitpoint_grid(
+            pr.hit_points, dirs, out_dir / f"launch_{g.shot}_{g.wrist if g.wrist != '–' else 'foot'}.png",
+            title=f"{g.shot} ({g.solver}, {wrist}): ρ az {pr.rho_azimuth:.2f}, ρ el {pr.rho_elevation:.2f}",
+        )
+    ]  # fmt: skip
+    if g.delivered is not None:
+        dv = g.delivered
+        dirs = np.array([[ln.azimuth_deg, ln.elevation_deg] for ln in dv.launches])
+        files.append(
+            plots.hitpoint_grid(
+                dv.hit_points, dirs, out_dir / f"launch_{g.shot}_{g.wrist}_delivered.png",
+                title=f"{g.shot} ({g.solver}, {wrist}), a delivered ball: ρ az {dv.rho_azimuth:.2f}, ρ el {dv.rho_elevation:.2f}",
+            )
+        )  # fmt: skip
+    return [Path(f) for f in files]
+
+
 def delivery_speed() -> float:
     """Release speed (m/s) of :data:`DELIVERY`."""
     from ..delivery import PRESETS
@@ -433,7 +462,7 @@ def delivery_speed() -> float:
 
 
 def _tabulate(out_dir: Path, shots: list[Shot], done: list[GridResult], quick: bool) -> Table:
-    from .. import hitpoint, plots
+    from .. import hitpoint
 
     table = Table(
         "Hit-point adaptation: solvers × wrist × target grid (seed 003 §2.5, Table 2.1, Fig. 2.6)" + (" — quick" if quick else ""),
@@ -511,22 +540,7 @@ def _tabulate(out_dir: Path, shots: list[Shot], done: list[GridResult], quick: b
         if g.solver != main_solver or g.predictability is None or key in seen:
             continue
         seen.add(key)
-        pr = g.predictability
-        dirs = np.array([[ln.azimuth_deg, ln.elevation_deg] for ln in pr.launches])
-        wrist = {"locked": "locked wrist", "swing": "2-DOF wrist"}.get(g.wrist, "kick")
-        f = plots.hitpoint_grid(
-            pr.hit_points, dirs, out_dir / f"launch_{g.shot}_{g.wrist if g.wrist != '–' else 'foot'}.png",
-            title=f"{g.shot} ({g.solver}, {wrist}): ρ az {pr.rho_azimuth:.2f}, ρ el {pr.rho_elevation:.2f}",
-        )  # fmt: skip
-        table.files.append(str(f))
-        if g.delivered is not None:
-            dv = g.delivered
-            dirs = np.array([[ln.azimuth_deg, ln.elevation_deg] for ln in dv.launches])
-            f = plots.hitpoint_grid(
-                dv.hit_points, dirs, out_dir / f"launch_{g.shot}_{g.wrist}_delivered.png",
-                title=f"{g.shot} ({g.solver}, {wrist}), a delivered ball: ρ az {dv.rho_azimuth:.2f}, ρ el {dv.rho_elevation:.2f}",
-            )  # fmt: skip
-            table.files.append(str(f))
+        table.files += [str(f) for f in launch_figures(g, out_dir)]
     # Figure 2.3: importance- against time-based blending, on the first shot of each kind
     kinds: dict[str, Shot] = {}
     for sh in shots:
