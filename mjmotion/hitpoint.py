@@ -920,8 +920,9 @@ def judge_cones(motion: Motion) -> np.ndarray:
     """The default cone limits ``(J,)`` radians: the judge's joint ranges (:func:`mjmotion.limits.joint_limits`,
     which the compiled model declares and ``evaluate``'s ``limit_violation_ratio`` counts), kept
     :data:`CONE_CLEARANCE` inside so a written BVH reads within them; where the source itself turns
-    a joint beyond its range somewhere (a rig's bind rotation, like the bundled humanoid's hands at
-    150°), that range is not this rig's and the joint keeps within the source's own largest angle."""
+    a joint beyond its range somewhere (a rig's bind rotation stored in its channels, as iClone's
+    and the ASF hands' are), that range is not this rig's and the joint keeps within the source's own
+    largest angle."""
     judge = limits.joint_limits(motion.skeleton) - CONE_CLEARANCE
     own = rotation_angle(motion.rotations).max(axis=0)
     return np.where(own > judge, own, judge)

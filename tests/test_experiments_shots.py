@@ -60,14 +60,16 @@ def test_dls_reaches_every_target_and_keeps_the_rest_of_the_clip(grid):
     rows = _rows(table)
     assert {(r["shot"], r["solver"], r["wrist"]) for r in rows} == {("drive", "dls", "locked"), ("drive", "dls", "swing")}
     for r in rows:
-        assert r["targets"] == 9 and r["reached ≤1 mm"] == 9, r
+        # The drive's arms stay inside the judge's ranges and keep room at the hit (synth.body.hit_fill):
+        # every target of the ±10 cm grid is met.
+        assert r["targets"] == 9 and r["reached ≤1 mm"] == 9 and r["short max mm"] == 0.0, r
         assert r["hit err max mm"] < 1.0, r  # (goal err: the paced frames around the hit lag their goals)
         assert r["ends = source"] == "9/9" and r["root/legs = source"] == "9/9", r  # first/last frames, legs, root unchanged
         assert r["grip err max mm"] < 5.0, r
         assert np.isfinite(r["style_rmse mean"]) and r["style_rmse mean"] > 0
         for k in ("launch ρ azimuth", "launch ρ elevation", "delivered ρ azimuth", "delivered ρ elevation"):
             assert -1.0 <= r[k] <= 1.0, (k, r)  # a cricket shot: a ball at rest and a delivered ball
-        assert r["joint speed ratio max"] <= 1.25 * hitpoint.JOINT_SPEED_BOUND and r["short max mm"] == 0.0, r
+        assert r["joint speed ratio max"] <= 1.25 * hitpoint.JOINT_SPEED_BOUND, r
     locked = next(r for r in rows if r["wrist"] == "locked")
     swing = next(r for r in rows if r["wrist"] == "swing")
     assert locked["style vs locked %"] == 0.0

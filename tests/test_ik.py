@@ -46,6 +46,30 @@ def test_hinge_axis_is_the_clips_own(swing):
     assert np.abs(off_axis).max() < 1e-5  # the file stores degrees to 6 decimals
 
 
+def test_an_elbow_that_rolls_in_its_clip_also_rolls_in_the_ik(swing):
+    """The bundled shots keep the forearm's pronation in the elbow's channels: the elbow gets that roll
+    as a second freedom (flexion across the bone, the roll about it); CMU's 1-DOF elbows stay 1-DOF."""
+    from mjmotion import synth
+
+    m, _, lead, _, _ = swing
+    assert next(c for c in lead.joints if m.skeleton.names[c.joint] == "lradius").dof == 1
+    drive = synth.drive().motion
+    chain = chains.build_chain(drive, "Spine", "LeftHand", None, wrist="ball")
+    elbow = next(c for c in chain.joints if drive.skeleton.names[c.joint] == "LeftForeArm")
+    bone = chains.bone_axis(drive.skeleton, elbow.joint)
+    assert elbow.freedom == "hinge" and elbow.dof == 3
+    assert np.allclose(elbow.basis[:, 2], bone) and abs(elbow.basis[:, 0] @ bone) < 1e-9
+    # flexion and roll span the clip's elbow motion, continuously; the carrying angle hardly moves
+    c = chains._coords(elbow.basis, elbow.q_ref, drive.rotations[:, elbow.joint])
+    assert np.ptp(c[:, 0]) > np.radians(20) and np.ptp(c[:, 2]) > chains.HINGE_ROLL and np.ptp(c[:, 1]) < np.radians(5)
+    assert np.abs(np.diff(c, axis=0)).max() < np.radians(30)  # no wrap between frames (a wrap jumps ~180°; the roll peaks at 20° a frame)
+    assert elbow.upper[1] - elbow.lower[1] < np.ptp(c[:, 1]) + 2 * chains.ELBOW_CARRY + 1e-9
+    # a hinge whose clip does not roll it keeps its single flexion axis
+    flat = drive.replace(rotations=drive.rotations.copy())
+    flat.rotations[:, elbow.joint] = rot.exp(np.outer(np.radians(np.linspace(10, 90, drive.n_frames)), elbow.basis[:, 0]))
+    assert next(c for c in chains.build_chain(flat, "Spine", "LeftHand", None).joints if c.joint == elbow.joint).dof == 1
+
+
 def test_zero_delta_is_the_fk_pose_and_limits_contain_it(swing):
     m, cm, lead, _, q = swing
     kin = chains.ChainKinematics(cm, lead)

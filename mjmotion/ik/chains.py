@@ -8,7 +8,10 @@ pose, ``c = c_fk + δ``; the others stay at their FK values. ``δ = 0`` is the F
 (§2.2.3: IK starts from the frame's FK pose), a hinge stays a hinge, a swing wrist keeps its twist
 angle, and every solver — CCD, DLS and the CasADi NLP — works in the same coordinates ``δ``.
 
-Freedoms (§2.1.2): an elbow or knee is a **hinge** (1 DOF, axis = the clip's own flexion axis);
+Freedoms (§2.1.2): an elbow or knee is a **hinge** (1 DOF, axis = the clip's own flexion axis;
+an elbow whose clip also rolls it about its bone by more than ``HINGE_ROLL`` — pronation stored in
+the elbow's channels, with no roll bone below — gets that roll too, and its carrying angle within
+``ELBOW_CARRY`` of the clip's: 3 coordinates, flexion, carrying angle, roll);
 a forearm roll bone (CMU's ``lwrist``) is a hinge about its twist axis; a wrist (``lhand``) is a
 **swing** (2 DOF across the hand bone, no twist) or **locked** (0 DOF, §2.3.3); a joint the source
 never turns (CMU's hip joints, clavicles and fingers: no degree of freedom in its skeleton) is
@@ -46,6 +49,10 @@ from ..skeleton import Motion, Skeleton
 FREEDOMS = ("ball", "swing", "hinge", "locked")
 #: Default widening of the clip's range for the rotation limits (radians).
 DEFAULT_MARGIN = np.deg2rad(20.0)
+#: A hinge whose clip rolls about its bone over more than this range (radians) also rolls.
+HINGE_ROLL = np.deg2rad(10.0)
+#: Such an elbow's carrying angle (across flexion and roll) may leave the clip's range by this much (radians).
+ELBOW_CARRY = np.deg2rad(5.0)
 #: Lowest standard deviation used for stiffness weights (a joint still in the clip is not rigid).
 WEIGHT_FLOOR = np.deg2rad(3.0)
 #: A joint whose rotation never leaves this angle (radians) of its first frame is not a freedom of the character.
@@ -337,12 +344,14 @@ def chain_joint(
     margin: float = DEFAULT_MARGIN,
     axis: np.ndarray | None = None,
     max_angle: float = np.inf,
+    roll: bool = False,
 ) -> ChainJoint:
     """The :class:`ChainJoint` for joint ``j`` of ``motion`` with ``freedom`` and limits from the clip.
 
     ``axis``: for a hinge, the hinge axis (default: the clip's principal rotation axis of the joint).
     ``max_angle``: the cone limit on the joint's local rotation angle (radians); ``inf`` where the
-    clip's box (its range ± ``margin``) cannot reach it.
+    clip's box (its range ± ``margin``) cannot reach it. ``roll``: a hinge that is an elbow or knee
+    (not a roll bone), which also rolls where its clip rolls it (``HINGE_ROLL``).
     """
     if freedom not in FREEDOMS:
         raise MjmotionError(f"freedom must be one of {', '.join(FREEDOMS)}, got {freedom!r}")
@@ -350,11 +359,29 @@ def chain_joint(
     q = rot.make_continuous(motion.rotations[:, j])
     q_ref = rot.normalize(rot.weighted_average(q, np.ones(len(q))))
     v = rot.log(rot.multiply(rot.conjugate(q_ref)[None], q))
+    rolling = False
     if freedom == "hinge":
         a = _principal_axis(v, bone_axis(skel, j) if axis is None else axis) if axis is None else np.asarray(axis, float)
         a = a / np.linalg.norm(a)
         basis = _complete(a)
         dof = 1
+        if roll and axis is None:
+            # An elbow whose channels also carry the forearm's pronation (no roll bone below it: the
+            # bundled shots' arms) rolls about its bone in the clip: flexion across the bone, and
+            # that roll as a second freedom.
+            # With the mean's roll taken out of q_ref (q = swing ⊗ twist about the bone, keep the
+            # swing), a bend-then-roll elbow is exactly q_ref ⊗ Rot(flex, c₁) ⊗ Rot(bone, c₂).
+            b = bone_axis(skel, j)
+            bent = _swing(q_ref, b)
+            bend = rot.log(_swing(rot.multiply(rot.conjugate(bent)[None], q), b))
+            flex = _principal_axis(bend - np.outer(bend @ b, b), _any_perpendicular(b))
+            flex = flex - np.dot(flex, b) * b
+            flex /= np.linalg.norm(flex)
+            # Coordinates (flexion, carrying angle, roll): the first and last Euler angles have the
+            # full circle (a roll past 90° stays continuous); the middle one barely moves in the clip.
+            elbow = np.column_stack([flex, np.cross(b, flex), b])
+            if np.ptp(_coords(elbow, bent, q)[:, 2]) > HINGE_ROLL:
+                basis, dof, q_ref, rolling = elbow, 3, bent, True
     elif freedom in ("swing", "locked"):
         twist = bone_axis(skel, j)
         vp = v - np.outer(v @ twist, twist)
@@ -367,8 +394,11 @@ def chain_joint(
         basis = np.eye(3)
         dof = 3
     c = _coords(basis, q_ref, q)[:, :dof]
-    lower = c.min(axis=0) - margin if dof else np.zeros(0)
-    upper = c.max(axis=0) + margin if dof else np.zeros(0)
+    margins = np.full(dof, float(margin))
+    if rolling:
+        margins[1] = min(float(margin), ELBOW_CARRY)
+    lower = c.min(axis=0) - margins if dof else np.zeros(0)
+    upper = c.max(axis=0) + margins if dof else np.zeros(0)
     sd = np.maximum(c.std(axis=0), WEIGHT_FLOOR) if dof else np.zeros(0)
     if np.isfinite(max_angle) and dof:
         # The rotation angle is a metric on rotations, so within the box q_ref ⊗ P(c) turns at most
@@ -378,6 +408,16 @@ def chain_joint(
         if reach <= max_angle:
             max_angle = np.inf
     return ChainJoint(j, freedom, basis, dof, q_ref, lower, upper, sd**2, float(max_angle))
+
+
+def _swing(q: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """The swing part ``(..., 4)`` of rotations ``q (..., 4)`` about ``axis (3,)``: ``q = swing ⊗ twist``,
+    the twist about ``axis`` (the projection of ``q``'s vector part on it)."""
+    w = q[..., :1]
+    twist = np.concatenate([w, (q[..., 1:] @ axis)[..., None] * axis], axis=-1)
+    n = np.linalg.norm(twist, axis=-1, keepdims=True)
+    twist = np.where(n > 1e-12, twist / np.maximum(n, 1e-12), rot.IDENTITY)
+    return rot.normalize(rot.multiply(q, rot.conjugate(twist)))
 
 
 def _any_perpendicular(a: np.ndarray) -> np.ndarray:
@@ -445,7 +485,8 @@ def build_chain(
             freedom = wrist
         else:
             freedom = "ball"
-        joints.append(chain_joint(motion, j, freedom, margin, max_angle=np.inf if max_angles is None else float(max_angles[j])))
+        cone = np.inf if max_angles is None else float(max_angles[j])
+        joints.append(chain_joint(motion, j, freedom, margin, max_angle=cone, roll=role == "hinge" and freedom == "hinge"))
     if weights == "uniform":
         joints = [dataclasses.replace(c, weight=np.ones(c.dof)) for c in joints]
     elif weights == "clip":
