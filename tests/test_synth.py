@@ -547,18 +547,25 @@ def test_the_twist_share_is_the_brute_force_optimum(side):
     assert np.all(np.abs(share) <= np.abs(2.0 * np.arctan2(s * q[:, 2], q[:, 0])) + 1e-9)  # never more than the hand's twist
 
 
-def test_a_fitted_arm_keeps_the_designed_elbow_inside_the_ranges_and_leaves_it_beyond():
-    """The elbow swivel turns only where the designed one would put a joint past ARM_RANGE_FILL of its range."""
+def _right_arm(t):
+    """A standing body's right arm over ``t`` frames: builder, shoulder and wrist ``(t, 3)``, pole, designed forearm."""
     from mjmotion.synth import body
 
-    t = 90
     pb = body.PoseBuilder(t, np.tile([0.0, 0.0, 1.0], (t, 1)))
     pb.update()
     shoulder = pb.pos("RightArm")
     wrist = shoulder + np.array([0.25, -0.15, -0.3])
     pole = np.tile([-0.3, -0.6, -1.0], (t, 1))
+    return pb, shoulder, wrist, pole, body._arm_frames("Right", shoulder, wrist, pole)[1]
+
+
+def test_a_fitted_arm_keeps_the_designed_elbow_inside_the_ranges_and_leaves_it_beyond():
+    """The elbow swivel turns only where the designed one would put a joint past ARM_RANGE_FILL of its range."""
+    from mjmotion.synth import body
+
+    t = 90
+    pb, shoulder, wrist, pole, fore = _right_arm(t)
     # The hand continues the forearm (no swivel needed), then turns 150° about the vertical over half a second.
-    _, fore, _ = body._arm_frames("Right", shoulder, wrist, pole)
     turn = np.radians(150.0) * body.min_jerk((np.arange(t) - 30) / 30.0)
     hand = rot.multiply(body.axis_angle("z", turn), fore)
     parent = pb.wrot("RightShoulder")
@@ -609,12 +616,7 @@ def test_the_hit_fill_leaves_room_at_the_hit_and_the_swivel_uses_it():
     far = np.abs(np.arange(t) - hit) >= body.HIT_FILL_S * fps
     assert np.allclose(f[far], body.ARM_RANGE_FILL) and np.all(np.diff(f[: hit + 1]) <= 0) and np.all(np.diff(f[hit:]) >= 0)
 
-    pb = body.PoseBuilder(t, np.tile([0.0, 0.0, 1.0], (t, 1)))
-    pb.update()
-    shoulder = pb.pos("RightArm")
-    wrist = shoulder + np.array([0.25, -0.15, -0.3])
-    pole = np.tile([-0.3, -0.6, -1.0], (t, 1))
-    _, fore, _ = body._arm_frames("Right", shoulder, wrist, pole)
+    pb, shoulder, wrist, pole, fore = _right_arm(t)
     hand = rot.multiply(body.axis_angle("z", np.full(t, np.radians(75.0))), fore)  # a hand turned against its forearm
     parent = pb.wrot("RightShoulder")
     designed = body.arm_fill("Right", parent, shoulder, wrist, pole, hand)
