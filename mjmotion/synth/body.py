@@ -295,8 +295,7 @@ class PoseBuilder:
 
         ``fit_range`` (with ``hand_world``): a hand the prop turns may need more than the wrist
         allows, so the elbow swings about the shoulder–wrist line away from ``pole`` where that keeps
-        the shoulder, elbow and wrist inside :data:`ARM_RANGE_FILL` of their ranges
-        (:func:`arm_swivel`), and the hand's roll about the forearm is shared between the forearm
+        the shoulder, elbow and wrist inside ``fill`` of their ranges (:func:`arm_swivel`), and the hand's roll about the forearm is shared between the forearm
         (pronation, which the forearm does) and the wrist so neither goes further than the other
         needs (:func:`twist_share`). ``fps``: the clip's frame rate (the swivel's smoothness is per second);
         ``fill``: the fraction of range to keep inside, one for all frames or ``(T,)`` (lower where
