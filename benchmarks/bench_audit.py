@@ -118,9 +118,10 @@ def percentile(values: list[float], q: float) -> float:
 
 
 def acceptance(tmp: str, rounds: int) -> None:
-    """``audit --workers 2`` against ``evaluate --jobs 2`` on the shared clips: fresh processes, interleaved."""
+    """``audit --workers 2`` against ``evaluate --jobs 2`` on the shared clips: fresh processes, interleaved;
+    and ``audit --resume`` of each audit's unchanged folder right after it (a fraction of the first run)."""
     cli = [sys.executable, "-m", "mjmotion.cli"]
-    runs: dict[str, list[tuple[float, float]]] = {"evaluate": [], "audit": []}
+    runs: dict[str, list[tuple[float, float]]] = {"evaluate": [], "audit": [], "resume": []}
     for i in range(rounds):
         # Alternate which goes first, so neither always runs right after the other's page-cache and CPU state.
         order = ("evaluate", "audit") if i % 2 == 0 else ("audit", "evaluate")
@@ -131,15 +132,22 @@ def acceptance(tmp: str, rounds: int) -> None:
                 else ["audit", str(data_dir()), "-o", f"{tmp}/accept_{i}", "--workers", "2"]
             )
             runs[name].append(wall_and_cpu([*cli, *args]))
+            if name == "audit":
+                runs["resume"].append(wall_and_cpu([*cli, "audit", str(data_dir()), "-o", f"{tmp}/accept_{i}", "--workers", "2", "--resume"]))
     print(f"\n## The 42 shared clips, whole commands (fresh processes, {rounds} interleaved rounds)\n")
-    print(f"{'command':52s} {'wall median':>11s} {'wall p90':>9s} {'CPU median':>10s} {'CPU p90':>8s}")
+    print(f"{'command':60s} {'wall median':>11s} {'wall p90':>9s} {'CPU median':>10s} {'CPU p90':>8s}")
     stats = {}
-    for name, label in (("evaluate", f"mjmotion evaluate {data_dir()} --jobs 2"), ("audit", f"mjmotion audit {data_dir()} -o OUT --workers 2")):
+    for name, label in (
+        ("evaluate", f"mjmotion evaluate {data_dir()} --jobs 2"),
+        ("audit", f"mjmotion audit {data_dir()} -o OUT --workers 2"),
+        ("resume", "the same audit again with --resume (nothing changed)"),
+    ):
         walls, cpus = [w for w, _ in runs[name]], [c for _, c in runs[name]]
         stats[name] = (statistics.median(walls), percentile(walls, 90), statistics.median(cpus), percentile(cpus, 90))
-        print(f"{label:52s} {stats[name][0]:10.2f}s {stats[name][1]:8.2f}s {stats[name][2]:9.2f}s {stats[name][3]:7.2f}s")
-    ratios = [a / e for a, e in zip(stats["audit"], stats["evaluate"])]
-    print(f"{'audit / evaluate':52s} {ratios[0]:10.2f}x {ratios[1]:8.2f}x {ratios[2]:9.2f}x {ratios[3]:7.2f}x")
+        print(f"{label:60s} {stats[name][0]:10.2f}s {stats[name][1]:8.2f}s {stats[name][2]:9.2f}s {stats[name][3]:7.2f}s")
+    for a, b in (("audit", "evaluate"), ("resume", "audit")):
+        ratios = [x / y for x, y in zip(stats[a], stats[b])]
+        print(f"{a + ' / ' + b:60s} {ratios[0]:10.2f}x {ratios[1]:8.2f}x {ratios[2]:9.2f}x {ratios[3]:7.2f}x")
     per_round = [a[0] / e[0] for a, e in zip(runs["audit"], runs["evaluate"])]
     print(f"audit/evaluate wall per round: {', '.join(f'{r:.2f}' for r in per_round)} (median {statistics.median(per_round):.2f})")
 

@@ -51,6 +51,8 @@ _OUTPUT_OPTIONS = ("path", "json", "csv", "force", "jobs")
 _FINAL_ERRORS = ("input",)
 #: The files an audit writes in its output folder.
 OUTPUTS = ("audit.csv", "audit.parquet", "summary.md", "histograms.png")
+#: The PNG text entry holding :func:`histograms_digest` of what ``histograms.png`` draws.
+HISTOGRAMS_KEY = "mjmotion-histograms"
 #: Clips listed per metric among the worst in the summary.
 WORST = 5
 #: The headline metrics drawn as histograms in the summary (docs/METRICS.md; every metric is in its tables).
@@ -547,13 +549,15 @@ def plan(
 @dataclass(frozen=True)
 class Result:
     """What :func:`run` did: every row (one per clip, in path order), how many were computed now, the
-    wall time, the executor's description and the files written."""
+    wall time, the executor's description, the files written and the files kept as they were (the
+    histograms of a resumed audit whose drawn values did not change)."""
 
     rows: list[dict[str, Any]]
     computed: int
     seconds: float
     executor: str
     files: list[str]
+    unchanged: tuple[str, ...] = ()
 
 
 def _load_drawing() -> None:
@@ -593,8 +597,10 @@ def run(
         table.write_parquet()
         _load_drawing()
 
+    # A resumed audit with nothing new to evaluate sends nothing out (``ex`` may be a bare Executor).
+    outcomes = ex.run(audit_clip, tasks, timeout=timeout, desc="audit", unit="clip", progress=progress, meanwhile=meanwhile) if tasks else ()
     try:
-        for out in ex.run(audit_clip, tasks, timeout=timeout, desc="audit", unit="clip", progress=progress, meanwhile=meanwhile):
+        for out in outcomes:
             c = by_rel[out.key]
             value = out.value if out.ok else {"error": out.error}
             err = value.get("error")
@@ -611,9 +617,10 @@ def run(
         table.close()
     rows = sorted(table.rows, key=lambda r: r["path"])
     seconds = time.perf_counter() - work.started
+    where = ex.describe() if todo else "no workers (nothing new to evaluate)"
     files = [str(table.csv), str(table.parquet)]
-    files += write_summary(out_dir, rows, root=root, executor=ex.describe(), computed=len(todo), seconds=seconds, timeout=timeout)
-    return Result(rows, len(todo), seconds, ex.describe(), files)
+    written, unchanged = write_summary(out_dir, rows, root=root, executor=where, computed=len(todo), seconds=seconds, timeout=timeout)
+    return Result(rows, len(todo), seconds, where, files + written, unchanged)
 
 
 # --------------------------------------------------------------------------- the summary
@@ -632,10 +639,19 @@ def numeric_metrics(rows: Sequence[Mapping[str, Any]]) -> dict[str, list[tuple[f
     return cols
 
 
+def histograms_digest(headline: Mapping[str, Sequence[float]], title: str) -> str:
+    """What ``histograms.png`` draws, as a SHA-256: the headline values, the title and the mjmotion version
+    (stored in the PNG, so a resumed audit whose values did not change keeps the picture it has)."""
+    drawn = {"version": __version__, "title": title, "series": {k: [float(v) for v in vals] for k, vals in headline.items()}}
+    return hashlib.sha256(json.dumps(drawn, sort_keys=True).encode()).hexdigest()
+
+
 def write_summary(
     out_dir: Path, rows: Sequence[Mapping[str, Any]], *, root: Path, executor: str, computed: int, seconds: float, timeout: float | None
-) -> list[str]:
-    """``summary.md`` and ``histograms.png``: counts by flavour, distributions, worst clips, errors, parameters."""
+) -> tuple[list[str], tuple[str, ...]]:
+    """``summary.md`` and ``histograms.png``: counts by flavour, distributions, worst clips, errors, parameters.
+    Returns the files written and the files kept: ``histograms.png`` is drawn again only when what it
+    draws changed (:func:`histograms_digest`, stored in the PNG; Matplotlib is not even loaded otherwise)."""
     import numpy as np
 
     from . import plots
@@ -658,14 +674,22 @@ def write_summary(
         n[0 if r.get("status") == "ok" else 1] += 1
     lines += [f"| {f} | {a + b} | {a} | {b} |" for f, (a, b) in sorted(by.items())]
     metrics = numeric_metrics(rows)
-    files = []
+    files: list[str] = []
+    unchanged: tuple[str, ...] = ()
     varying = {k: [v for v, _ in vals] for k, vals in metrics.items() if len({v for v, _ in vals}) > 1}
     # Histograms of the headline metrics that vary (a breakdown like sensitivity[h_c=…].x, hit.x and the rest are in the tables).
     headline = {k: varying[k] for k in HEADLINE if k in varying}
+    png = out_dir / "histograms.png"
     if headline:
-        png = out_dir / "histograms.png"
-        plots.histograms(headline, png, title=f"{len(ok)} clips of {root.name}")
-        files.append(str(png))
+        title = f"{len(ok)} clips of {root.name}"
+        digest = histograms_digest(headline, title)
+        if plots.png_text(png).get(HISTOGRAMS_KEY) == digest:
+            unchanged = (str(png),)
+        else:
+            plots.histograms(headline, png, title=title, metadata={HISTOGRAMS_KEY: digest})
+            files.append(str(png))
+    else:
+        png.unlink(missing_ok=True)  # an older table's picture would no longer match summary.md
     if metrics:
         lines += [
             "",
@@ -700,4 +724,4 @@ def write_summary(
         "- metric definitions: the report fields of mjmotion/evaluate.py (see `mjmotion evaluate --help`)",
     ]
     write_text_atomic(out_dir / "summary.md", "\n".join(lines) + "\n")
-    return [str(out_dir / "summary.md"), *files]
+    return [str(out_dir / "summary.md"), *files], unchanged

@@ -37,12 +37,24 @@ def _figure(
     return fig, axes
 
 
-def _save(fig, out: str | os.PathLike[str], dpi: int) -> Path:
+def _save(fig, out: str | os.PathLike[str], dpi: int, metadata: Mapping[str, str] | None = None) -> Path:
     path = Path(out)
     if path.suffix.lower() != ".png":
         raise MjmotionError(f"{path}: plots are written as PNG; expected a .png path")
-    write_with(path, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi))
+    write_with(path, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi, metadata=dict(metadata) if metadata else None))
     return path
+
+
+def png_text(path: str | os.PathLike[str]) -> dict[str, str]:
+    """The text entries of a PNG (what :func:`histograms` wrote as ``metadata``); empty when the file
+    is missing or not a readable PNG."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as im:
+            return {str(k): str(v) for k, v in getattr(im, "text", {}).items()}
+    except (OSError, UnidentifiedImageError, ValueError):
+        return {}
 
 
 def _array(name: str, value, ndim: int, cols: int | tuple[int, ...] | None = None) -> np.ndarray:
@@ -484,8 +496,17 @@ def skinning_artefacts(
     return _save(fig, out, dpi)
 
 
-def histograms(values: Mapping[str, Sequence[float]], out: str | os.PathLike[str], *, title: str = "", bins: int = 30, dpi: int = 100) -> Path:
-    """One small histogram per named series (finite values only; a series with none is skipped), on a grid."""
+def histograms(
+    values: Mapping[str, Sequence[float]],
+    out: str | os.PathLike[str],
+    *,
+    title: str = "",
+    bins: int = 30,
+    dpi: int = 100,
+    metadata: Mapping[str, str] | None = None,
+) -> Path:
+    """One small histogram per named series (finite values only; a series with none is skipped), on a grid;
+    ``metadata``: text entries stored in the PNG (:func:`png_text` reads them back)."""
     series = {k: a[np.isfinite(a)] for k, v in values.items() if (a := np.asarray(v, dtype=float)).size}
     series = {k: a for k, a in series.items() if a.size}
     if not series:
@@ -511,4 +532,4 @@ def histograms(values: Mapping[str, Sequence[float]], out: str | os.PathLike[str
         ax.set_visible(False)
     if title:
         fig.suptitle(title, fontsize=10)
-    return _save(fig, out, dpi)
+    return _save(fig, out, dpi, metadata)

@@ -494,7 +494,73 @@ def test_the_summary_draws_the_headline_metrics_that_vary(tmp_path, monkeypatch)
          "max_root_step_m": 0.01 * i}
         for i in range(4)
     ]  # fmt: skip
-    files = audit.write_summary(tmp_path, rows, root=tmp_path, executor="serial", computed=4, seconds=1.0, timeout=None)
-    assert set(drawn) == {"planted_skate_mm_per_s"} and str(tmp_path / "histograms.png") in files
+    files, unchanged = audit.write_summary(tmp_path, rows, root=tmp_path, executor="serial", computed=4, seconds=1.0, timeout=None)
+    assert set(drawn) == {"planted_skate_mm_per_s"} and str(tmp_path / "histograms.png") in files and not unchanged
     text = (tmp_path / "summary.md").read_text()
     assert "max_root_step_m" in text and "sensitivity[h_c=0.03].skate_mm_per_s" in text  # still in the tables
+
+
+def test_the_histograms_are_drawn_again_only_when_what_they_draw_changes(tmp_path, monkeypatch):
+    """histograms.png carries the digest of what it draws: the same rows keep the picture (Matplotlib is
+    not called), a changed value, title or a picture without the digest draws it again; a table with
+    nothing that varies removes an older picture (summary.md no longer shows one)."""
+    from mjmotion import plots
+
+    rows = [{"path": f"c{i}.bvh", "status": "ok", "planted_skate_mm_per_s": 10.0 * i, "float_mm": 0.5 * i} for i in range(5)]
+    png = tmp_path / "histograms.png"
+    summary = dict(root=tmp_path, executor="serial", computed=5, seconds=1.0, timeout=None)
+    files, unchanged = audit.write_summary(tmp_path, rows, **summary)
+    first = png.read_bytes()
+    assert str(png) in files and not unchanged
+    assert plots.png_text(png)[audit.HISTOGRAMS_KEY] == audit.histograms_digest(
+        {"planted_skate_mm_per_s": [10.0 * i for i in range(5)], "float_mm": [0.5 * i for i in range(5)]}, f"5 clips of {tmp_path.name}"
+    )
+    calls = []
+    real = plots.histograms
+    monkeypatch.setattr(plots, "histograms", lambda *a, **kw: calls.append(1) or real(*a, **kw))
+    files, unchanged = audit.write_summary(tmp_path, [dict(r) for r in rows], **summary)
+    assert not calls and unchanged == (str(png),) and str(png) not in files and png.read_bytes() == first
+    rows[3]["float_mm"] = 7.0  # one value moved: drawn again, with the new digest
+    files, unchanged = audit.write_summary(tmp_path, rows, **summary)
+    assert calls == [1] and str(png) in files and not unchanged and png.read_bytes() != first
+    png.write_bytes(first[:100])  # a cut or foreign picture has no readable digest: drawn again
+    audit.write_summary(tmp_path, rows, **summary)
+    drawn = {"planted_skate_mm_per_s": [r["planted_skate_mm_per_s"] for r in rows], "float_mm": [r["float_mm"] for r in rows]}
+    assert calls == [1, 1] and plots.png_text(png)[audit.HISTOGRAMS_KEY] == audit.histograms_digest(drawn, f"5 clips of {tmp_path.name}")
+    constant = [{**r, "planted_skate_mm_per_s": 1.0, "float_mm": 0.0} for r in rows]
+    files, unchanged = audit.write_summary(tmp_path, constant, **summary)
+    assert not png.exists() and not unchanged and "histograms.png" not in (tmp_path / "summary.md").read_text()
+
+
+def test_resuming_an_unchanged_folder_starts_no_workers(tmp_path, capsys, monkeypatch):
+    """`audit --resume` of a folder whose rows all answer: no cluster started, no scheduler contacted, the
+    rows and the picture kept; a changed file starts the workers again and is evaluated."""
+    from mjmotion import executor as ex_module
+
+    root = tmp_path / "clips"
+    root.mkdir()
+    for i in range(2):
+        assert cli.main(["synth", "walk", "--seconds", "0.5", "--seed", str(i), "-o", str(root / f"walk{i}.bvh")]) == 0
+    out = tmp_path / "audit"
+    assert cli.main(["audit", str(root), "-o", str(out), "--workers", "1"]) == 0
+    capsys.readouterr()
+    before = _snapshot(out)
+
+    def refuse(*a, **kw):
+        raise AssertionError("no workers should be started for an unchanged folder")
+
+    monkeypatch.setattr(ex_module, "start", refuse)
+    # Even a scheduler that answers nothing is not contacted: there is nothing to send it.
+    assert cli.main(["audit", str(root), "-o", str(out), "--resume", "--scheduler", "tcp://127.0.0.1:9"]) == 0
+    text = capsys.readouterr().out
+    assert "no workers started" in text and "2 clips: 2 ok, 0 error; 0 evaluated" in text
+    assert f"unchanged: {out / 'histograms.png'}" in text
+    after = _snapshot(out)
+    assert after["histograms.png"] == before["histograms.png"] and _rows(out).keys() == {"walk0.bvh", "walk1.bvh"}
+    assert "0 evaluated in this run (2 kept" in (out / "summary.md").read_text()
+    monkeypatch.undo()
+    m = bvh.read(root / "walk1.bvh")
+    bvh.write(m[: m.n_frames // 2], root / "walk1.bvh")
+    assert cli.main(["audit", str(root), "-o", str(out), "--resume", "--workers", "1"]) == 0
+    text = capsys.readouterr().out
+    assert "LocalCluster" in text and "1 evaluated" in text and _rows(out)["walk1.bvh"]["frames"] == m.n_frames // 2

@@ -34,7 +34,9 @@ its row, error rows included.
 
 With --resume, rows whose file (SHA-256), judge options, sources, judge revision and mjmotion
 version are unchanged are kept and not recomputed (errors that might go away -- a time limit, a
-lost worker -- are retried); a changed or new file is evaluated.
+lost worker -- are retried); a changed or new file is evaluated. When nothing is left to evaluate, no
+workers are started (and no --scheduler contacted), and histograms.png is kept when what it draws is
+unchanged (a digest of its values is stored in the PNG).
 
 --source-map FILE is a JSON object from a clip's path under DIR to the clip (or list of clips) it
 was made from, relative to FILE's folder: those rows add the source-relative measures
@@ -112,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
 
     from .. import audit
     from ..errors import require_number
-    from ..executor import check_options, start
+    from ..executor import Executor, check_options, start
     from ._common import units_scale
 
     if args.timeout is not None:
@@ -131,19 +133,26 @@ def run(args: argparse.Namespace) -> int:
     # hashing and reading release the interpreter's lock, the start-up is mostly imports and forks.
     with ThreadPoolExecutor(1, thread_name_prefix="audit-plan") as pool:
         planned = pool.submit(audit.plan, root, out, resume=args.resume, source_map=source_map, opts=opts)
-        ex = start(workers=workers, scheduler=args.scheduler, connect_timeout=args.connect_timeout, preload=audit.PRELOAD, dashboard=args.dashboard)
+        # A resume first learns whether anything is left to evaluate: an unchanged folder starts no workers
+        # (and contacts no scheduler), so it costs a fraction of the first run.
+        idle = args.resume and not planned.result().todo
+        where = dict(workers=workers, scheduler=args.scheduler, connect_timeout=args.connect_timeout, dashboard=args.dashboard)
+        ex = Executor() if idle else start(**where, preload=audit.PRELOAD)
         with ex:
             if args.force:  # only once the workers answer: a refused start leaves the old audit as it was
                 for name in audit.OUTPUTS:
                     (out / name).unlink(missing_ok=True)
-            print(f"auditing {root} on {ex.describe()}" + (f"; dashboard {ex.dashboard}" if ex.dashboard else ""), flush=True)
-            if args.dashboard and ex.dashboard is None and args.scheduler is None:
+            if idle:
+                print(f"auditing {root}: every file's row is kept (nothing new or changed); no workers started", flush=True)
+            else:
+                print(f"auditing {root} on {ex.describe()}" + (f"; dashboard {ex.dashboard}" if ex.dashboard else ""), flush=True)
+            if args.dashboard and ex.dashboard is None and args.scheduler is None and not idle:
                 print("note: --dashboard: Dask started no dashboard (it needs bokeh: pip install bokeh)", flush=True)
             res = audit.run(root, out, ex, timeout=args.timeout, opts=opts, planned=planned.result())
     n_err = sum(r["status"] != "ok" for r in res.rows)
     rate = f" ({res.computed / res.seconds:.2f} clips/s)" if res.computed and res.seconds > 0 else ""
     print(f"{len(res.rows)} clips: {len(res.rows) - n_err} ok, {n_err} error; {res.computed} evaluated in {res.seconds:.1f} s{rate}")
-    print("wrote " + ", ".join(res.files))
+    print("wrote " + ", ".join(res.files) + (f"; unchanged: {', '.join(res.unchanged)}" if res.unchanged else ""))
     # At exit the interpreter's last garbage collection walks every object Dask, Matplotlib, Arrow and the
     # judge left (a second or more on the shared clips, longer than the evaluation of many of them);
     # everything is written and closed by now, so that walk is skipped (in-process callers exit later).
