@@ -452,23 +452,18 @@ def _safe(path: str, opts: dict[str, Any]) -> dict[str, Any]:
 
 
 def evaluate_files(files: list[str], opts: dict[str, Any], jobs: int) -> list[dict[str, Any]]:
-    """Evaluate many files in ``jobs`` processes with a progress bar; a bad file gives ``{"file", "error"}``.
+    """Evaluate many files in ``jobs`` processes (:mod:`mjmotion.executor`'s process pool) with a progress
+    bar on a terminal; a bad file gives ``{"file", "error"}``.
 
     Results come back in ``files`` order; the largest files are started first so that no worker
     is left with a long clip at the end, and the judge is imported before the workers fork, so
     each of them starts with MuJoCo and SciPy loaded.
     """
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    from tqdm import tqdm
-
     from .. import evaluate as _judge  # noqa: F401  (loaded once, inherited by forked workers)
+    from ..executor import in_order, start
 
-    if jobs == 1 or len(files) == 1:
-        return [_safe(f, opts) for f in tqdm(files, desc="evaluate", unit="clip", file=sys.stderr)]
-    order = sorted(range(len(files)), key=lambda i: -os.path.getsize(files[i]))
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = {i: pool.submit(_safe, files[i], opts) for i in order}
-        for _ in tqdm(as_completed(futures.values()), total=len(files), desc="evaluate", unit="clip", file=sys.stderr):
-            pass
-        return [futures[i].result() for i in range(len(files))]
+    order = sorted(range(len(files)), key=lambda i: -os.path.getsize(files[i])) if jobs > 1 else list(range(len(files)))
+    with start(jobs=jobs if len(files) > 1 else 1) as ex:
+        # A bar on a terminal only: piped or redirected, the table is all this verb prints.
+        outcomes = ex.run(_safe, [(i, (files[i], opts)) for i in order], desc="evaluate", unit="clip", progress=sys.stderr.isatty())
+        return [out.unwrap() for out in in_order(outcomes, list(range(len(files))))]

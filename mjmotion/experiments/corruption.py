@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +23,9 @@ from .. import rotations as rot
 from ..skeleton import Motion
 from ..trim import leading_transient
 from . import Table
+
+if TYPE_CHECKING:
+    from ..executor import Executor
 
 #: Clean clips per flavour, each with a partner of the same skeleton for the linear blend.
 CLEAN = (
@@ -164,9 +168,10 @@ def _judge(args: tuple[tuple[str, str], str | None]) -> tuple[str, dict[str, dic
         return pair[0], f"{type(e).__name__}: {e}"
 
 
-def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: int = 2) -> Table:
-    """Corrupt, judge and score; writes ``out_dir/table.md``."""
-    from concurrent.futures import ProcessPoolExecutor
+def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: int = 2, executor: Executor | None = None) -> Table:
+    """Corrupt, judge and score; writes ``out_dir/table.md``. Clips run on ``executor`` (Dask,
+    :mod:`mjmotion.executor`) if given, else in ``jobs`` processes."""
+    from ..executor import in_order, using
 
     if data_dir is None:
         pairs: list[tuple[str, str]] = [("walk", "run"), ("run", "walk")]
@@ -176,11 +181,13 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
         pairs = [p for p in chosen if (data_dir / p[0]).is_file() and (data_dir / p[1]).is_file()]
         label = "clean CMU clips: " + ", ".join(p[0].split("/")[0].replace("cmu_", "") + " " + Path(p[0]).stem for p in pairs)
     args = [(p, None if data_dir is None else str(data_dir)) for p in pairs]
-    if jobs > 1 and len(args) > 1:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            results = list(pool.map(_judge, args))
-    else:
-        results = [_judge(a) for a in args]
+    with using(executor, jobs if len(args) > 1 else 1) as ex:
+        results = [
+            out.unwrap()
+            for out in in_order(
+                ex.run(_judge, [(a[0][0], (a,)) for a in args], desc="corruption", unit="clip", progress=not quick), [a[0][0] for a in args]
+            )
+        ]
     good = {k: v for k, v in results if isinstance(v, dict)}
     table = Table(
         "Corruption benchmark: ROC AUC of corrupted vs clean, per metric",

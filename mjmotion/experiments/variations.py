@@ -24,14 +24,17 @@ Real data: the golf swings ``64_01..05`` (the fitted club's head) and the kicks 
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import Table, single_thread_blas
 from .hitpoint_grid import Shot, load_shots
+
+if TYPE_CHECKING:
+    from ..executor import Executor
 
 #: Scale factors of the exaggerated and muted variants (§3.2.3, Figure 3.7 red/green).
 EXAGGERATE, MUTE = 1.3, 0.7
@@ -278,35 +281,20 @@ def shared_space(shots: list[Shot], out_dir: Path) -> list[Path]:
     return out
 
 
-def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: int = 2) -> Table:
-    """Make, clean and measure the variants; write ``out_dir/table.md`` and the score-path PNGs."""
-    from tqdm import tqdm
-
+def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: int = 2, executor: Executor | None = None) -> Table:
+    """Make, clean and measure the variants; write ``out_dir/table.md`` and the score-path PNGs. Shots
+    run on ``executor`` (Dask, :mod:`mjmotion.executor`) if given, else in ``jobs`` processes."""
     from .. import evaluate as ev
     from .. import variations as V
+    from ..executor import in_order, using
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     shots = load_shots(data_dir, quick)
-    results: list[ShotResult] = []
-    bar = tqdm(total=len(shots), desc="variations", unit="shot", file=sys.stderr, disable=quick)
-    if jobs > 1 and len(shots) > 1:
-        from concurrent.futures import ProcessPoolExecutor
-
-        # the longest clips first
-        order = sorted(range(len(shots)), key=lambda i: -shots[i].motion.n_frames)
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = {i: pool.submit(_task, shots[i]) for i in order}
-            got = {}
-            for i in order:
-                got[i] = futures[i].result()
-                bar.update()
-        results = [got[i] for i in range(len(shots))]
-    else:
-        for s in shots:
-            results.append(_task(s))
-            bar.update()
-    bar.close()
+    order = sorted(range(len(shots)), key=lambda i: -shots[i].motion.n_frames)  # the longest clips first
+    with using(executor, jobs if len(shots) > 1 else 1) as pool:
+        outcomes = pool.run(_task, [(i, (shots[i],)) for i in order], desc="variations", unit="shot", progress=not quick)
+        results: list[ShotResult] = [out.unwrap() for out in in_order(outcomes, list(range(len(shots))))]
 
     table = Table("Shot variations in PCA space (seed 003 §3)" + (" — quick" if quick else ""), COLUMNS)
     with single_thread_blas():
