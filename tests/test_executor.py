@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import os
 import signal
 import socket
@@ -259,3 +260,49 @@ def test_experiment_scripts_take_workers_and_scheduler(tmp_path, monkeypatch, ca
         experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--workers", "0"])
     err = capsys.readouterr().err
     assert refused.value.code == 2 and "error: argument --workers: 0: expected a number of worker processes" in err and "Traceback" not in err
+
+
+def test_the_corruption_and_variations_experiments_run_on_the_executor(tmp_path):
+    """Both send their clips out through the executor they are given (one place decides how work is sent)."""
+    from mjmotion.experiments import corruption, variations
+
+    spy = Spy()
+    table = corruption.run(tmp_path / "corruption", None, quick=True, executor=spy)
+    (fn, keys), *more = spy.calls
+    assert fn is corruption._judge and keys == ["walk", "run"] and not more and len(table.rows) == len(corruption.CORRUPTIONS)
+    spy = Spy()
+    table = variations.run(tmp_path / "variations", None, quick=True, executor=spy)
+    (fn, keys), *more = spy.calls
+    shots = variations.load_shots(None, True)
+    assert fn is variations._task and not more and sorted(keys) == list(range(len(shots)))
+    assert [shots[k].motion.n_frames for k in keys] == sorted((s.motion.n_frames for s in shots), reverse=True)  # longest first
+    assert {r[0] for r in table.rows} == {s.name for s in shots}  # every shot's rows, in the table
+
+
+def test_evaluate_folder_runs_on_the_executors_process_pool(tmp_path, monkeypatch):
+    """`evaluate DIR --jobs 2` asks mjmotion.executor for its pool and gets every file's result, in file order,
+    the largest file sent first; the results equal a serial run's."""
+    from mjmotion import cli
+    from mjmotion.commands import evaluate as cmd
+
+    for i, seconds in enumerate((0.5, 1.0, 0.7)):
+        assert cli.main(["synth", "walk", "--seconds", str(seconds), "--seed", str(i), "-o", str(tmp_path / f"w{i}.bvh")]) == 0
+    (tmp_path / "bad.bvh").write_text("HIERARCHY\n")
+    files = sorted(str(p) for p in tmp_path.glob("*.bvh"))
+    opts = {k: v for k, v in vars(cli.build_parser(["evaluate", "x"]).parse_args(["evaluate", "x"])).items() if not k.startswith("_")}
+    asked, spies = [], []
+
+    def start(**kw):
+        asked.append(kw)
+        spies.append(Spy())
+        return spies[-1]
+
+    monkeypatch.setattr(executor, "start", start)
+    got = cmd.evaluate_files(files, opts, 2)
+    assert asked == [{"jobs": 2}] and spies[0].calls[0][0] is cmd._safe
+    sizes = [os.path.getsize(files[k]) for k in spies[0].calls[0][1]]
+    assert sizes == sorted(sizes, reverse=True)
+    assert [r["file"] for r in got] == files and "error" in got[0] and all("error" not in r for r in got[1:])
+    monkeypatch.undo()
+    serial = cmd.evaluate_files(files, opts, 1)
+    assert json.dumps([r.get("row") for r in got]) == json.dumps([r.get("row") for r in serial])  # NaN included

@@ -199,11 +199,33 @@ def test_hit_adapter_reaches_the_ball_and_simulates_its_flight():
 
 
 # --- the verb -------------------------------------------------------------------------------
+def _default_sigint() -> None:
+    # A shell without job control starts a background job (`pytest … &`) with SIGINT ignored, and a
+    # child keeps an ignored SIGINT: the studio would then rightly not stop on Ctrl-C. Give it the default.
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _studio(*args: str) -> subprocess.Popen:
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    # -X faulthandler: a studio that hangs can be made to print every thread's stack (_stacks)
     return subprocess.Popen(
-        [sys.executable, "-m", "mjmotion.cli", "studio", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT
+        [sys.executable, "-X", "faulthandler", "-m", "mjmotion.cli", "studio", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        cwd=ROOT,
+        preexec_fn=_default_sigint,
     )
+
+
+def _stacks(p: subprocess.Popen) -> str:
+    """A hung studio's thread stacks (SIGABRT makes its fault handler print them), for the failure message."""
+    p.send_signal(signal.SIGABRT)
+    try:
+        return p.communicate(timeout=10)[1][-8000:]
+    except subprocess.TimeoutExpired:
+        return "(no stacks: the process did not answer SIGABRT)"
 
 
 def _free_port(host: str) -> int:
@@ -223,7 +245,11 @@ def test_studio_verb_serves_its_url_and_stops_cleanly_on_ctrl_c(tmp_path):
         assert b"<html" in html.lower()
         start = time.perf_counter()
         p.send_signal(signal.SIGINT)
-        assert p.wait(10) == 0
+        try:
+            code = p.wait(10)
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"the studio did not stop within 10 s of Ctrl-C; its threads:\n{_stacks(p)}")
+        assert code == 0
         assert time.perf_counter() - start < 5.0
         err = p.stderr.read()
         assert err.startswith("warning: listening on 127.0.0.2") and "error" not in err
