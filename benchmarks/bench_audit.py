@@ -121,8 +121,11 @@ def acceptance(tmp: str, rounds: int) -> None:
     """``audit --workers 2`` against ``evaluate --jobs 2`` on the shared clips: fresh processes, interleaved;
     and ``audit --resume`` of each audit's unchanged folder right after it (a fraction of the first run)."""
     cli = [sys.executable, "-m", "mjmotion.cli"]
-    runs: dict[str, list[tuple[float, float]]] = {"evaluate": [], "audit": [], "resume": []}
+    runs: dict[str, list[tuple[float, float]]] = {"evaluate": [], "audit": [], "resume": [], "python": [], "dask": []}
     for i in range(rounds):
+        # What importing Dask costs a fresh process beyond the judge (the audit pays it; evaluate's pool does not).
+        runs["python"].append(wall_and_cpu([sys.executable, "-c", "import mjmotion.evaluate"]))
+        runs["dask"].append(wall_and_cpu([sys.executable, "-c", "import mjmotion.evaluate, dask, distributed"]))
         # Alternate which goes first, so neither always runs right after the other's page-cache and CPU state.
         order = ("evaluate", "audit") if i % 2 == 0 else ("audit", "evaluate")
         for name in order:
@@ -150,6 +153,10 @@ def acceptance(tmp: str, rounds: int) -> None:
         print(f"{a + ' / ' + b:60s} {ratios[0]:10.2f}x {ratios[1]:8.2f}x {ratios[2]:9.2f}x {ratios[3]:7.2f}x")
     per_round = [a[0] / e[0] for a, e in zip(runs["audit"], runs["evaluate"])]
     print(f"audit/evaluate wall per round: {', '.join(f'{r:.2f}' for r in per_round)} (median {statistics.median(per_round):.2f})")
+    dask_import = statistics.median(d[0] - p[0] for d, p in zip(runs["dask"], runs["python"]))
+    print(
+        f"importing Dask beside the judge in a fresh process (python -c 'import mjmotion.evaluate, dask, distributed' minus without Dask): {dask_import:.2f} s wall"
+    )
 
 
 def wall_and_cpu(cmd: list[str]) -> tuple[float, float]:
