@@ -19,6 +19,7 @@ Reusable pieces:
 
 - :func:`geom_frames`, :func:`box_corners`, :func:`lowest_points`, :func:`lowest_heights`, :func:`lowest_body_point`
 - :func:`calibrate_soles` ``(skeleton, poses) -> Soles``, :func:`sole_points` ``(soles, pose)``
+- :func:`sole_boxes`, :func:`judged_model`: a model whose drawn feet are the judge's soles
 - :class:`FootTrack`, :func:`foot_track`, :func:`foot_heights_speeds`
 - :func:`judged_feet` ``(compiled, motion, pose, sources, floor) -> (FootTrack, Soles, Floor)``, :func:`judged_floor`: the judge's feet and floor
 - :func:`level_pose`, :func:`level_motion`: a clip in the levelled frame of a tilted floor (``Floor.level``)
@@ -312,6 +313,59 @@ def sole_points(soles: Soles, pose: Pose) -> np.ndarray:
     j = soles.joints  # (F, P)
     r = pose.joint_rotations[:, j]  # (T, F, P, 4)
     return pose.joint_positions[:, j] + rot.rotate(r, np.broadcast_to(soles.local, r.shape[:-1] + (3,)))
+
+
+def _box(a: np.ndarray, b: np.ndarray, side: np.ndarray, normal: np.ndarray, thickness: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The box whose underside is the sole patch ``a ± side`` to ``b ± side`` (midpoints of its back
+    and front edges and their half-width vector, on a sole plane with ``normal``), as ``(pos, quat,
+    half_sizes)`` in their frame. Its width runs along ``side`` (the sole's own lateral), its length
+    along the rest of ``b - a``: a ball set off the heel's line shifts the box sideways, not its tilt."""
+    y = side / max(float(np.linalg.norm(side)), 1e-9)
+    x = np.cross(y, normal)
+    x = x if x @ (b - a) >= 0 else -x
+    length = float(x @ (b - a))
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(np.column_stack([x, np.cross(normal, x), normal])).ravel())
+    half = np.array([max(0.5 * length, 0.01), float(np.linalg.norm(side)), max(0.5 * thickness, 0.005)])
+    return 0.5 * (a + b) + 0.5 * thickness * normal, rot.positive_w(q), half
+
+
+def sole_boxes(skeleton: Skeleton, soles: Soles) -> mjcf.FootBoxes:
+    """Foot boxes whose undersides are ``soles``' sole planes (:data:`mjmotion.mjcf.FootBoxes`, for
+    :func:`mjmotion.mjcf.compile`): heel to ball on the ankle, ball to toe tip on the toe joint where
+    the foot has one. A model compiled with them draws the feet where the judge measures them, so a
+    foot the judge finds on the floor touches the floor drawn at the judge's floor (the rest-pose
+    boxes of ``compile`` sit up to a few centimetres above or below those soles)."""
+    height = float(np.clip(skeleton.stature(), 0.3, 3.0))
+    rest = skeleton.rest_positions()
+    feet_ = skeleton.feet()
+    out: mjcf.FootBoxes = {}
+    for f, side in enumerate(soles.sides):
+        ankle, toe = feet_[side]
+        n, pts, joints = soles.normals[f], soles.local[f], soles.joints[f]
+        heel, ball = pts[0:2].mean(axis=0), pts[2:4].mean(axis=0)
+        # As thick as the rest-pose boxes (mjcf._foot_boxes): up to the ankle, at most 9 cm for 1.75 m.
+        thick = min(-float(heel @ n), 0.09 * height / 1.75)
+        out.setdefault(ankle, {})[f"foot/{side}"] = _box(heel, ball, 0.5 * (pts[0] - pts[1]), n, thick)
+        if toe is not None and len(joints) >= 6 and joints[4] == toe:
+            base = ball - (rest[toe] - rest[ankle])  # the ball, from the toe joint
+            tip = pts[4:6].mean(axis=0)
+            n_t = np.cross(tip - base, pts[4] - pts[5])
+            n_t = n_t / max(float(np.linalg.norm(n_t)), 1e-9)
+            n_t = n_t if n_t @ n >= 0 else -n_t
+            out.setdefault(toe, {})[f"toe/{side}"] = _box(base, tip, 0.5 * (pts[4] - pts[5]), n_t, min(-float(base @ n_t), 0.04 * height / 1.75))
+    return out
+
+
+def judged_model(motion: Motion, props: Sequence[mjcf.Prop] = ()) -> CompiledModel:
+    """``mjcf.compile(motion.skeleton, props)`` with the feet drawn on the soles the judge calibrates
+    on ``motion`` itself (:func:`calibrate_soles`, :func:`sole_boxes`): what ``render`` and the
+    studio draw. A skeleton without feet gets the plain model."""
+    plain = mjcf.compile(motion.skeleton, tuple(props))
+    if not motion.skeleton.feet() or motion.n_frames < 1:
+        return plain
+    soles = calibrate_soles(motion.skeleton, [(kinematics.forward(plain, motion), motion.fps)])
+    return mjcf.compile(motion.skeleton, tuple(props), foot_boxes=sole_boxes(motion.skeleton, soles))
 
 
 # --------------------------------------------------------------------------- tracks

@@ -42,6 +42,9 @@ BODY_MASS_INDEX = 21.5
 ANKLE_HEIGHT = 0.048
 #: Heel behind the ankle, × stature (foot length 0.152 × stature, the ankle about a fifth of it from the heel).
 HEEL_BACK = 0.03
+#: Foot geometry for :func:`compile`: per joint, box geoms ``{"foot/<side>" | "toe/<side>": (pos (3,),
+#: quat (4,) wxyz, half_sizes (3,))}`` in that joint's body frame (world-aligned at rest).
+FootBoxes = dict[int, dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]]
 #: Deepest joint chain ``compile`` accepts. MuJoCo's compile time grows with the cube of the chain
 #: depth (measured: 200 deep 0.16 s, 400 deep 1.2 s, 1,000 deep 21 s), a human skeleton is < 40 deep.
 MAX_DEPTH = 256
@@ -331,6 +334,7 @@ def compile(
     ball: Ball | None = None,
     total_mass: float | None = None,
     actuators: bool = False,
+    foot_boxes: FootBoxes | None = None,
 ) -> CompiledModel:
     """Build and compile the MuJoCo model of ``skeleton`` with optional props and a ball.
 
@@ -342,6 +346,8 @@ def compile(
         ball: a free ball, or ``None``.
         total_mass: the character's mass in kg; default ``BODY_MASS_INDEX × height²``.
         actuators: add a position servo per joint degree of freedom (see :func:`add_actuators`).
+        foot_boxes: the feet's box geoms instead of those built from the rest pose (e.g. the judge's
+            soles calibrated on a clip: :func:`mjmotion.feet.judged_model`).
     """
     depth = np.zeros(skeleton.n_joints, dtype=int)
     for j in range(1, skeleton.n_joints):
@@ -371,7 +377,7 @@ def compile(
     site_names: list[str] = []
     foot_geoms: dict[str, list[str]] = {}
     feet = skeleton.feet()
-    foot_boxes = _foot_boxes(skeleton, feet)
+    foot_boxes = _foot_boxes(skeleton, feet) if foot_boxes is None else _checked_boxes(skeleton, foot_boxes)
     ankles = {a for a, _ in feet.values()}
     segment_of = segments(skeleton)
     # Joint ranges (mjmotion/limits.py): the largest rotation from rest, in the compiler's angle unit.
@@ -526,7 +532,19 @@ def add_world(spec: mujoco.MjSpec) -> None:
     spec.visual.global_.offheight = 1080
 
 
-def _foot_boxes(skeleton: Skeleton, feet: dict[str, tuple[int, int | None]]) -> dict[int, dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]]:
+def _checked_boxes(skeleton: Skeleton, boxes: FootBoxes) -> FootBoxes:
+    """``boxes`` if every key is a foot joint and every label ``foot/<side>`` or ``toe/<side>``."""
+    feet = skeleton.feet()
+    joints = {j for a, t in feet.values() for j in (a, t) if j is not None}
+    for j, named in boxes.items():
+        for label in named:
+            kind, _, side = label.partition("/")
+            if j not in joints or kind not in ("foot", "toe") or side not in feet:
+                raise MjmotionError(f"compile: foot box {label!r} on joint {j} is not a foot or toe box of {sorted(feet)} feet")
+    return boxes
+
+
+def _foot_boxes(skeleton: Skeleton, feet: dict[str, tuple[int, int | None]]) -> FootBoxes:
     """Per joint, box geoms ``{name: (pos, quat, half_sizes)}`` in that joint's body frame.
 
     Built in the rest pose, where body frames are aligned with the world: the box runs from a

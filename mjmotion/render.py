@@ -273,8 +273,11 @@ def build_scene(
     spec.visual.global_.fovy = view.fovy
     spec.visual.rgba.haze = [0.12, 0.14, 0.17, 1.0]  # the horizon fades into the sky's lower colour
     compiled: list[mjcf.CompiledModel] = []
+    from .feet import judged_model
+
     for i, actor in enumerate(actors):
-        c = mjcf.compile(actor.motion.skeleton, actor.props)
+        # The feet drawn on the judge's soles, so a foot it finds on its floor touches the floor drawn.
+        c = judged_model(actor.motion, actor.props)
         compiled.append(c)
         child = c.spec.copy()  # attach moves elements; keep the compiled model's spec intact
         _paint(child, actor.color or PALETTE[i % len(PALETTE)], {p.name for p in actor.props})

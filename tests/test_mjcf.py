@@ -228,3 +228,18 @@ def test_servos_hold_the_keyframe_for_two_seconds_without_instability(name):
             assert np.all(np.isfinite(d.qpos)) and all(w.number == 0 for w in d.warning), [w.number for w in d.warning]
     # Every joint within 25° of its keyframe angle for 2 s (the body, unbalanced, may tip over); without servos it folds up.
     assert worst["servos"] < 25.0 and worst["free"] > 45.0
+
+
+def test_foot_boxes_given_replace_the_rest_pose_boxes_and_bad_ones_are_refused():
+    from mjmotion import synth
+
+    skel = synth.skeleton()
+    ankle, toe = skel.feet()["left"]
+    box = (np.array([0.02, 0.0, -0.05]), np.array([1.0, 0.0, 0.0, 0.0]), np.array([0.1, 0.04, 0.02]))
+    c = mjcf.compile(skel, foot_boxes={ankle: {"foot/left": box}})
+    g = c.model.geom("foot/left")
+    assert np.allclose(g.pos, box[0]) and np.allclose(g.size, box[2])
+    assert len(c.foot_geoms["left"]) == 1 and "right" not in c.foot_geoms  # only what was given
+    for bad, joint in (("shoe/left", ankle), ("foot/middle", ankle), ("foot/left", 0)):
+        with pytest.raises(MjmotionError, match="foot box"):
+            mjcf.compile(skel, foot_boxes={joint: {bad: box}})

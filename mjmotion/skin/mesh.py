@@ -160,7 +160,10 @@ def surface(shapes: Shapes, voxel: float, blend: float, margin: float, smoothing
     if shapes.n_shapes == 0:
         raise MjmotionError("the character has no bone long enough to give it a body (every bone is under 1 cm)")
     field, origin = distance_field(shapes, voxel, blend, pad=blend + margin + 2 * voxel)
-    verts, faces, _, _ = measure.marching_cubes(field, level=margin, spacing=(voxel, voxel, voxel))
+    # The level a hair off ``margin``: a box face at exactly ``margin`` from a grid plane (axis-aligned
+    # boxes in the bind pose) puts several vertices on one grid point, which merge into a pinched edge.
+    level = margin + 1e-6 * voxel
+    verts, faces, _, _ = measure.marching_cubes(field, level=level, spacing=(voxel, voxel, voxel))
     mesh = trimesh.Trimesh(verts + origin, faces, process=True)
     if smoothing:
         trimesh.smoothing.filter_taubin(mesh, lamb=0.5, nu=0.53, iterations=smoothing)

@@ -21,6 +21,7 @@ import numpy as np
 from .. import kinematics, mjcf
 from .. import rotations as rot
 from ..errors import MjmotionError
+from ..feet import judged_model
 from ..skeleton import Motion
 from . import engine
 from .clips import MAX_CLIP_BYTES, ClipLibrary
@@ -180,7 +181,9 @@ class Session:
         """A character for ``skeleton_motion`` (its poses precomputed unless it is a live stream)."""
         with self.lock:
             k = len(self.cast)
-            compiled = mjcf.compile(skeleton_motion.skeleton, props)
+            # A clip's feet on the soles the judge finds (the grid is at its floor), as render draws them;
+            # the stream's on the plain boxes its gaits are planned with (the grid at z = 0).
+            compiled = judged_model(skeleton_motion, props) if precompute else mjcf.compile(skeleton_motion.skeleton, props)
             kin = Kinematics(compiled)
             poses = kin.poses(kinematics.qpos(compiled, skeleton_motion)) if precompute else None
             drawing = self._drawing(k, compiled, skeleton_motion)
