@@ -14,9 +14,9 @@ DESCRIPTION = """Run a short version of every experiment and write tables, plots
 By default on the bundled procedural clips (no mocap needed); with --data on real mocap
 (the shared CMU clips). Results go to results/demo/ (summary.md links everything); a results
 folder that exists and is not empty is refused unless --force (its files are then replaced).
-Takes about 40 s on a lightly loaded 2-core machine (measured with `time mjmotion demo`: 38 s
-wall and 33 s of CPU; 21 s of CPU with --no-video) and longer on a busy one (90 s at load
-average 7). Progress goes to stderr.
+Takes about 40 s on a lightly loaded 2-core machine (measured with `time mjmotion demo`: 36 s
+wall and 49 s of CPU; 28 s wall and 38 s of CPU with --no-video) and longer on a busy one (90 s
+at load average 7). Progress goes to stderr.
 
 examples:
   mjmotion demo
