@@ -39,7 +39,9 @@ examples:
 The checker floor is drawn at the floor the judge uses (docs/METRICS.md "Floor"), as `mjmotion
 evaluate` finds it for the first clip: --floor METRES (--floor 0: z = 0 as captured), else its
 --source clip(s), else the first clip's own stance floor. Every character moves by the same
-amount, so a clip floating over (or sunk into) another's floor still shows.
+amount, so a clip floating over (or sunk into) another's floor still shows. Each foot is drawn on
+the sole points the judge calibrates on its clip (docs/METRICS.md "Feet"), so a foot the judge
+finds on the floor touches the floor drawn.
 
 --skin draws each character as its skinned surface (the mesh and weights `mjmotion compile --skin`
 writes, deformed by MuJoCo's vertex blending) instead of capsules; --skin both draws every clip
