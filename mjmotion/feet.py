@@ -324,10 +324,9 @@ def _box(a: np.ndarray, b: np.ndarray, side: np.ndarray, normal: np.ndarray, thi
     x = np.cross(y, normal)
     x = x if x @ (b - a) >= 0 else -x
     length = float(x @ (b - a))
-    q = np.empty(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(np.column_stack([x, np.cross(normal, x), normal])).ravel())
+    quat = mjcf.mat_quat(np.column_stack([x, np.cross(normal, x), normal]))
     half = np.array([max(0.5 * length, 0.01), float(np.linalg.norm(side)), max(0.5 * thickness, 0.005)])
-    return 0.5 * (a + b) + 0.5 * thickness * normal, rot.positive_w(q), half
+    return 0.5 * (a + b) + 0.5 * thickness * normal, quat, half
 
 
 def sole_boxes(skeleton: Skeleton, soles: Soles) -> mjcf.FootBoxes:

@@ -313,7 +313,7 @@ def _mass_class(segment: str) -> str:
     return {"neck": "head", "girdle": "trunk"}.get(segment, segment)
 
 
-def _mat_quat(m: np.ndarray) -> np.ndarray:
+def mat_quat(m: np.ndarray) -> np.ndarray:
     """The unit quaternion (w ≥ 0) of a rotation matrix ``(3, 3)``, by MuJoCo (SciPy's import costs ~0.3 s)."""
     q = np.empty(4)
     mujoco.mju_mat2Quat(q, np.ascontiguousarray(m, dtype=float).ravel())
@@ -325,7 +325,7 @@ def _look_quat(forward: np.ndarray) -> np.ndarray:
     z = -forward / np.linalg.norm(forward)
     x = np.cross([0.0, 0.0, 1.0], z)
     x /= np.linalg.norm(x)
-    return _mat_quat(np.column_stack([x, np.cross(z, x), z]))
+    return mat_quat(np.column_stack([x, np.cross(z, x), z]))
 
 
 def compile(
@@ -580,7 +580,7 @@ def _foot_boxes(skeleton: Skeleton, feet: dict[str, tuple[int, int | None]]) -> 
         fwd /= flen
         side_axis = np.cross(up, fwd)
         frame = np.column_stack([fwd, side_axis, up])
-        quat = _mat_quat(frame)
+        quat = mat_quat(frame)
         sole = min(float(np.dot(p - a, up)) for p in pts_arr)
         heel = 0.25 * flen
         if toe is None and -sole < ANKLE_HEIGHT * height:
