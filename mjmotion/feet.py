@@ -36,7 +36,7 @@ import mujoco
 import numpy as np
 
 from . import floor as floors
-from . import kinematics, mjcf
+from . import humanoid, kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError
 from .filters import lowpass, velocity
@@ -260,6 +260,7 @@ def calibrate_soles(skeleton: Skeleton, poses: Sequence[tuple[Pose, float]] = ()
     height = float(np.clip(skeleton.stature(), 0.3, 3.0))
     half_w = SOLE_HALF_WIDTH * height / 1.75
     up_rest = _rest_up(skeleton)
+    bundled = humanoid.bundled_scale(skeleton)
     sides = tuple(s for s in ("left", "right") if s in feet)
     joints, local, normals = [], [], []
     calibrated = True
@@ -279,8 +280,9 @@ def calibrate_soles(skeleton: Skeleton, poses: Sequence[tuple[Pose, float]] = ()
         fwd = tip - np.dot(tip, n_a) * n_a
         fwd = fwd / max(np.linalg.norm(fwd), 1e-9)
         lat = np.cross(n_a, fwd)
-        # The sole: ANKLE_HEIGHT below the ankle, never above one of the foot's own joints or End Sites.
-        depth = max(mjcf.ANKLE_HEIGHT * height, float(-(pts @ n_a).min()))
+        # The sole: ANKLE_HEIGHT below the ankle, never above one of the foot's own joints or End Sites;
+        # the bundled humanoid's where it was made to stand.
+        depth = humanoid.sole_depth(bundled) if bundled is not None else max(mjcf.ANKLE_HEIGHT * height, float(-(pts @ n_a).min()))
         heel = _onto_sole(-mjcf.HEEL_BACK * height * fwd, n_a, depth)
         ball = _onto_sole(rest[toe] - rest[ankle] if toe is not None else tip, n_a, depth)
         j_pts = [ankle] * 4
@@ -326,7 +328,7 @@ def _box(a: np.ndarray, b: np.ndarray, side: np.ndarray, normal: np.ndarray, thi
     length = float(x @ (b - a))
     quat = mjcf.mat_quat(np.column_stack([x, np.cross(normal, x), normal]))
     half = np.array([max(0.5 * length, 0.01), float(np.linalg.norm(side)), max(0.5 * thickness, 0.005)])
-    return 0.5 * (a + b) + 0.5 * thickness * normal, quat, half
+    return 0.5 * (a + b) + half[2] * normal, quat, half  # the underside on the sole, however thin the box
 
 
 def sole_boxes(skeleton: Skeleton, soles: Soles) -> mjcf.FootBoxes:

@@ -133,6 +133,10 @@ class Floor:
         if not math.isfinite(self.height):
             raise MjmotionError(f"floor height {self.height!r}: expected a finite number of metres")
 
+    def text(self) -> str:
+        """``"+0.031 m (detected)"``: the height to the millimetre (one that rounds to 0 as +0.000) and its origin."""
+        return f"{(self.height if abs(self.height) >= 5e-4 else 0.0):+.3f} m ({self.from_})"
+
     def note(self, name: str = "") -> str | None:
         """One line for the user when a detected floor is more than :data:`NOTE_M` from z = 0 or tilted."""
         tilt = ""

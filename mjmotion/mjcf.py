@@ -40,6 +40,8 @@ BODY_MASS_INDEX = 21.5
 #: above the detected floor). A toe-less foot whose End Site is shallower (cgspeed daz: 3.7 cm below
 #: the ankle, at the ball of the foot) gets its sole this deep, so it stands on the floor.
 ANKLE_HEIGHT = 0.048
+#: Least half thickness of a toe box, metres (a toe whose joint lies on the sole stands on this much box).
+TOE_BOX_HALF = 0.008
 #: Heel behind the ankle, × stature (foot length 0.152 × stature, the ankle about a fifth of it from the heel).
 HEEL_BACK = 0.03
 #: Foot geometry for :func:`compile`: per joint, box geoms ``{"foot/<side>" | "toe/<side>": (pos (3,),
@@ -604,7 +606,7 @@ def _foot_boxes(skeleton: Skeleton, feet: dict[str, tuple[int, int | None]]) -> 
             t_top = min(0.0, t_sole + 0.04 * height / 1.75)
             tlen = max(flen - tdist, 0.02)
             center_t = t + fwd * tlen / 2 + up * (t_sole + t_top) / 2
-            half_t = np.array([tlen / 2, half_w, max((t_top - t_sole) / 2, 0.008)])
+            half_t = np.array([tlen / 2, half_w, max((t_top - t_sole) / 2, TOE_BOX_HALF)])
             out.setdefault(toe, {})[f"toe/{side}"] = (center_t - t, quat, half_t)
     return out
 

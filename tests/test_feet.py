@@ -45,15 +45,15 @@ def _drawn_minus_judged(compiled, m):
 
 @pytest.mark.parametrize(
     ("rel", "plain_off"),
-    [(None, True), ("cmu_asfamc_converted/64_04.bvh", True), ("cmu_cgspeed_daz/09_01.bvh", True), ("cmu_iclone_ccrig/002_01.bvh", False)],
+    [(None, False), ("cmu_asfamc_converted/64_04.bvh", True), ("cmu_cgspeed_daz/09_01.bvh", True), ("cmu_iclone_ccrig/002_01.bvh", False)],
 )
 def test_the_drawn_feet_are_the_judged_soles(rel, plain_off):
     """The model render and the studio draw (feet.judged_model) has each foot's underside on the soles
     the judge measures: over contact frames the lowest point of its foot boxes is the judge's lowest
-    sole point (median < 0.5 mm, at most 6 mm). The rest-pose boxes of mjcf.compile missed by centimetres: the
-    bundled walk's stood 23 mm above (its 6.8 cm ankle against ANKLE_HEIGHT x stature), golf 64_04's
-    4-9 cm above, daz 09_01's 2.5 cm below — feet drawn floating over, or sunk into, the floor the
-    judge finds them on (iClone's were within 5 mm already)."""
+    sole point (median < 0.5 mm, at most 6 mm). The rest-pose boxes of mjcf.compile missed by centimetres on
+    captured rigs: golf 64_04's 4-9 cm above, daz 09_01's 2.5 cm below — feet drawn floating over, or
+    sunk into, the floor the judge finds them on (iClone's were within 5 mm already). The bundled
+    walk's are the soles it was made on (humanoid.sole_depth), which the judge uses as they are."""
     from mjmotion import synth
 
     m = synth.walk(seconds=3.0).motion if rel is None else shared_clip(rel, 4)

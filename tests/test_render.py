@@ -293,8 +293,7 @@ def test_a_tilted_floor_is_drawn_level_with_the_ball_turned_along():
 def test_the_bundled_walk_is_drawn_with_its_planted_feet_on_the_floor():
     """On the judge's floor (floor=None) the drawn feet are the judge's soles (feet.judged_model), so
     every foot the bundled walk plants (its ground truth) touches the drawn floor (< 0.5 mm) and none
-    sinks below it. The rest-pose boxes stood 23 mm above it: the judge puts the sole ANKLE_HEIGHT x
-    stature below the ankle, the walk's ankle is 6.8 cm up."""
+    sinks below it; that floor is z = 0, where the walk was made to stand (humanoid.sole_depth)."""
     from mjmotion import synth
 
     clip = synth.walk(seconds=3.0)

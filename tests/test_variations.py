@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -84,6 +86,19 @@ def test_scaled_path_is_a_homothety_about_the_centre(swing01):
     np.testing.assert_allclose(out.controlled[full] - c, 1.3 * (base.controlled[full] - c), atol=1e-12)
     np.testing.assert_array_equal(out.scores[:, 3:], base.scores[:, 3:])  # detail untouched
     np.testing.assert_array_equal(out.scores[[0, -1]], base.scores[[0, -1]])  # the ends untouched
+
+
+def test_a_path_too_short_to_weight_any_frame_scales_to_itself(swing01):
+    """Two frames are the start and the end pose, which scaling keeps: the path comes back as it was,
+    finite (it was NaN, from the mean of no weighted frame, and `vary` refused a 2-frame clip as
+    "non-finite values")."""
+    _, space = swing01
+    base = V.source_path(space, 3)
+    short = dataclasses.replace(base, scores=base.scores[:2], frame_a=base.frame_a[:2], frame_b=base.frame_b[:2], weight=base.weight[:2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = V.scaled_path(short, 1.3)
+    np.testing.assert_array_equal(out.scores, short.scores)
 
 
 def test_scaled_variants_keep_the_common_start_and_end_poses(golf):

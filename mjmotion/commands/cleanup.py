@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         + (f", {info['lifted_frames']} swing frames lifted ≤ {float(res.lift.max()) * 1000:.1f} mm" if params.swing_clearance > 0 else "")
     )
     print(
-        f"floor {res.floor.height:+.3f} m ({res.floor.from_})"
+        f"floor {res.floor.text()}"
         + (f", levelled from a {res.floor.level.tilt_deg:.1f}° tilt (the result stands on the tilted floor)" if not res.floor.level.flat else "")
         + f"; judged against {'the ' + str(len(sources)) + ' source(s)' if sources else 'the input'}"
     )

@@ -245,7 +245,11 @@ def _prop(motion, text: str):
 def _fmt(v: Any, spec: str) -> str:
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return "-"
-    return format(v, spec) if spec != "s" else printable(v)  # a clip's name comes from a file name: no raw escapes
+    if spec == "s":
+        return printable(v)  # a clip's name comes from a file name: no raw escapes
+    text = format(v, spec)
+    # A value that rounds to zero prints as zero ("-0.000" read as a floor just below z = 0).
+    return format(0.0, spec) if isinstance(v, float) and text.lstrip("+-").strip("0.") == "" else text
 
 
 def format_table(rows: list[dict[str, Any]], as_csv: bool = False) -> str:

@@ -188,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
     )
     print(
         f"wrote {out}: {scene.n_frames} frames, {args.width}x{args.height} at {args.fps:g} fps, {len(actors)} character(s), "
-        f"floor {'z = 0 (no feet to find one on)' if floor is None else f'{floor.height:+.3f} m ({floor.from_})'}"
+        f"floor {'z = 0 (no feet to find one on)' if floor is None else floor.text()}"
         + (f", levelled from a {floor.level.tilt_deg:.1f}° tilt" if floor is not None and not floor.level.flat else "")
     )
     return 0

@@ -1,4 +1,4 @@
-"""The bundled humanoid and the pieces every generator shares: NumPy forward kinematics,
+"""What every generator shares on the bundled humanoid (its skeleton: :mod:`mjmotion.humanoid`): NumPy forward kinematics,
 analytic two-bone IK and the assembly of a :class:`~mjmotion.skeleton.Motion` from world-space
 goals (pelvis, planted feet, hand targets) and local rotations (spine, head, free limbs); an arm
 holding a prop is fitted to the judge's joint ranges (elbow swivel and the forearm's share of the
@@ -17,75 +17,8 @@ from functools import lru_cache
 import numpy as np
 
 from .. import rotations as rot
-from ..skeleton import CM, Motion, Skeleton
-
-ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
-JOINT_CHANNELS = ("Zrotation", "Xrotation", "Yrotation")
-
-#: Bone lengths of the bundled adult (≈ 1.75 m stature), metres.
-THIGH = 0.44
-SHIN = 0.42
-UPPER_ARM = 0.28
-FOREARM = 0.25
-HAND = 0.17
-HIP_WIDTH = 0.09  # half the distance between the hip joints
-TOE_FORWARD = 0.14  # ankle → ball of the foot, along the foot
-TOE_TIP = 0.05  # ball of the foot → toe tip (the toe's End Site)
-
-
-def _joint_table() -> list[tuple[str, str | None, tuple[float, float, float]]]:
-    """``(name, parent, offset)`` in file order; offsets in the Z-up world, metres."""
-    table: list[tuple[str, str | None, tuple[float, float, float]]] = [
-        ("Hips", None, (0.0, 0.0, 1.0)),
-        ("Spine", "Hips", (0.0, 0.0, 0.10)),
-        ("Spine1", "Spine", (0.0, 0.0, 0.13)),
-        ("Spine2", "Spine1", (0.0, 0.0, 0.13)),
-        ("Neck", "Spine2", (0.0, 0.0, 0.16)),
-        ("Head", "Neck", (0.0, 0.0, 0.10)),
-    ]
-    for side, s in (("Left", 1.0), ("Right", -1.0)):
-        table += [
-            (f"{side}Shoulder", "Spine2", (0.0, s * 0.03, 0.09)),
-            (f"{side}Arm", f"{side}Shoulder", (0.0, s * 0.15, 0.0)),
-            (f"{side}ForeArm", f"{side}Arm", (0.0, s * UPPER_ARM, 0.0)),
-            (f"{side}Hand", f"{side}ForeArm", (0.0, s * FOREARM, 0.0)),
-        ]
-    for side, s in (("Left", 1.0), ("Right", -1.0)):
-        table += [
-            (f"{side}UpLeg", "Hips", (0.0, s * HIP_WIDTH, -0.06)),
-            (f"{side}Leg", f"{side}UpLeg", (0.0, 0.0, -THIGH)),
-            (f"{side}Foot", f"{side}Leg", (0.0, 0.0, -SHIN)),
-            # The ball of the foot sits low and forward; the toe tip level with it (a flat sole).
-            (f"{side}Toe", f"{side}Foot", (TOE_FORWARD, 0.0, -0.06)),
-        ]
-    return table
-
-
-@lru_cache(maxsize=1)
-def skeleton() -> Skeleton:
-    """The bundled 22-joint humanoid (T-pose, facing +X; written as Y-up BVH in centimetres).
-
-    Joints: Hips, Spine, Spine1, Spine2, Neck, Head; Left/Right Shoulder (clavicle), Arm,
-    ForeArm, Hand; Left/Right UpLeg, Leg, Foot, Toe. End Sites on the head top, the hands'
-    fingertips and the toe tips.
-    """
-    table = _joint_table()
-    names = [n for n, _, _ in table]
-    parents = [-1 if p is None else names.index(p) for _, p, _ in table]
-    offsets = np.array([o for _, _, o in table])
-    ends = [("Head", (0.0, 0.0, 0.13))]
-    ends += [(f"{side}Hand", (0.0, s * HAND, 0.0)) for side, s in (("Left", 1.0), ("Right", -1.0))]
-    ends += [(f"{side}Toe", (TOE_TIP, 0.0, 0.0)) for side in ("Left", "Right")]
-    return Skeleton(
-        names=tuple(names),
-        parents=np.array(parents),
-        offsets=offsets,
-        channels=tuple(ROOT_CHANNELS if j == 0 else JOINT_CHANNELS for j in range(len(names))),
-        end_parents=np.array([names.index(n) for n, _ in ends]),
-        end_offsets=np.array([o for _, o in ends]),
-        scale=CM,
-        up="y",
-    )
+from ..humanoid import FOREARM, SHIN, THIGH, UPPER_ARM, skeleton
+from ..skeleton import Motion, Skeleton
 
 
 def joint(name: str) -> int:

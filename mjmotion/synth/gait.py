@@ -17,10 +17,9 @@ import numpy as np
 
 from .. import rotations as rot
 from ..errors import MjmotionError
+from ..humanoid import SHIN, THIGH
 from ..skeleton import Motion
 from .body import (
-    SHIN,
-    THIGH,
     PoseBuilder,
     axis_angle,
     compose,

@@ -147,7 +147,8 @@ def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None 
     w = segment_weights(path.n_frames, segment) if segment is not None else end_weights(path.controlled)
     s = path.scores.copy()
     ctrl = s[:, : path.k]
-    centre = ctrl[w > 0].mean(axis=0)  # the segment's centre (every frame of the segment has w > 0)
+    # The segment's centre (every frame of the segment has w > 0); a clip too short to weight any frame keeps its scores.
+    centre = ctrl[w > 0].mean(axis=0) if (w > 0).any() else np.zeros(path.k)
     s[:, : path.k] = ctrl + (w * (factor - 1.0))[:, None] * (ctrl - centre)
     return replace(path, scores=s, label=f"scale {factor:g}")
 
