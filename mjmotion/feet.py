@@ -53,6 +53,13 @@ SOLE_HALF_WIDTH = 0.045
 #: frames in the lowest 40 % of ankle heights.
 QUIET_SPEED_QUANTILE = 0.25
 QUIET_HEIGHT_QUANTILE = 0.4
+#: Quiet frames whose "up" (seen from the ankle) lies more than this from their mean hold two
+#: stances: a golfer's lead foot, flat at address and rolled 30–56° onto its edge at the finish
+#: (CMU 64_01, 64_03–05; every other foot of the shared clips stays within 24°). The sole is then
+#: calibrated on the orientation the slow foot holds most (:func:`_held_most`).
+SPLIT_DEG = 25.0
+#: Frames within this of one another hold one orientation (:func:`_held_most`).
+HELD_DEG = 10.0
 #: Fewest frames a clip needs to calibrate its soles (else the rest pose is used).
 MIN_CALIBRATION_FRAMES = 20
 
@@ -220,17 +227,37 @@ def _quiet_frames(poses: Sequence[tuple[Pose, float]], ankles: Sequence[int]) ->
         v = np.linalg.norm(np.gradient(lowpass(p[..., :2], fps, CUTOFF_HZ), axis=0), axis=-1)  # (T, A)
         for i, a in enumerate(ankles):
             low = p[:, i, 2] <= np.quantile(p[:, i, 2], QUIET_HEIGHT_QUANTILE)
-            out[a].append((pose, low & (v[:, i] <= np.quantile(v[low, i], QUIET_SPEED_QUANTILE))))
+            quiet = low & (v[:, i] <= np.quantile(v[low, i], QUIET_SPEED_QUANTILE))
+            ups = _ups(pose, a)
+            mean = ups[quiet].mean(axis=0)
+            if (ups[quiet] @ mean).min() < np.cos(np.radians(SPLIT_DEG)) * np.linalg.norm(mean):
+                quiet = _held_most(ups, v[:, i] <= np.quantile(v[:, i], QUIET_SPEED_QUANTILE))
+            out[a].append((pose, quiet))
     return out
+
+
+def _ups(pose: Pose, joint: int) -> np.ndarray:
+    """``(T, 3)`` the world's up seen from ``joint``'s frame in every frame."""
+    r = pose.joint_rotations[:, joint]
+    return rot.rotate(rot.conjugate(r), np.broadcast_to([0.0, 0.0, 1.0], r.shape[:-1] + (3,)))
+
+
+def _held_most(ups: np.ndarray, slow: np.ndarray) -> np.ndarray:
+    """``(T,) bool``: the ``slow`` frames whose ``ups (T, 3)`` lie within :data:`HELD_DEG` of the one
+    most of them are near: the orientation the slow foot holds longest (seeds thinned to 400)."""
+    cand = np.flatnonzero(slow)
+    near = np.cos(np.radians(HELD_DEG))
+    seeds = cand[:: max(1, len(cand) // 400)]
+    best = seeds[int(np.argmax((ups[seeds] @ ups[cand].T >= near).sum(axis=1)))]
+    held = np.zeros(len(ups), dtype=bool)
+    held[cand[ups[cand] @ ups[best] >= near]] = True
+    return held
 
 
 def _quiet_up(quiet: Sequence[tuple[Pose, np.ndarray]], joint: int) -> np.ndarray | None:
     """Mean world up seen from ``joint``'s frame over the ``quiet`` frames of its foot's ankle
     (:func:`_quiet_frames`), or None."""
-    ups = []
-    for pose, frames in quiet:
-        r = pose.joint_rotations[frames, joint]
-        ups.append(rot.rotate(rot.conjugate(r), np.broadcast_to([0.0, 0.0, 1.0], r.shape[:-1] + (3,))))
+    ups = [_ups(pose, joint)[frames] for pose, frames in quiet]
     if not ups:
         return None
     u = np.concatenate(ups).mean(axis=0)

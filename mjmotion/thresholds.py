@@ -16,7 +16,8 @@ from .errors import MjmotionError, require_number
 #: The judge's revision: raised whenever a report value changes for the same clip and options (a
 #: new definition, or a bound that decides frames differently), so ``audit --resume`` never keeps a
 #: row an older judge computed beside rows of this one. 2: the ground-reaction segment bound (0.1.0).
-#: 3: the bundled humanoid stands on the soles it was made with (its clips' floor 23 mm higher).
+#: 3: the bundled humanoid stands on the soles it was made with (its clips' floor 23 mm higher); a
+#: foot whose quiet frames hold two stances is calibrated on the one it holds most (golf 64_0x's lead foot).
 JUDGE_REVISION = 3
 H_C = 0.05  #: contact height, m
 V_C = 0.5  #: contact horizontal speed, m/s (GMD: 2.5 cm/frame at 20 fps)
