@@ -7,8 +7,11 @@ sources a result is judged against): the sole's normal, in the ankle's (and toe'
 mean world "up" seen from that frame over the foot's quiet stance frames (slowest quarter of
 ankle speeds within its lowest 40 % of heights), so the sole lies flat on the floor at mid-stance
 whatever the rig's rest pose (iClone's rest is no standing pose; CMU ASF's foot rests rolled 25°
-from its stance). The sole sits ``mjcf.ANKLE_HEIGHT`` × stature below the ankle (at least as deep
-as the foot's own joints and End Sites), the heel ``mjcf.HEEL_BACK`` × stature behind it. Clips
+from its stance); quiet frames that hold two stances (a golfer's lead foot) give way to the
+orientation the foot holds most (:data:`SPLIT_DEG`). The sole sits ``mjcf.ANKLE_HEIGHT`` × stature
+below the ankle (at least as deep as the foot's own joints and End Sites; the bundled humanoid's
+where it was made to stand, :func:`mjmotion.humanoid.sole_depth`), the heel ``mjcf.HEEL_BACK`` ×
+stature behind it. Clips
 too short to calibrate use the rest pose, as :func:`mjmotion.mjcf.compile` does for its boxes.
 
 A foot's *height* is its lowest sole point above the floor (:mod:`mjmotion.floor`); its *speed*
