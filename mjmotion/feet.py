@@ -239,9 +239,9 @@ def _quiet_frames(poses: Sequence[tuple[Pose, float]], ankles: Sequence[int]) ->
     return out
 
 
-def _ups(pose: Pose, joint: int) -> np.ndarray:
-    """``(T, 3)`` the world's up seen from ``joint``'s frame in every frame."""
-    r = pose.joint_rotations[:, joint]
+def _ups(pose: Pose, joint: int, frames: np.ndarray | slice = slice(None)) -> np.ndarray:
+    """``(N, 3)`` the world's up seen from ``joint``'s frame in ``frames`` (every frame by default)."""
+    r = pose.joint_rotations[frames, joint]
     return rot.rotate(rot.conjugate(r), np.broadcast_to([0.0, 0.0, 1.0], r.shape[:-1] + (3,)))
 
 
@@ -260,7 +260,7 @@ def _held_most(ups: np.ndarray, slow: np.ndarray) -> np.ndarray:
 def _quiet_up(quiet: Sequence[tuple[Pose, np.ndarray]], joint: int) -> np.ndarray | None:
     """Mean world up seen from ``joint``'s frame over the ``quiet`` frames of its foot's ankle
     (:func:`_quiet_frames`), or None."""
-    ups = [_ups(pose, joint)[frames] for pose, frames in quiet]
+    ups = [_ups(pose, joint, frames) for pose, frames in quiet]
     if not ups:
         return None
     u = np.concatenate(ups).mean(axis=0)
