@@ -48,6 +48,9 @@ W_MEAN = 30.0
 W_END, END_FRAMES = 100.0, 3
 #: Frames whose vertical force is under this fraction of body weight have no meaningful CoP.
 MIN_LOAD = 0.2
+#: Directions of the support polygon's edges: the feet's hull is taken as the polygon of its
+#: supporting lines in these directions (exact up to 1 - cos(11.25 deg) = 2 % at a sharp corner).
+DIRECTIONS = 16
 
 
 @lru_cache(maxsize=1)
@@ -76,11 +79,6 @@ def support_points(compiled: mjcf.CompiledModel, pose: kinematics.Pose, boxes: n
         corners.append(world)
     pts = np.concatenate(corners, axis=1)  # (T, N, 3)
     return pts[..., :2], pts[..., 2] < BEARING
-
-
-#: Directions of the support polygon's edges: the feet's hull is taken as the polygon of its
-#: supporting lines in these directions (exact up to 1 - cos(11.25 deg) = 2 % at a sharp corner).
-DIRECTIONS = 16
 
 
 def target_cop(cop: np.ndarray, points: np.ndarray, active: np.ndarray, margin: float = MARGIN) -> np.ndarray:
@@ -125,13 +123,11 @@ def target_cop(cop: np.ndarray, points: np.ndarray, active: np.ndarray, margin: 
 def _second_difference(n: int, fps: float) -> sparse.csr_matrix:
     """``(n, n)`` second derivative by central differences, the end rows copying their neighbour's
     (as :func:`mjmotion.physics.whole_body_wrench` differentiates)."""
-    rows, cols, vals = [], [], []
-    for t in range(n):
-        c = min(max(t, 1), n - 2)
-        rows += [t, t, t]
-        cols += [c - 1, c, c + 1]
-        vals += [1.0, -2.0, 1.0]
-    return sparse.csr_matrix((np.array(vals) * fps**2, (rows, cols)), shape=(n, n))
+    centre = np.clip(np.arange(n), 1, n - 2)
+    rows = np.repeat(np.arange(n), 3)
+    cols = (centre[:, None] + np.array([-1, 0, 1])).ravel()
+    vals = np.tile([1.0, -2.0, 1.0], n)
+    return sparse.csr_matrix((vals * fps**2, (rows, cols)), shape=(n, n))
 
 
 def _moving_mean(n: int, width: int) -> sparse.csr_matrix:
