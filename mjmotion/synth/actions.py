@@ -12,7 +12,6 @@ start and finish poses); kick and punch start and end in the standing pose.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -125,16 +124,6 @@ def _finish(pb: PoseBuilder, name: str, kind: str, contacts: np.ndarray, prints:
         footprints=tuple(sorted(prints, key=lambda f: (f.start, f.side))),
         **extra,
     )
-
-
-def _balance(pb: PoseBuilder, ankles: dict[str, np.ndarray], limbs: Callable[[], None]) -> None:
-    """Sway the pelvis in the floor plane until the ground can carry the motion (:mod:`mjmotion.synth.balance`),
-    lower it (every frame alike) as far as a leg no longer reaches its ankle goal ``(T, 3)``, and
-    place the limbs again (``limbs``)."""
-    pb.root[:, :2] += balance.balance_pass(pb.motion(FPS, "balance"))
-    pb.update()
-    lower_pelvis(pb, ankles, FPS, constant=True)  # by one constant: the first and last poses stay one pose
-    limbs()
 
 
 def _jitter(seed: int, scale: float, shape: tuple[int, ...]) -> np.ndarray:
@@ -387,7 +376,7 @@ def kick(seed: int = 0) -> SynthClip:
         _hang(pb, _pchip(keys, raise_deg, t))
 
     limbs()
-    _balance(pb, ankles, limbs)
+    balance.rebalance(pb, ankles, limbs, FPS)
     contacts = np.column_stack([c_left, ~moving])
     a, b = int(np.floor(keys[lift_key] * FPS + 1e-9)), int(np.ceil(keys[land_key] * FPS - 1e-9))
     x, y, h = STAND_FEET["Right"]
@@ -469,5 +458,5 @@ def punch(seed: int = 0) -> SynthClip:
             pb.arm(side, wrist, pole)
 
     limbs()
-    _balance(pb, ankles, limbs)
+    balance.rebalance(pb, ankles, limbs, FPS)
     return _finish(pb, "punch", "punch", contacts, prints, params=(("seed", float(seed)),))

@@ -18,21 +18,20 @@ limbs again for the moved hips, so planted feet stay on their footprints.
 - :func:`root_shift` ``(cop, h, target, stance, accel, fps) -> (T, 2)``
 - :func:`cop_and_height` ``(compiled, motion, pose) -> (cop (T, 2), h (T,), loaded (T,), accel (T, 2))``
 - :func:`balance_pass` ``(motion, stride) -> (T, 2)``: all of it, on a clip of the bundled humanoid
+- :func:`rebalance` ``(pb, ankles, limbs, fps, stride)``: the pass applied to a clip being built
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
+from collections.abc import Callable
 
-import mujoco
 import numpy as np
 from scipy import sparse
 from scipy.sparse.linalg import spsolve
 
-from .. import kinematics, mjcf, physics
-from .. import rotations as rot
+from .. import feet, kinematics, mjcf, physics
 from ..skeleton import Motion
-from .body import skeleton
+from .body import PoseBuilder, compiled_model, lower_pelvis
 
 #: The CoP's target lies this far inside the support polygon (m): the judge low-passes positions
 #: before differentiating, which spreads a CoP on the polygon's edge a little outside it.
@@ -53,31 +52,17 @@ MIN_LOAD = 0.2
 DIRECTIONS = 16
 
 
-@lru_cache(maxsize=1)
 def _model() -> tuple[mjcf.CompiledModel, np.ndarray]:
     """The bundled humanoid compiled, and its foot and toe box geoms' ids ``(G,)``."""
-    compiled = mjcf.compile(skeleton())
-    m = compiled.model
-    skel = skeleton()
-    bodies = {int(compiled.body_ids[j]) for side in ("left", "right") for j in skel.feet()[side] if j is not None}
-    boxes = [g for g in range(m.ngeom) if int(m.geom_bodyid[g]) in bodies and m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
-    return compiled, np.array(boxes, dtype=int)
+    compiled = compiled_model()
+    return compiled, np.array([g for gs in compiled.foot_geoms.values() for g in gs], dtype=int)
 
 
 def support_points(compiled: mjcf.CompiledModel, pose: kinematics.Pose, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The feet's box corners: ``points (T, N, 2)`` their floor positions (``N`` = 8 per box of
     ``boxes (G,)``) and ``active (T, N)`` those within :data:`BEARING` of the floor (z = 0)."""
-    m = compiled.model
-    ids, pos, quat = physics.body_frames(compiled, pose)
-    col = {int(b): i for i, b in enumerate(ids)}
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)  # (8, 3)
-    corners = []
-    for g in boxes:
-        k = col[int(m.geom_bodyid[g])]
-        local = m.geom_pos[g] + rot.rotate(np.broadcast_to(m.geom_quat[g], (8, 4)), signs * m.geom_size[g])  # (8, 3)
-        world = pos[:, k, None, :] + rot.rotate(quat[:, k, None, :], np.broadcast_to(local, (len(pos), 8, 3)))
-        corners.append(world)
-    pts = np.concatenate(corners, axis=1)  # (T, N, 3)
+    pos, mat = feet.geom_frames(compiled, pose, boxes)
+    pts = feet.box_corners(pos, mat, compiled.model.geom_size[boxes]).reshape(len(pos), -1, 3)  # (T, N, 3)
     return pts[..., :2], pts[..., 2] < BEARING
 
 
@@ -173,9 +158,9 @@ def root_shift(
     if stride is not None and stride > 1:
         blocks.append(np.sqrt(W_MEAN) * _moving_mean(n, int(stride)))
         rhs.append(np.zeros((n, 2)))
-    ends = np.r_[0:END_FRAMES, n - END_FRAMES : n]
-    blocks.append(np.sqrt(W_END) * eye[np.unique(np.clip(ends, 0, n - 1))])
-    rhs.append(np.zeros((len(np.unique(np.clip(ends, 0, n - 1))), 2)))
+    ends = np.unique(np.clip(np.r_[0:END_FRAMES, n - END_FRAMES : n], 0, n - 1))
+    blocks.append(np.sqrt(W_END) * eye[ends])
+    rhs.append(np.zeros((len(ends), 2)))
     a = sparse.vstack(blocks, format="csc")
     b = np.concatenate(rhs, axis=0)
     ata = (a.T @ a).tocsc()
@@ -214,3 +199,14 @@ def balance_pass(motion: Motion, stride: int | None = None) -> np.ndarray:
     # the line through the two ends' shifts, a millimetre or less, has no acceleration to remove.
     ramp = np.linspace(0.0, 1.0, len(shift))[:, None]
     return shift - (1.0 - ramp) * shift[0] - ramp * shift[-1]
+
+
+def rebalance(pb: PoseBuilder, ankles: dict[str, np.ndarray], limbs: Callable[[], None], fps: float, stride: int | None = None) -> None:
+    """Apply :func:`balance_pass` to the clip ``pb`` is building: sway its pelvis in the floor plane,
+    lower it by one constant as far as a leg no longer reaches its ankle goal ``(T, 3)`` (the height
+    curve keeps its accelerations, and a clip's first and last poses stay one pose), and place the
+    limbs again (``limbs``)."""
+    pb.root[:, :2] += balance_pass(pb.motion(fps, "balance"), stride)
+    pb.update()
+    lower_pelvis(pb, ankles, fps, constant=True)
+    limbs()

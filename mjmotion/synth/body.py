@@ -13,12 +13,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .. import rotations as rot
 from ..humanoid import FOREARM, SHIN, THIGH, UPPER_ARM, skeleton
 from ..skeleton import Motion, Skeleton
+
+if TYPE_CHECKING:
+    from ..mjcf import CompiledModel
 
 
 def joint(name: str) -> int:
@@ -39,15 +43,21 @@ class FootGeometry:
 
 
 @lru_cache(maxsize=1)
+def compiled_model() -> CompiledModel:
+    """The bundled humanoid compiled (:func:`mjmotion.mjcf.compile`), once per process."""
+    from .. import mjcf
+
+    return mjcf.compile(skeleton())
+
+
+@lru_cache(maxsize=1)
 def foot_geometry() -> FootGeometry:
     """The sole plane of a flat foot: the lowest point of every geom on the foot and toe bodies
     (boxes and bone capsules) in the compiled rest pose, measured through MuJoCo."""
     import mujoco
 
-    from .. import mjcf
-
     skel = skeleton()
-    compiled = mjcf.compile(skel)
+    compiled = compiled_model()
     m = compiled.model
     d = mujoco.MjData(m)
     d.qpos[:] = m.qpos0

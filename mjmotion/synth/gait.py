@@ -320,13 +320,8 @@ def _build(style: GaitStyle, step: float, seconds: float, omega: float, fps: flo
                 )
 
     place_legs()
-    # Move the pelvis within each stride until the ground can carry the motion (synth.balance),
-    # lower it if a leg no longer reaches (by one constant: the height curve keeps its
-    # accelerations), and reach the feet again.
-    pb.root[:, :2] += balance.balance_pass(pb.motion(fps, style.name), stride=round(period * fps))
-    pb.update()
-    lower_pelvis(pb, ankles, fps, constant=True)
-    place_legs()
+    # Sway the pelvis within each stride until the ground can carry the motion, then reach the feet again.
+    balance.rebalance(pb, ankles, place_legs, fps, stride=round(period * fps))
     motion = pb.motion(fps, style.name)
     return Gait(motion=motion, contacts=contacts, footprints=tuple(footprints), style=style)
 
