@@ -328,6 +328,9 @@ def drag_bench() -> None:
 
 
 if __name__ == "__main__":
+    import argparse
+
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()  # --help, and no stray arguments
     stream_bench()
     skin_bench()
     drag_bench()

@@ -585,7 +585,7 @@ def run(
     ``planned``: the :func:`plan` of the same arguments, made already (e.g. while the workers started)."""
     opts = opts if opts is not None else judge_options()
     work = planned if planned is not None else plan(root, out_dir, resume=resume, source_map=source_map, opts=opts)
-    out_dir.mkdir(exist_ok=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
     table = Table(out_dir, work.kept)
     todo, options = work.todo, work.options
     by_rel = {c.rel: c for c in todo}

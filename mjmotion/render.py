@@ -814,10 +814,15 @@ def render(
     progress: bool = True,
     **renderer_options: object,
 ) -> Path:
-    """Render ``scene`` (video frames ``frames``, default all) to an MP4 or GIF at ``path``."""
+    """Render ``scene`` (video frames ``frames``, default all) to an MP4 or GIF at ``path``;
+    ``progress``: a frame bar on standard error when it is a terminal (never in a pipe or a log)."""
     indices = range(scene.n_frames)[frames or slice(None)]
     if len(indices) == 0:
         raise MjmotionError("render: no frames selected")
+    try:
+        progress = progress and sys.stderr.isatty()
+    except (AttributeError, ValueError):  # (a replaced or closed stream)
+        progress = False
     with Renderer(scene, width, height, **renderer_options) as r:  # type: ignore[arg-type]
         if not progress:
             return write_video(r.frames(indices), path, scene.fps, (width, height))

@@ -467,6 +467,9 @@ def test_bad_input_is_one_error_line(corpus, tmp_path, capsys):
     )
     assert (taken / "audit.csv").read_text() == "precious"  # --force replaces only once the workers answer
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o3"), "--timeout", "-5"], capsys, "--timeout -5")
+    (tmp_path / "o6").write_text("a file")
+    _refused(["audit", str(corpus), "-o", str(tmp_path / "o6" / "sub" / "out")], capsys, f"{tmp_path / 'o6'} is not a folder")
+    assert (tmp_path / "o6").read_text() == "a file"
     bad_map = tmp_path / "map.json"
     bad_map.write_text(json.dumps({"nope.bvh": "x.bvh"}))
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o4"), "--source-map", str(bad_map)], capsys, "'nope.bvh' is not a .bvh file")
@@ -541,7 +544,7 @@ def test_resuming_an_unchanged_folder_starts_no_workers(tmp_path, capsys, monkey
     root.mkdir()
     for i in range(2):
         assert cli.main(["synth", "walk", "--seconds", "0.5", "--seed", str(i), "-o", str(root / f"walk{i}.bvh")]) == 0
-    out = tmp_path / "audit"
+    out = tmp_path / "results" / "audit"  # its folder missing too: made, as `mkdir -p`
     assert cli.main(["audit", str(root), "-o", str(out), "--workers", "1"]) == 0
     capsys.readouterr()
     before = _snapshot(out)

@@ -60,6 +60,39 @@ def test_compile_writes_loadable_model(walk, tmp_path):
     assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "ball") >= 0
 
 
+def test_compile_keyframe_skips_a_leading_t_pose(mocap, tmp_path, capsys):
+    """The keyframe is the clip's first frame as every verb reads it: daz 07_01's frames 0-3 are a T-pose."""
+    src = mocap / "cmu_cgspeed_daz" / "07_01.bvh"
+    m = bvh.read(src)
+    keys = {}
+    for extra in ([], ["--keep-start"]):
+        out = tmp_path / f"m{len(extra)}.xml"
+        assert main(["compile", str(src), "-o", str(out), *extra]) == 0
+        keys[bool(extra)] = mujoco.MjModel.from_xml_path(str(out)).key_qpos[0]
+    assert "skipped frames 0-3" in capsys.readouterr().err
+    compiled = mjcf.compile(m.skeleton)
+    t_pose, fourth = kinematics.qpos(compiled, m[:1])[0], kinematics.qpos(compiled, m[4:5])[0]
+    assert np.allclose(keys[True][3:], t_pose[3:]) and np.allclose(keys[False][3:], fourth[3:])  # (the root is moved to stand on the floor)
+    assert not np.allclose(keys[False][3:], keys[True][3:], atol=1e-3)
+
+
+def test_evaluate_measures_the_prop_hit_moved(mocap, tmp_path, capsys):
+    """A one-word --prop is the same prop in every verb: evaluate finds the club of `hit`'s result on the ball it was sent to
+    (it attached a club along the right wrist before, 0.55 m from the ball)."""
+    out, rep = tmp_path / "h.bvh", tmp_path / "h.json"
+    assert main(["hit", str(mocap / "cmu_asfamc_converted" / "64_01.bvh"), "--offset", "0", "0.1", "0", "-o", str(out), "--json", str(rep)]) == 0
+    r = json.loads(rep.read_text())
+    capsys.readouterr()
+    assert r["hit_error_m"] < 1e-4
+    ev_json = tmp_path / "e.json"
+    args = ["evaluate", str(out), "--ball", *map(str, r["target"]), "--frame", str(r["hit_frame"]), "--json", str(ev_json)]
+    assert main([*args, "--prop", "club"]) == 0
+    hit = json.loads(ev_json.read_text())[0]["report"]["hit"]
+    assert hit["contact"] and abs(hit["hit_error_m"]) < 0.05, hit
+    assert main([*args, "--prop", "club:rwrist", "--force"]) == 0  # a club along the wrist's bone is another club
+    assert not json.loads(ev_json.read_text())[0]["report"]["hit"]["contact"]
+
+
 def test_convert_scale_fps_frames_keep_the_motion(walk, tmp_path):
     out = tmp_path / "c.bvh"
     assert main(["convert", str(walk), str(out), "--scale", "0.01", "--fps", "60", "--frames", "100:300"]) == 0

@@ -167,3 +167,15 @@ def test_hit_summary_is_rounded_and_names_a_grip_only_for_two_hands(tmp_path, ca
     assert cli.main(["hit", str(drive), "--offset", "0", "0.05", "0.05", "--solver", "dls", "-o", str(tmp_path / "d.bvh")]) == 0
     line = capsys.readouterr().out
     assert "grip error" in line and not re.search(r"\d\.\d{5,}", line), line
+
+
+def test_render_shows_its_frame_bar_on_a_terminal_only(monkeypatch, tmp_path, clip, human, capsys):
+    """`render … 2> log` leaves the log empty (it wrote a tqdm bar with carriage returns there)."""
+    spec = VERBS["render"]
+    argv = ["render", *spec.argv(str(_input(spec, clip, human)), str(tmp_path / "a.gif")), "--width", "64", "--height", "48", "--fast"]
+    for stream, bar in ((io.StringIO(), False), (_Terminal(), True)):
+        monkeypatch.setattr(sys, "stderr", stream)
+        assert cli.main([*argv, "--force"]) == 0
+        shown = stream.getvalue()
+        assert ("frame" in shown and "\r" in shown) == bar, shown
+        assert shown if bar else all(line.startswith("note:") for line in shown.splitlines()), shown

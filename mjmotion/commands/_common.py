@@ -16,6 +16,7 @@ from ..errors import MjmotionError, OutputExistsError
 from ..outputs import check_output
 
 if TYPE_CHECKING:
+    from ..mjcf import Prop
     from ..skeleton import Motion
 
 
@@ -86,7 +87,15 @@ def load_first(path: str, args: argparse.Namespace, frames: str | None = None, *
     if frames:
         sl = parse_frames(frames, m.n_frames)
         return m[sl], sl.indices(m.n_frames)[0]
-    if not trim or getattr(args, "keep_start", False):
+    if not trim:
+        return m, 0
+    return trim_start(m, path, args, note)
+
+
+def trim_start(m: Motion, path: str, args: argparse.Namespace, note: bool = True) -> tuple[Motion, int]:
+    """``m`` without a leading T-pose or transition (unless ``--keep-start``) and the frame it now starts
+    at, with one note line on stderr naming the frames skipped (``note``)."""
+    if getattr(args, "keep_start", False):
         return m, 0
     from ..trim import skip_leading_transient
 
@@ -142,3 +151,18 @@ def parse_frames(text: str, n_frames: int) -> slice:
     if hi <= lo:
         raise MjmotionError(f"--frames {text}: selects no frames of a {n_frames}-frame clip")
     return sl
+
+
+def prop_option(motion: Motion, text: str) -> Prop:
+    """The prop a ``--prop`` value names, the same in every verb (so ``evaluate`` measures the prop
+    ``hit`` moved): ``KIND:JOINT`` is held by JOINT along its bone (:func:`mjcf.parse_prop_option`);
+    ``KIND`` alone (``club``, ``bat``) is fitted to both hands at the clip's address frames
+    (:func:`mjmotion.hitpoint.fit_club`), as ``hit --prop`` fits it."""
+    from .. import mjcf
+
+    kind, sep, _ = text.partition(":")
+    if sep or kind not in mjcf.PROP_PRESETS:
+        return mjcf.parse_prop_option(motion.skeleton, text)
+    from ..hitpoint import fit_club
+
+    return fit_club(motion, kind)

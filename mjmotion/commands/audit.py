@@ -97,9 +97,10 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
         raise MjmotionError(f"-o {out}: is inside {root}; nothing is written in the audited folder, choose an output folder outside it")
     if out.exists() and not out.is_dir():
         raise MjmotionError(f"-o {out}: exists and is not a folder; an audit writes a folder of results")
-    parent = out.parent if str(out.parent) else Path(".")
-    if not out.exists() and not parent.is_dir():
-        raise MjmotionError(f"-o {out}: folder {parent} does not exist")
+    # Missing folders on the way are made (as `mkdir -p`, like demo's --out); one that is a file is refused.
+    above = next(a for a in (out, *out.parents) if a.exists())
+    if above != out and not above.is_dir():
+        raise MjmotionError(f"-o {out}: {above} is not a folder")
     if out.exists() and any(out.iterdir()) and not (args.resume or args.force):
         raise MjmotionError(f"-o {out}: already exists; pass --resume to continue its audit or --force to start over")
     if not find_clips(root):

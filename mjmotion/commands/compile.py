@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_input_options, output_path, read_motion
+from ._common import add_input_options, output_path, prop_option, read_motion, trim_start
 from ._options import UniqueProps
 from ._progress import steps
 
@@ -17,8 +17,10 @@ capsules along the bones, foot boxes, masses for the character's size, a floor, 
 tracking camera. The file loads with mujoco.MjModel.from_xml_path to the same kinematics.
 
 Its initial pose (qpos0) is the rest pose standing on the floor, and it carries a keyframe
-"first_frame": the clip's first frame, moved so its lowest geom touches the floor (load it in
-MuJoCo's viewer with the Key slider, or mujoco.mj_resetDataKeyframe).
+"first_frame": the clip's first frame after a leading T-pose or transition (--keep-start: the
+file's first frame), moved so its lowest geom touches the floor (load it in MuJoCo's viewer with
+the Key slider, or mujoco.mj_resetDataKeyframe). A one-word --prop is fitted to the hands on the
+same frames.
 
 --skin adds the character's skinned surface (a MuJoCo <skin>: a closed mesh around the geoms
 in a standing T-pose, up to four bone weights per vertex by bind-pose distance; MuJoCo deforms
@@ -43,12 +45,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action=UniqueProps,
         default=[],
         metavar="KIND[:JOINT]",
-        help="attach a prop (club or bat) to JOINT (default: the right hand); repeatable, each kind once",
+        help="attach a prop (club or bat) held by JOINT along its bone, or without :JOINT fitted to both hands as hit --prop fits it; repeatable, each kind once",
     )
     p.add_argument("--ball", action="store_true", help="add a free ball (cricket-ball size)")
     p.add_argument("--skin", action="store_true", help="add the character's skinned surface (a MuJoCo <skin>)")
     p.add_argument("--actuators", action="store_true", help="add a position servo per joint degree of freedom")
-    add_input_options(p, trim=False)
+    add_input_options(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -60,8 +62,9 @@ def run(args: argparse.Namespace) -> int:
     with steps("compile", names) as step:
         step("read")
         m = read_motion(args.file, args)
+        clip = trim_start(m, args.file, args)[0]  # the frames a pose is taken from (the skin binds on the whole file)
         step("compile")
-        props = tuple(mjcf.parse_prop_option(m.skeleton, text) for text in args.prop)
+        props = tuple(prop_option(clip, text) for text in args.prop)
         compiled = mjcf.compile(m.skeleton, props, mjcf.Ball() if args.ball else None)
         try:
             if args.skin or args.actuators:
@@ -71,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
                 neutral = bind.bind_rotations(m.skeleton, m)
                 if args.actuators:
                     compiled = mjcf.add_actuators(compiled, neutral)
-            compiled = mjcf.add_keyframe(compiled, kinematics.qpos(compiled, m[:1])[0], name="first_frame")
+            compiled = mjcf.add_keyframe(compiled, kinematics.qpos(compiled, clip[:1])[0], name="first_frame")
             if args.skin:
                 step("skin")
                 compiled = attach(compiled, build(compiled, reference=m))

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import MjmotionError, printable, require_number
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, check_same_file, load, load_first
+from ._common import add_input_options, check_same_file, load, load_first, prop_option
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, UniqueProps, integer, number
 
 if TYPE_CHECKING:
@@ -50,7 +50,7 @@ examples:
   mjmotion evaluate blend.bvh --source walk.bvh --source run.bvh
   mjmotion evaluate cleaned.bvh --source raw.bvh --floor 0
   mjmotion evaluate swing.bvh --prop club:rwrist --ball 0.6 0.1 0.03 --frame 212
-  mjmotion evaluate drive.bvh --prop bat:RightHand --ball 0.27 0.35 0.18 --frame 66 --delivery medium
+  mjmotion evaluate drive.bvh --prop bat --ball 0.40 0.42 0.34 --frame 66 --delivery medium
   mjmotion evaluate "$MJMOTION_DATA" --json all.json
 """
 
@@ -77,7 +77,13 @@ _COLUMNS = (
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("path", help="a .bvh file, or a folder (searched recursively for .bvh files)")
-    p.add_argument("--prop", action=UniqueProps, default=[], metavar="KIND[:JOINT]", help="attach a prop (club, bat); the first is the effector")
+    p.add_argument(
+        "--prop",
+        action=UniqueProps,
+        default=[],
+        metavar="KIND[:JOINT]",
+        help="attach a prop (club, bat): held by JOINT along its bone, or without :JOINT fitted to both hands as hit --prop fits it; the first is the effector",
+    )
     p.add_argument(
         "--ball", nargs=3, type=COORD, metavar=("X", "Y", "Z"), help="ball centre (m, world Z-up, each within ±1000) for the hitting metrics"
     )
@@ -205,7 +211,7 @@ def evaluate_one(path: str, opts: dict[str, Any]) -> tuple[Motion, int, Report]:
     args = argparse.Namespace(**opts)
     m, offset = load_first(path, args, args.frames, note=False)  # the skipped frames are listed once, after the table
     sources = load_sources(args, path, m) if getattr(args, "source", None) else []
-    props = tuple(_prop(m, t) for t in args.prop)
+    props = tuple(prop_option(m, t) for t in args.prop)
     ball = None
     hit = None
     if args.ball is not None:
@@ -234,12 +240,6 @@ def evaluate_one(path: str, opts: dict[str, Any]) -> tuple[Motion, int, Report]:
         offset,
         ev.evaluate(m, props, ball, hit, params, ball_velocity=ball_velocity, sources=sources, floor=getattr(args, "floor", None)),
     )
-
-
-def _prop(motion, text: str):
-    from .. import mjcf
-
-    return mjcf.parse_prop_option(motion.skeleton, text)
 
 
 def _fmt(v: Any, spec: str) -> str:
@@ -415,7 +415,7 @@ def _hit_grid(args: argparse.Namespace, opts: dict[str, Any]) -> dict[str, Any]:
     from .. import launchgrid
 
     m, first = load_first(args.path, argparse.Namespace(**opts), args.frames, note=False)
-    prop = _prop(m, args.prop[0])
+    prop = prop_option(m, args.prop[0])
     frame = args.frame - first
     if not 0 <= frame < m.n_frames:
         raise MjmotionError(f"--frame {args.frame}: outside the evaluated frames {first}..{first + m.n_frames - 1}")

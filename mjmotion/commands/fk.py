@@ -6,7 +6,7 @@ import argparse
 import io
 
 from ..outputs import write_bytes_atomic
-from ._common import add_input_options, load, output_path
+from ._common import add_input_options, load, output_path, prop_option
 from ._options import UniqueProps
 from ._progress import steps
 
@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
         step("read")
         m = load(args.file, args)
         step("compile")
-        props = tuple(_prop(m, text) for text in args.prop)
+        props = tuple(prop_option(m, text) for text in args.prop)
         compiled = mjcf.compile(m.skeleton, props)
         step("forward kinematics")
         pose = kinematics.forward(compiled, m)
@@ -69,17 +69,3 @@ def _arrays(m, pose, props) -> tuple[dict, int]:
         arrays["site_names"] = np.array([pose.site_names[i] for i in keep])
         arrays["site_positions"] = pose.site_positions[:, keep]
     return arrays, len(arrays.get("site_names", ()))
-
-
-def _prop(motion, text: str):
-    """A prop from ``--prop``; the club on a golf swing is fitted to both hands when that module exists."""
-    from .. import mjcf
-
-    kind = text.partition(":")[0]
-    if kind == "club" and ":" not in text:
-        try:
-            from ..hitpoint import fit_club
-        except ImportError:
-            return mjcf.parse_prop_option(motion.skeleton, text)
-        return fit_club(motion)
-    return mjcf.parse_prop_option(motion.skeleton, text)

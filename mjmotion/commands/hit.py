@@ -33,11 +33,11 @@ the judge counts (mjmotion.limits, the compiled model's ranges: evaluate's limit
 An unreachable target is solved best-effort: the clip and report are written (with
 "reachable": false), one error line says so, and the exit status is 2.
 The report's hit_error_m is the effector's distance to the target point at the hit frame
-(`mjmotion evaluate --ball` measures METRICS' hit_error_m, to a ball's surface).
+(`mjmotion evaluate --ball` with the same --prop measures METRICS' hit_error_m, to a ball's surface).
 
 examples:
   mjmotion hit 64_01.bvh --offset 0 0.1 0.1 -o swing_hit.bvh --json report.json
-  mjmotion hit 64_01.bvh --target 0.62 0.54 0.47 --solver dls --falloff 0.4 -o out.bvh
+  mjmotion hit 64_01.bvh --target -0.15 0.55 0.15 --solver dls --falloff 0.4 -o out.bvh
   mjmotion hit 10_01.bvh --effector right_foot --offset 0.1 0 0 -o kick.bvh
   mjmotion hit 64_01.bvh --offset 0 0 0.2 --wrist swing --lock lclavicle -o out.bvh
   mjmotion hit drive.bvh --prop bat --frame 66 --offset 0 0 0.1 --delivery medium -o out.bvh

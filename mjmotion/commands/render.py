@@ -13,7 +13,7 @@ from typing import Any
 from ..caps import MAX_MODEL_JOINTS, check_motion_size
 from ..errors import MjmotionError, printable
 from ..floor import Floor
-from ._common import add_input_options, load, output_path, parse_frames
+from ._common import add_input_options, load, output_path, parse_frames, prop_option
 from ._options import COORD, VIDEO_FPS, UniqueProps, check_actors, integer, number
 from ._options import label as label_text
 from .evaluate import add_judge_options, check_floor, load_sources
@@ -36,7 +36,7 @@ examples:
   mjmotion render walk.bvh --skin both -o skin_vs_capsules.mp4
   mjmotion render cleaned.bvh raw.bvh --source raw.bvh -o compare.mp4
 
-The checker floor is drawn at the floor the judge uses (docs/METRICS.md "Floor"), as `mjmotion
+The checker floor is drawn at the floor the judge uses (docs/METRICS.md "The floor"), as `mjmotion
 evaluate` finds it for the first clip: --floor METRES (--floor 0: z = 0 as captured), else its
 --source clip(s), else the first clip's own stance floor. Every character moves by the same
 amount, so a clip floating over (or sunk into) another's floor still shows. Each foot is drawn on
@@ -61,7 +61,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action=UniqueProps,
         default=[],
         metavar="KIND[:JOINT]",
-        help="give every character a prop: club or bat, held by JOINT (default: a club is fitted to both hands, a bat to the right hand)",
+        help="give every character a prop: club or bat, held by JOINT along its bone, or without :JOINT fitted to both hands at the clip's address frames (as hit --prop)",
     )
     p.add_argument(
         "--ball", nargs=3, type=COORD, metavar=("X", "Y", "Z"), help="a ball at X Y Z metres (Z up, each within ±1000) beside each character"
@@ -150,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     actors = []
     for i, (path, label) in enumerate(zip(args.files, labels)):
         m = load(path, args, trim=not args.frames)  # --frames: the file's own frame numbers
-        props = tuple(_prop(m, text) for text in args.prop)  # fitted on the whole clip (a swing's address frames)
+        props = tuple(prop_option(m, text) for text in args.prop)  # fitted on the whole clip (a swing's address frames)
         if args.frames:
             m = m[parse_frames(args.frames, m.n_frames)]
         trail = _trail(m, props, args.trail)
@@ -204,17 +204,6 @@ def _check_scene(motions: list, fps: float) -> None:
         check_motion_size(longest.duration * fps + 1, joints, f"{len(motions)} character(s), {longest.duration:.4g} s at {fps:g} fps")
     except MjmotionError as e:
         raise MjmotionError(f"--fps {fps:g}: {e}") from None
-
-
-def _prop(motion, text: str):
-    """A prop from ``--prop``; a one-word club on a golf swing is fitted to both hands (``hitpoint.fit_club``)."""
-    from .. import mjcf
-
-    if text == "club":
-        from ..hitpoint import fit_club
-
-        return fit_club(motion)
-    return mjcf.parse_prop_option(motion.skeleton, text)
 
 
 def _trail(motion, props, text: str | None) -> str | None:

@@ -92,8 +92,8 @@ BLENDABILITY_PAIRS_BUNDLED = (
 )
 
 WARP_COLUMNS = (
-    "pair", "timewarp", "samples", "recovery RMS frames", "recovery max frames", "curve ms", "time performance %",
-    "clock jerk frames/frame²", "RMS ang. accel rad/s²", "sources' RMS rad/s²", "max joint speed ratio",
+    "pair", "timewarp", "samples", "recovery RMS frames", "recovery max frames", "alignment max °", "alignment max mm",
+    "curve ms", "time performance %", "clock jerk frames/frame²", "RMS ang. accel rad/s²", "sources' RMS rad/s²", "max joint speed ratio",
     "planted skate mm/s",
 )  # fmt: skip
 
@@ -262,15 +262,20 @@ def warp_rows(
             if truth is not None:
                 err = s[:, 1] - truth(s[:, 0])
                 rms, worst = float(np.sqrt(np.mean(err**2))), float(np.abs(err).max())
+                # the floor transform that takes the warped clip back onto A undoes the known move
+                c, sn = np.cos(theta), np.sin(theta)
+                undo = -np.array([[c, sn], [-sn, c]]) @ np.asarray(shift)
+                turn = float(np.degrees(np.abs(np.angle(np.exp(1j * (align[:, 0] + theta))))).max())
+                move = float(1e3 * np.linalg.norm(align[:, 1:] - undo, axis=1).max())
             else:
-                rms = worst = float("nan")
+                rms = worst = turn = move = float("nan")
             # the clock's jerk: second differences of B's time per frame of A (kinks of the discrete curve)
             tb = np.interp(np.arange(np.ceil(s[0, 0]), s[-1, 0] + 1e-9), s[:, 0], s[:, 1])
             jerk = float(np.abs(np.diff(tb, 2)).max()) if len(tb) > 2 else float("nan")
             m = bl.blend([a, b], [0.5, 0.5], registration=registration_from(pr))
             tr = ev.foot_heights_speeds(compiled, m)
             rows.append((
-                label, kind, len(s), rms, worst, 1e3 * t_curve, 100.0 * (t_discrete or t_curve) / t_curve, jerk,
+                label, kind, len(s), rms, worst, turn, move, 1e3 * t_curve, 100.0 * (t_discrete or t_curve) / t_curve, jerk,
                 rms_angular_acceleration(m), src_rms, ev.max_joint_speed_ratio(m, [a, b]), ev.planted_skate_mm_per_s(tr),
             ))  # fmt: skip
         if figure and truth is not None:
@@ -305,7 +310,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
                 "registered: along the DP registration curve with incremental root (seed 000 §3.2)"),
             ("skate@h_c: docs/METRICS.md skate_mm_per_s, the height-weighted footskate (speed × (2 − 2^(h/h_c)) over frames a "
                 "foot is below h_c, m); planted skate: planted_skate_mm_per_s, over contact frames (5 cm, 0.5 m/s, with hysteresis)"),
-            "every clip first set on its floor (its detected stance floor: the daz feet stand 1–6 cm above z = 0)",
+            "every clip first set on its floor (its detected stance floor: the daz feet stand from 0.5 cm below to 5 cm above z = 0)",
             ("steps/s: changes of the stance (lower) foot per second, with 2 cm hysteresis (contact rhythm); "
                 "speed: root path length / duration"),
         ],
@@ -316,7 +321,8 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False) -> Tab
         notes=[
             (f"known warp: source frame (n−1)·({WARP[0]} + {WARP[1]}u + {WARP[2]} sin 2πu) of a clip 0.85× as long, then turned "
                 f"{np.degrees(WARP_MOVE[0]):.0f}° and moved {WARP_MOVE[1]} m on the floor, registered corner to corner; "
-                "recovery error in frames of the warped clip (METRICS path_rms_frames); the walk/run pair has a free end"),
+                "recovery error in frames of the warped clip (METRICS path_rms_frames), alignment error: the largest over the curve's "
+                "samples of the floor transform's turn and move against the inverse of the known move; the walk/run pair has a free end"),
             "both curves from the same DP path; curve ms: curve plus alignment (median of 5); time performance = 100 · t(discrete) / t (Sako's Eq. 6)",
             ("blend: weight .5 along each curve; clock jerk: max |second difference| of the second clip's time per frame of the first; "
                 "RMS ang. accel: joint angular acceleration (finite differences of the angular velocity vectors), RMS over "
