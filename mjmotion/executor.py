@@ -284,6 +284,7 @@ class Dask(Executor):
         self.cluster = None
         self.address = scheduler
         if scheduler is not None:
+            check_address(scheduler)
             try:
                 self.client = Client(scheduler, timeout=connect_timeout, set_as_default=False)
             except Exception as e:  # OSError, TimeoutError, ValueError for a malformed address
@@ -396,6 +397,23 @@ class Dask(Executor):
         if self.cluster is not None:
             self.cluster.close()
             self._settings.__exit__(None, None, None)
+
+
+def check_address(address: str) -> None:
+    """Refuse a ``--scheduler`` value that is not a Dask address before any connection (Dask would
+    wait out the time limit twice on it, its client's clean-up printing a traceback)."""
+    from distributed.comm import parse_address
+    from distributed.comm.addressing import parse_host_port
+    from distributed.comm.registry import backends
+
+    try:
+        scheme, loc = parse_address(address)
+        if scheme not in backends:
+            raise ValueError(f"unknown scheme {scheme!r}; Dask knows {', '.join(sorted(backends))}")
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            parse_host_port(loc)
+    except ValueError as e:
+        raise MjmotionError(f"--scheduler {address}: not a Dask scheduler address ({one_line(str(e))}); expected e.g. tcp://HOST:8786") from None
 
 
 def load(preload: Iterable[str | Callable[[], object]]) -> None:

@@ -466,6 +466,10 @@ def test_bad_input_is_one_error_line(corpus, tmp_path, capsys):
         f"--scheduler tcp://127.0.0.1:{port}: no Dask scheduler answered within 1 s",
     )
     assert (taken / "audit.csv").read_text() == "precious"  # --force replaces only once the workers answer
+    for address, why in (("notanaddress", "missing port"), ("http://127.0.0.1:1", "unknown scheme 'http'")):
+        t0 = time.perf_counter()  # refused as written, not after waiting out a connection (twice, with a traceback)
+        _refused(["audit", str(corpus), "-o", str(taken), "--force", "--scheduler", address], capsys, "not a Dask scheduler address", why)
+        assert time.perf_counter() - t0 < 5.0
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o3"), "--timeout", "-5"], capsys, "--timeout -5")
     (tmp_path / "o6").write_text("a file")
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o6" / "sub" / "out")], capsys, f"{tmp_path / 'o6'} is not a folder")

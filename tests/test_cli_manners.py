@@ -70,6 +70,15 @@ def test_a_register_plot_must_be_png_and_is_refused_before_any_work(tmp_path, cl
     assert not list(tmp_path.iterdir())
 
 
+def test_a_vary_plot_must_be_png_and_is_refused_before_any_work(tmp_path, clip, human, capsys):
+    """vary checked the plot's extension only when it drew it: the refused variant stayed behind at -o."""
+    spec = VERBS["vary"]
+    out = tmp_path / "v.bvh"
+    rc, _, err = run(["vary", *spec.argv(str(_input(spec, clip, human)), str(out)), "--plot", str(tmp_path / "p.pdf")], capsys)
+    assert rc == 2 and "--plot" in err and "expected a .png path" in err
+    assert not list(tmp_path.iterdir())
+
+
 def _closed_pipe(argv: list[str]) -> subprocess.CompletedProcess:
     """Run ``mjmotion ARGV`` with its stdout a pipe whose reader is gone before it writes."""
     proc = subprocess.Popen([sys.executable, "-m", "mjmotion.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE)

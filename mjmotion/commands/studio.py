@@ -51,9 +51,9 @@ def run(args: argparse.Namespace) -> int:
     if args.check:
         print(f"mjmotion studio: {len(library.names())} clips ready: {', '.join(library.names())}")
         return 0
+    studio = Studio(library, args.host, args.port, args.out)
     if args.host not in LOCAL_HOSTS:
         sys.stderr.write(f"warning: listening on {args.host}: anyone who can reach this machine on that network can use the studio\n")
-    studio = Studio(library, args.host, args.port, args.out)
     print(f"mjmotion studio: {studio.url} ({len(library.names())} clips; Ctrl-C to stop)", flush=True)
     stop = threading.Event()
     try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+from pathlib import Path
 
 from ..caps import MAX_COMPONENTS, MAX_FRAMES, check_motion_size
 from ..errors import MjmotionError
@@ -143,6 +144,8 @@ def run(args: argparse.Namespace) -> int:
         check_output(x, force=args.force, inputs=[*inputs, str(out)])
     if len(set(map(str, [out, *extra]))) != 1 + len(extra):
         raise MjmotionError("-o, --plot and --json must name different files")
+    if args.plot and Path(args.plot).suffix.lower() != ".png":  # before any work: a late refusal would leave -o written
+        raise MjmotionError(f"--plot {args.plot}: plots are written as PNG; expected a .png path")
     if args.segment and args.scale is None:
         raise MjmotionError("--segment goes with --scale")
     if args.abort_frames is not None and args.abort_at is None:

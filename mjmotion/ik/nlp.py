@@ -256,9 +256,12 @@ class FrameSolver:
         lo_cone = trace_bounds(limit[self.cone_rows])
         inf = np.full(len(self.cone_rows), np.inf)
         zeros = np.zeros(self.n_res)
-        sol = self.hard(x0=x0, p=pars, lbx=lower, ubx=upper, lbg=np.concatenate([zeros, lo_cone]), ubg=np.concatenate([zeros, inf]))
-        stats = self.hard.stats()
-        if not stats["success"]:
+        # More goal equations than free coordinates: IPOPT refuses (CasADi warns on every frame), the best effort it is.
+        hard = np.count_nonzero(np.asarray(upper) > np.asarray(lower)) >= self.n_res
+        if hard:
+            sol = self.hard(x0=x0, p=pars, lbx=lower, ubx=upper, lbg=np.concatenate([zeros, lo_cone]), ubg=np.concatenate([zeros, inf]))
+            stats = self.hard.stats()
+        if not hard or not stats["success"]:
             sol = self.soft(x0=x0, p=pars, lbx=lower, ubx=upper, lbg=lo_cone, ubg=inf)
             stats = self.soft.stats()
         delta = np.clip(np.asarray(sol["x"]).ravel(), lower, upper)
@@ -421,9 +424,11 @@ class ShotSolver:
         lo_cone = trace_bounds(limit[:, self.cone_rows])  # (N, n_cone)
         lbg = np.hstack([np.zeros((self.n, self.n_res)), lo_cone]).ravel()
         ubg = np.hstack([np.zeros((self.n, self.n_res)), np.full(lo_cone.shape, np.inf)]).ravel()
-        sol = self.hard(x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-        stats = self.hard.stats()
-        ok = bool(stats["success"])
+        ok = bool(np.count_nonzero(ubx > lbx) >= self.n_res * self.n)  # else overconstrained: straight to the best effort
+        if ok:
+            sol = self.hard(x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+            stats = self.hard.stats()
+            ok = bool(stats["success"])
         if not ok:
             sol = self.soft(x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=lo_cone.ravel(), ubg=np.inf)
             stats = self.soft.stats()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import io
 import socket
 import threading
@@ -25,8 +26,21 @@ CHROMIUM_ARGS = (
 )
 
 
+def check_host(host: str) -> None:
+    """Refuse a ``--host`` that names no address of this machine; an empty one would listen on every
+    network interface."""
+    if not host.strip():
+        raise MjmotionError("--host '': expected an address to listen on (127.0.0.1: this machine only; 0.0.0.0: every network)")
+    try:
+        socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)
+    except (socket.gaierror, UnicodeError) as e:
+        raise MjmotionError(f"--host {host}: not an address ({getattr(e, 'strerror', None) or e}); expected e.g. 127.0.0.1") from None
+
+
 def check_port(host: str, port: int) -> None:
-    """Refuse a port another program listens on (viser would quietly move to the next one)."""
+    """Refuse a port another program listens on (viser would quietly move to the next one), and a
+    host this machine has no address of."""
+    check_host(host)
     if port == 0:
         return
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
@@ -34,6 +48,8 @@ def check_port(host: str, port: int) -> None:
         try:
             s.bind((host, port))
         except OSError as e:
+            if isinstance(e, socket.gaierror) or e.errno == errno.EADDRNOTAVAIL:
+                raise MjmotionError(f"--host {host}: not an address of this machine ({e.strerror or e})") from None
             raise MjmotionError(
                 f"--port {port}: cannot listen on {host}:{port} ({e.strerror or e}); is another studio running? choose another --port"
             ) from None
