@@ -203,7 +203,10 @@ def atomic_path(path: str | os.PathLike[str], replace: bool | None = None) -> It
     if replace is None:
         replace = _CLAIMS.get(_key(out), True)
     parent = out.parent if str(out.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=out.suffix or ".tmp", dir=parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=out.suffix or ".tmp", dir=parent)
+    except OSError as e:  # named after the user's path, not the hidden temporary's
+        raise MjmotionError(f"{out}: cannot write in {parent} ({e.strerror or e})") from None
     os.close(fd)
     # mkstemp makes the file private (0600); results get the usual umask-based mode.
     umask = os.umask(0)
@@ -241,7 +244,10 @@ def staged_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
     must not exist then), on failure removed: a folder of results appears whole or not at all."""
     out = Path(path)
     parent = out.parent if str(out.parent) else Path(".")
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    except OSError as e:
+        raise MjmotionError(f"{out}: cannot write in {parent} ({e.strerror or e})") from None
     try:
         umask = os.umask(0)
         os.umask(umask)

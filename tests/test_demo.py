@@ -71,3 +71,15 @@ def test_experiment_scripts_share_one_command_line(tmp_path, capsys):
     assert script("transitions", None, ["--data", str(tmp_path / "missing")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and "missing" in err and err.count("\n") == 1
+
+
+def test_demo_refuses_a_data_folder_without_clips_before_any_work(tmp_path, capsys):
+    """An empty --data ran the first experiment, failed on its first clip and left -o behind."""
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    (empty / "notes.txt").write_text("no clips here")
+    out = tmp_path / "out"
+    assert main(["demo", "--data", str(empty), "-o", str(out), "--only", "path_search", "--no-video"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: --data {empty}: no .bvh files") and err.count("\n") == 1, err
+    assert not out.exists()

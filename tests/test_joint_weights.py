@@ -55,8 +55,9 @@ def test_register_weighs_the_distance_by_the_file(clips, tmp_path, capsys):
     ("text", "name", "message"),
     [
         ('{"lThigh": 2, "knee": 1}', "w.json", r"w\.json: no joint named 'knee'"),
-        ('{"lThigh": -1}', "w.json", r"w\.json: joint 'lThigh': expected a non-negative number, got -1"),
-        ('{"lThigh": true}', "w.json", r"joint 'lThigh': expected a non-negative number, got True"),
+        ('{"lThigh": -1}', "w.json", r"w\.json: joint 'lThigh': expected a number from 0 to 1e\+06 \(weights are relative\), got -1"),
+        ('{"lThigh": true}', "w.json", r"joint 'lThigh': expected a number from 0 to 1e\+06 .*got True"),
+        ('{"lThigh": 1e308}', "w.json", r"joint 'lThigh': expected a number from 0 to 1e\+06 .*got 1e\+308"),
         ("[1, 2]", "w.json", r"w\.json: expected a table of joint name -> non-negative weight"),
         ("{nope", "w.json", r"w\.json:1: not valid JSON"),
         ("lThigh = [", "w.toml", r"w\.toml: not valid TOML"),

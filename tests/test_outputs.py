@@ -208,3 +208,14 @@ def test_two_concurrent_writers_one_wins_the_other_exits_2(tmp_path):
     assert loser.count("error:") == 1 and "appeared while this command ran" in loser and "Traceback" not in loser
     assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith("ready")) == ["out.bvh"]
     assert out.read_text().startswith("HIERARCHY")
+
+
+def test_a_folder_that_takes_no_files_is_named_with_the_users_path():
+    """/proc takes no new files: the error named the hidden temporary (`/proc/.x.txt.2eq_psj0.txt`)."""
+    from mjmotion.outputs import staged_folder, write_text_atomic
+
+    with pytest.raises(MjmotionError) as e:
+        write_text_atomic("/proc/mjmotion-out.txt", "x")
+    assert str(e.value).startswith("/proc/mjmotion-out.txt: cannot write in /proc (") and ".mjmotion-out.txt." not in str(e.value)
+    with pytest.raises(MjmotionError, match=r"^/proc/mjmotion-lib: cannot write in /proc \("), staged_folder("/proc/mjmotion-lib"):
+        pass

@@ -268,8 +268,9 @@ def test_studio_verb_port_in_use_is_one_error_line():
     assert err.count("\n") == 1 and err.startswith(f"error: --port {port}:")
 
 
-
-@pytest.mark.parametrize(("host", "why"), [("", "expected an address"), ("999.1.1.1", "not an address"), ("10.99.99.99", "not an address of this machine")])
+@pytest.mark.parametrize(
+    ("host", "why"), [("", "expected an address"), ("999.1.1.1", "not an address"), ("10.99.99.99", "not an address of this machine")]
+)
 def test_studio_verb_bad_host_is_one_error_line_naming_it(host, why):
     """An empty --host listened on every network (viser's default); a host this machine has not was
     blamed on --port, after a warning that it listened there."""
@@ -277,6 +278,7 @@ def test_studio_verb_bad_host_is_one_error_line_naming_it(host, why):
     out, err = p.communicate(timeout=60)
     assert p.returncode == 2 and out == ""
     assert err.count("\n") == 1 and err.startswith(f"error: --host {host}") and why in err, err
+
 
 def test_the_evaluate_tabs_marks_measure_from_the_judges_floor():
     """The timeline's penetration marks use the judge's floor, as the report's penetrate_mm does: a

@@ -21,13 +21,15 @@ from ..skeleton import Skeleton
 
 #: A weight table is small; a bigger file is refused before it is read.
 MAX_BYTES = 1 << 20
+#: Weights are relative; a larger one would overflow the squared distances (1e308 read "mean cost 0").
+MAX_WEIGHT = 1e6
 
 
 def add_option(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--joint-weights",
         metavar="FILE",
-        help="JSON or TOML table of joint name -> non-negative weight in the frame distance (Macleod 2006, §3.1); "
+        help="JSON or TOML table of joint name -> weight from 0 to 1e6 in the frame distance (Macleod 2006, §3.1); "
         "joints not named keep 1 (fingers, thumbs, eyes 0)",
     )
 
@@ -80,8 +82,8 @@ def parse(text: str, path: str) -> dict[str, float]:
         raise MjmotionError(f'{path}: expected {what}, e.g. {{"lfemur": 2, "lhand": 0}}')
     out = {}
     for name, value in data.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-            raise MjmotionError(f"{path}: joint {name!r}: expected a non-negative number, got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not 0 <= value <= MAX_WEIGHT:
+            raise MjmotionError(f"{path}: joint {name!r}: expected a number from 0 to {MAX_WEIGHT:g} (weights are relative), got {value!r}")
         out[str(name)] = float(value)
     return out
 

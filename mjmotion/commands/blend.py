@@ -18,7 +18,8 @@ clip's skeleton). registered (default): the clips are registered (timewarp + ali
 at corresponding times, their joint rotations averaged as quaternions and the root built from
 the weighted per-frame steps, so the blend walks one continuous path at an in-between pace.
 linear: frame n of every clip averaged (the Sako 2008 baseline). Weights are non-negative and
-must sum to 1.
+must sum to 1. A clip at another frame rate is resampled to the first clip's (slerp), as
+`convert --fps` would.
 
 examples:
   mjmotion blend walk.bvh run.bvh --weights 0.5,0.5 -o jog.bvh

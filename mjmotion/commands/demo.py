@@ -43,6 +43,8 @@ def run(args: argparse.Namespace) -> int:
         data = Path(args.data)
         if not data.is_dir():
             raise MjmotionError(f"--data {args.data}: not a directory")
+        if not any(p.suffix.lower() == ".bvh" for p in data.rglob("*")):  # before any work or folder is made
+            raise MjmotionError(f"--data {args.data}: no .bvh files in it; expected the shared CMU clips (its flavour folders)")
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise MjmotionError(f"-o {args.out}: exists and is not a folder")
