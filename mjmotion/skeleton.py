@@ -290,8 +290,8 @@ def detect_scale(extent: float) -> float:
         if lo <= extent <= hi:
             return s
     raise MjmotionError(
-        f"cannot tell the unit of a skeleton {extent:g} units across; pass the scale "
-        "explicitly (metres per file unit, e.g. --scale 0.01 for centimetres)"
+        f"cannot tell the unit of a skeleton {extent:g} units across; give it with --units "
+        "(m, cm, mm, asf, or metres per file unit, e.g. --units cm; scale= in mjmotion.read)"
     )
 
 

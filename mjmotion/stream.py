@@ -163,7 +163,12 @@ def parse_script(data: dict, base: Path, load) -> Script:
             raise MjmotionError(f'script.clips.{name}: expected {{"file": PATH, "frames": "A:B" (optional)}}')
         path = Path(spec["file"])
         path = path if path.is_absolute() else base / path
-        clips[name] = load(str(path), spec.get("frames")).replace(name=name)
+        try:
+            clips[name] = load(str(path), spec.get("frames")).replace(name=name)
+        except MjmotionError as e:  # the loader speaks of the CLI's --frames; here it is this field
+            if not str(e).startswith("--frames "):
+                raise
+            raise MjmotionError(f"script.clips.{name}.frames {str(e).removeprefix('--frames ')}") from None
     loco = data["locomotion"]
     if not isinstance(loco, list) or not loco or not all(isinstance(x, str) for x in loco):
         raise MjmotionError("script.locomotion: expected a list of clip names")

@@ -179,6 +179,14 @@ def test_script_errors_name_the_field(mocap, change, message):
         S.parse_script(_script(mocap, **change), mocap, _load)
 
 
+def test_a_clips_frames_error_names_its_field_not_an_option(mocap):
+    """The loader's error spoke of --frames, which `stream` has not: the field is clips.NAME.frames."""
+    data = _script(mocap)
+    data["clips"]["kick"]["frames"] = "900000:900100"
+    with pytest.raises(MjmotionError, match=r"^script\.clips\.kick\.frames 900000:900100: selects no frames"):
+        S.parse_script(data, mocap, _load)
+
+
 def test_script_with_another_topology_refused(mocap):
     data = _script(mocap)
     data["clips"]["kick"] = {"file": str(mocap / "cmu_cgspeed_daz" / "09_01.bvh")}

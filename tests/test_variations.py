@@ -398,6 +398,8 @@ def test_vary_cli_report_and_errors(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--rest-frame goes with --abort-at" in err and "outside the clip" in err
     assert "already exists" in err and "--segment goes with --scale" in err and "positive" in err
+    assert main(["vary", str(src_file), "--scale", "1.1", "--segment", "100:50", "-o", str(tmp_path / "s.bvh")]) == 2
+    assert capsys.readouterr().err.startswith("error: --segment 100:50: selects no frames")  # (it said --frames)
     assert "Traceback" not in err
 
 

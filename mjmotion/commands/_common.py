@@ -136,20 +136,20 @@ def output_path(args: argparse.Namespace, *inputs: str) -> Path:
     return check_output(args.output, force=bool(getattr(args, "force", False)), inputs=inputs)
 
 
-def parse_frames(text: str, n_frames: int) -> slice:
-    """``A:B`` (Python-style, negatives allowed, either side optional) → a checked slice."""
+def parse_frames(text: str, n_frames: int, option: str = "--frames") -> slice:
+    """``A:B`` (Python-style, negatives allowed, either side optional) → a checked slice; errors name ``option``."""
     a, sep, b = text.partition(":")
     if not sep:
-        raise MjmotionError(f"--frames {text!r}: expected A:B (e.g. 10:200)")
+        raise MjmotionError(f"{option} {text!r}: expected A:B (e.g. 10:200)")
     try:
         start = int(a) if a.strip() else None
         stop = int(b) if b.strip() else None
     except ValueError:
-        raise MjmotionError(f"--frames {text!r}: A and B must be whole numbers") from None
+        raise MjmotionError(f"{option} {text!r}: A and B must be whole numbers") from None
     sl = slice(start, stop)
     lo, hi, _ = sl.indices(n_frames)
     if hi <= lo:
-        raise MjmotionError(f"--frames {text}: selects no frames of a {n_frames}-frame clip")
+        raise MjmotionError(f"{option} {text}: selects no frames of a {n_frames}-frame clip")
     return sl
 
 

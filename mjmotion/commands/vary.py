@@ -171,7 +171,7 @@ def run(args: argparse.Namespace) -> int:
             if args.scale is not None:
                 seg = None
                 if args.segment:
-                    a, b, _ = parse_frames(args.segment, source.n_frames + first).indices(source.n_frames + first)  # file frames
+                    a, b, _ = parse_frames(args.segment, source.n_frames + first, "--segment").indices(source.n_frames + first)  # file frames
                     seg = (max(a - first, 0), b - first)
                     if seg[1] <= seg[0]:
                         raise MjmotionError(
