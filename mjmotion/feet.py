@@ -284,7 +284,7 @@ def calibrate_soles(skeleton: Skeleton, poses: Sequence[tuple[Pose, float]] = ()
     (``(Pose, fps)`` of clips of this skeleton); from the rest pose when none is long enough."""
     feet = skeleton.feet()
     if not feet:
-        raise MjmotionError(f"{skeleton.names[0]}…: no feet found by name (need e.g. lfoot/LeftFoot/CC_Base_L_Foot)")
+        raise MjmotionError(f"the skeleton rooted at {skeleton.names[0]!r} has no feet found by name (need e.g. lfoot/LeftFoot/CC_Base_L_Foot)")
     rest = skeleton.rest_positions()
     ends = skeleton.rest_end_positions()
     height = float(np.clip(skeleton.stature(), 0.3, 3.0))

@@ -570,3 +570,24 @@ def test_a_walk_on_a_tilted_floor_is_levelled_before_it_is_judged(tmp_path):
     # Judged against its tilted source, a copy lifted 5 cm floats by the 5 cm (less the 5 mm tolerance).
     up = tilted.replace(root_positions=tilted.root_positions + [0.0, 0.0, 0.05])
     assert ev.evaluate(up, sources=[tilted]).float_mm >= judged.float_mm + 42
+
+
+def test_errors_name_the_file_once(tmp_path, capsys):
+    """The judge's own errors spoke of "a clip" (which one, in a folder?); a reader's error already
+    naming its file was named twice in a folder's list."""
+    from mjmotion import bvh
+    from mjmotion.cli import main
+    from mjmotion.synth import walk
+
+    folder = tmp_path / "clips"
+    folder.mkdir()
+    bvh.write(walk(seconds=1.0).motion[:1], folder / "one.bvh")
+    (folder / "nan.bvh").write_text(
+        "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 1 Xposition\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\nnan\n"
+    )
+    assert main(["evaluate", str(folder / "one.bvh")]) == 2
+    assert capsys.readouterr().err == f"error: {folder / 'one.bvh'}: a clip needs at least 2 frames for foot speeds\n"
+    assert main(["evaluate", str(folder)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert sorted(e.split(": ")[1].split(":")[0] for e in err) == [str(folder / "nan.bvh"), str(folder / "one.bvh")], err
+    assert all(e.count(str(folder)) == 1 for e in err), err

@@ -166,3 +166,12 @@ def prop_option(motion: Motion, text: str) -> Prop:
     from ..hitpoint import fit_club
 
     return fit_club(motion, kind)
+
+
+def naming(path: str, e: MjmotionError) -> MjmotionError:
+    """``e`` with ``path`` in front, unless its message already begins with the file or an option
+    (the judge's own errors speak of "a clip": a user with many files needs to know which)."""
+    text = str(e)
+    if text.startswith((path, "-")):
+        return e
+    return MjmotionError(f"{path}: {text}")

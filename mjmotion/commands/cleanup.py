@@ -6,8 +6,9 @@ import argparse
 import json
 import math
 
+from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, load, output_path
+from ._common import add_input_options, load, naming, output_path
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, number
 from .evaluate import _finite, _nan_to_none, add_judge_options, check_floor, load_sources
 
@@ -92,11 +93,14 @@ def run(args: argparse.Namespace) -> int:
     params = cl.CleanupParams(
         h_c=args.h_c, v_c=args.v_c, blend=args.blend, clearance=args.clearance, floor=args.floor, hold_orientation=args.hold_orientation
     )
-    res = cl.cleanup(m, params, sources=sources)
-    # Judged as the judge would: against the sources (or the input itself), from the floor the cleanup used.
-    refs = sources or [m]
-    before = _metrics(m, refs if sources else [m.replace()], res.floor.height, params)
-    after = _metrics(res.motion, refs, res.floor.height, params)
+    try:
+        res = cl.cleanup(m, params, sources=sources)
+        # Judged as the judge would: against the sources (or the input itself), from the floor the cleanup used.
+        refs = sources or [m]
+        before = _metrics(m, refs if sources else [m.replace()], res.floor.height, params)
+        after = _metrics(res.motion, refs, res.floor.height, params)
+    except MjmotionError as e:
+        raise naming(args.file, e) from None
     bvh.write(res.motion, out)
     info = res.to_dict()
     print(

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import MjmotionError, printable, require_number
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, check_same_file, load, load_first, prop_option
+from ._common import add_input_options, check_same_file, load, load_first, naming, prop_option
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, UniqueProps, integer, number
 
 if TYPE_CHECKING:
@@ -342,7 +342,10 @@ def run(args: argparse.Namespace) -> int:
     if os.path.isdir(args.path):
         results = evaluate_files(files, opts, args.jobs)
     else:
-        results = [evaluate_file(args.path, opts)]
+        try:
+            results = [evaluate_file(args.path, opts)]
+        except MjmotionError as e:
+            raise naming(args.path, e) from None
     if args.hit_grid is not None:
         grid = _hit_grid(args, opts)
         for r in results:
@@ -385,7 +388,7 @@ def run(args: argparse.Namespace) -> int:
                     print("   " + "  ".join(f"{k}={v:8.3f}" for k, v in row.items()))
     for r in results:
         if "error" in r:
-            sys.stderr.write(f"error: {printable(r['file'])}: {printable(r['error'])}\n")
+            sys.stderr.write(f"error: {printable(str(naming(r['file'], MjmotionError(r['error']))))}\n")
     if out is not None:
         write_text_atomic(
             out,
