@@ -57,7 +57,7 @@ from .feet import (
 from .filters import moving_mean
 from .mjcf import CompiledModel
 from .skeleton import Motion, Skeleton
-from .thresholds import DEFAULTS, FLOAT_TOL, H_C, H_C_SENSITIVITY, HYSTERESIS, SKATE_WINDOW, V_C, Params
+from .thresholds import DEFAULTS, FLOAT_TOL, H_C, H_C_SENSITIVITY, HYSTERESIS, MAX_JUDGED_FPS, SKATE_WINDOW, V_C, Params
 
 __all__ = [
     "FLOAT_TOL", "H_C", "H_C_SENSITIVITY", "HYSTERESIS", "SKATE_WINDOW", "V_C", "FootTrack", "GroundMetrics", "MjmotionError",
@@ -459,6 +459,11 @@ def evaluate(
     too (effector: the first prop's sweet spot, else the foot or hand geom nearest the ball).
     """
     sources = list(sources)
+    if motion.fps > MAX_JUDGED_FPS:
+        raise MjmotionError(
+            f"{motion.name or 'the clip'}: {motion.fps:g} fps; the judge takes clips up to {MAX_JUDGED_FPS:g} fps (its filter and "
+            "speed windows grow with the rate: a million frames at 10,000 fps would need 30 GB); resample it first (mjmotion convert --fps 120)"
+        )
     _check_sources(motion, sources)
     compiled = judge_model(motion.skeleton, props)
     pose = kinematics.forward(compiled, motion)

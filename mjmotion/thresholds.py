@@ -112,3 +112,7 @@ class Params:
 
 #: The defaults, one shared instance (a frozen value).
 DEFAULTS = Params()
+
+#: The highest frame rate the judge takes: its low-pass and speed windows are fixed durations, so their
+#: frames (and the memory of the arrays built over them) grow with the rate; capture runs at 30-480 fps.
+MAX_JUDGED_FPS = 1000.0

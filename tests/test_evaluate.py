@@ -591,3 +591,21 @@ def test_errors_name_the_file_once(tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()
     assert sorted(e.split(": ")[1].split(":")[0] for e in err) == [str(folder / "nan.bvh"), str(folder / "one.bvh")], err
     assert all(e.count(str(folder)) == 1 for e in err), err
+
+
+def test_a_rate_beyond_the_judges_windows_is_refused_at_once():
+    """At 10,000 fps a million-frame clip ran two minutes into a 30 GB allocation (a MemoryError as an
+    internal error): the judge's windows are durations, their frames grow with the rate."""
+    import time
+
+    from mjmotion.errors import MjmotionError
+    from mjmotion.synth import walk
+    from mjmotion.thresholds import MAX_JUDGED_FPS
+
+    m = walk(seconds=1.0).motion
+    fast = m.resample(2 * MAX_JUDGED_FPS)
+    t0 = time.perf_counter()
+    with pytest.raises(MjmotionError, match=r"2000 fps; the judge takes clips up to 1000 fps .*mjmotion convert --fps"):
+        ev.evaluate(fast)
+    assert time.perf_counter() - t0 < 1.0
+    assert ev.evaluate(m.resample(MAX_JUDGED_FPS)).n_frames == fast.n_frames // 2 + 1  # the limit itself is judged
