@@ -609,3 +609,14 @@ def test_a_rate_beyond_the_judges_windows_is_refused_at_once():
         ev.evaluate(fast)
     assert time.perf_counter() - t0 < 1.0
     assert ev.evaluate(m.resample(MAX_JUDGED_FPS)).n_frames == fast.n_frames // 2 + 1  # the limit itself is judged
+
+
+def test_a_source_that_is_a_folder_is_called_one(tmp_path, capsys):
+    from mjmotion import bvh
+    from mjmotion.cli import main
+    from mjmotion.synth import walk
+
+    clip = tmp_path / "w.bvh"
+    bvh.write(walk(seconds=1.0).motion, clip)
+    assert main(["evaluate", str(clip), "--source", str(tmp_path)]) == 2
+    assert capsys.readouterr().err == f"error: --source {tmp_path}: not a file (a .bvh clip is expected)\n"  # (it said "no such file")

@@ -174,7 +174,7 @@ def check_frame(frame: int, n_frames: int, option: str, allow_negative: bool = F
     return frame % n_frames
 
 
-def check_actors(n: int, option: str = "FILE.bvh") -> None:
+def check_actors(n: int, option: str = "the clips to render") -> None:
     """At most :data:`mjmotion.caps.MAX_ACTORS` characters in one scene."""
     if n > MAX_ACTORS:
         raise MjmotionError(f"{option}: {n} clips, more than the limit of {MAX_ACTORS} characters in one render")

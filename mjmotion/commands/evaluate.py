@@ -174,7 +174,7 @@ def load_sources(args: argparse.Namespace, result_path: str, result) -> list:
     out = []
     for src in args.source:
         if not os.path.isfile(src):
-            raise MjmotionError(f"--source {src}: no such file")
+            raise MjmotionError(f"--source {src}: " + ("not a file (a .bvh clip is expected)" if os.path.exists(src) else "no such file"))
         same = check_same_file(src, result_path)
         if not same:
             with open(src, "rb") as a, open(result_path, "rb") as b:

@@ -198,7 +198,9 @@ def _check_scene(motions: list, fps: float) -> None:
     """The scene's size before it is built: one model of every character, every clip at ``fps``."""
     joints = sum(m.skeleton.n_joints for m in motions)
     if joints > MAX_MODEL_JOINTS:
-        raise MjmotionError(f"FILE.bvh: {len(motions)} characters with {joints} joints in all; one render holds at most {MAX_MODEL_JOINTS}")
+        raise MjmotionError(
+            f"the clips to render: {len(motions)} characters with {joints} joints in all; one render holds at most {MAX_MODEL_JOINTS}"
+        )
     longest = max(motions, key=lambda m: m.duration)
     try:
         check_motion_size(longest.duration * fps + 1, joints, f"{len(motions)} character(s), {longest.duration:.4g} s at {fps:g} fps")
