@@ -84,11 +84,11 @@ def check_output(
     for src in inputs:
         try:
             if out.exists() and os.path.samefile(out, src):
-                raise OutputExistsError(f"{out}: is an input of this command; choose another output path")
+                raise OutputExistsError(f"{out}: is an input of this command, or another of its outputs; choose another output path")
         except FileNotFoundError:
             pass
         if os.path.realpath(out) == os.path.realpath(src):  # (realpath, unlike resolve, takes a symlink loop)
-            raise OutputExistsError(f"{out}: is an input of this command; choose another output path")
+            raise OutputExistsError(f"{out}: is an input of this command, or another of its outputs; choose another output path")
     st = _lstat(out)
     if st is not None:
         if _is_dir(out):
