@@ -197,6 +197,8 @@ def parse_script(data: dict, base: Path, load) -> Script:
         if not isinstance(c, dict) or "time" not in c:
             raise MjmotionError(f"{where}: expected an object with a time")
         t = _number(c["time"], f"{where}.time", 0.0, limit_s, why)
+        if t >= duration:  # it would never act (a stream of script.duration seconds)
+            raise MjmotionError(f"{where}.time {t:g}: at or after the stream's end (script.duration {duration:g} s)")
         if "weights" in c:
             wd = c["weights"]
             if not isinstance(wd, dict) or any(n not in loco for n in wd):

@@ -92,6 +92,7 @@ VERBS: dict[str, Verb] = {
             ("--trail", "NoSuchJoint"),
             ("--labels", "a", "b"),
             ("--prop", "club:NoSuchJoint"),
+            ("--hq", "--fast"),  # two looks at once (it drew --fast)
         ),
     ),  # fmt: skip
     "vary": Verb(

@@ -172,6 +172,7 @@ def test_transition_timing_scales_with_the_locomotion_pace(mocap):
         ({"commands": [{"time": -1, "weights": {"walk": 1}}]}, r"commands\[0\].time"),
         ({"duration": "long"}, "script.duration"),
         ({"speed": 2}, "unknown field"),
+        ({"commands": [{"time": 0, "weights": {"walk": 1}}, {"time": 7.0, "play": "kick"}]}, r"commands\[1\].time 7: at or after the stream's end"),
     ],
 )
 def test_script_errors_name_the_field(mocap, change, message):

@@ -97,8 +97,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="camera distance in metres, at most 1000 (default: fit the characters)",
     )
     p.add_argument("--no-shadows", action="store_true", help="no contact shadows under the characters")
-    p.add_argument("--fast", action="store_true", help="the quickest frames: no shadows of any kind, no floor reflection")
-    p.add_argument(
+    look = p.add_mutually_exclusive_group()  # one look: --hq with --fast asked for both and silently got --fast
+    look.add_argument("--fast", action="store_true", help="the quickest frames: no shadows of any kind, no floor reflection")
+    look.add_argument(
         "--hq",
         action="store_true",
         help="MuJoCo's shadow-mapped key light and the floor reflection instead of contact shadows (about 2.5x slower in software GL)",
@@ -181,7 +182,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.skin:
             raise
         raise MjmotionError(f"--skin: {e} ({', '.join(args.files)})") from None
-    hq = args.hq and not args.fast
+    hq = args.hq
     contact_shadows = not (hq or args.fast or args.no_shadows)
     render.render(
         scene, out, width=args.width, height=args.height, contact_shadows=contact_shadows, shadows=hq and not args.no_shadows, reflections=hq
