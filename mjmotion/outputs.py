@@ -193,6 +193,17 @@ def _fsync(path: str | os.PathLike[str]) -> None:
 
 
 @contextlib.contextmanager
+def _beside(out: Path) -> Iterator[Path]:
+    """The folder ``out`` is written in, for making a temporary there: a failure is named after the
+    user's path, not the hidden temporary's."""
+    parent = out.parent if str(out.parent) else Path(".")
+    try:
+        yield parent
+    except OSError as e:
+        raise MjmotionError(f"{out}: cannot write in {parent} ({e.strerror or e})") from None
+
+
+@contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str], replace: bool | None = None) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; publish it onto ``path`` only if the block succeeds.
 
@@ -202,11 +213,8 @@ def atomic_path(path: str | os.PathLike[str], replace: bool | None = None) -> It
     out = Path(path)
     if replace is None:
         replace = _CLAIMS.get(_key(out), True)
-    parent = out.parent if str(out.parent) else Path(".")
-    try:
+    with _beside(out) as parent:
         fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=out.suffix or ".tmp", dir=parent)
-    except OSError as e:  # named after the user's path, not the hidden temporary's
-        raise MjmotionError(f"{out}: cannot write in {parent} ({e.strerror or e})") from None
     os.close(fd)
     # mkstemp makes the file private (0600); results get the usual umask-based mode.
     umask = os.umask(0)
@@ -243,11 +251,8 @@ def staged_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a new temporary folder beside ``path``; on success it is renamed to ``path`` (which
     must not exist then), on failure removed: a folder of results appears whole or not at all."""
     out = Path(path)
-    parent = out.parent if str(out.parent) else Path(".")
-    try:
+    with _beside(out) as parent:
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
-    except OSError as e:
-        raise MjmotionError(f"{out}: cannot write in {parent} ({e.strerror or e})") from None
     try:
         umask = os.umask(0)
         os.umask(umask)

@@ -182,10 +182,15 @@ def run(args: argparse.Namespace) -> int:
         if not args.skin:
             raise
         raise MjmotionError(f"--skin: {e} ({', '.join(args.files)})") from None
-    hq = args.hq
-    contact_shadows = not (hq or args.fast or args.no_shadows)
+    contact_shadows = not (args.hq or args.fast or args.no_shadows)
     render.render(
-        scene, out, width=args.width, height=args.height, contact_shadows=contact_shadows, shadows=hq and not args.no_shadows, reflections=hq
+        scene,
+        out,
+        width=args.width,
+        height=args.height,
+        contact_shadows=contact_shadows,
+        shadows=args.hq and not args.no_shadows,
+        reflections=args.hq,
     )
     print(
         f"wrote {out}: {scene.n_frames} frames, {args.width}x{args.height} at {args.fps:g} fps, {len(actors)} character(s), "

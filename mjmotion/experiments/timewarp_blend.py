@@ -237,6 +237,8 @@ def warp_rows(
     n_b = round(0.85 * a.n_frames)
     w, w_inv = known_warp(a.n_frames, n_b)
     theta, shift = WARP_MOVE
+    c, sn = np.cos(theta), np.sin(theta)
+    undo = -np.array([[c, sn], [-sn, c]]) @ np.asarray(shift)  # the floor move that takes the warped clip back onto A
     warped = transform.floor_transform(transform.timewarp(a, w, n_b), theta, shift).replace(name=f"{a.name} warped")
     rows, files = [], []
     pos_a, pos_b = positions if positions is not None else (reg.positions_of(a), reg.positions_of(pair.b))
@@ -262,9 +264,6 @@ def warp_rows(
             if truth is not None:
                 err = s[:, 1] - truth(s[:, 0])
                 rms, worst = float(np.sqrt(np.mean(err**2))), float(np.abs(err).max())
-                # the floor transform that takes the warped clip back onto A undoes the known move
-                c, sn = np.cos(theta), np.sin(theta)
-                undo = -np.array([[c, sn], [-sn, c]]) @ np.asarray(shift)
                 turn = float(np.degrees(np.abs(np.angle(np.exp(1j * (align[:, 0] + theta))))).max())
                 move = float(1e3 * np.linalg.norm(align[:, 1:] - undo, axis=1).max())
             else:
