@@ -112,6 +112,27 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _unrecognized(parser: argparse.ArgumentParser, verb: str | None, extra: list[str]) -> None:
+    """Report words no option took, through the verb's own parser (its ``--help`` is the one to read); numbers
+    left over after an option that takes a comma-separated list get the list's spelling."""
+    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+    p = sub.choices.get(verb, parser) if sub is not None and verb else parser
+    message = f"unrecognized arguments: {' '.join(extra)}"
+    lists = [a for a in p._actions if a.option_strings and isinstance(a.metavar, str) and "," in a.metavar]
+    if lists and all(_is_number(w) for w in extra):
+        a = lists[0]
+        message += f"; {max(a.option_strings, key=len)} takes one comma-separated list ({a.metavar}), no spaces"
+    p.error(message)
+
+
+def _is_number(word: str) -> bool:
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
+
+
 def _one_line(message: str) -> str:
     """The message on one printable line: a file name, a script's text or a verb's message may hold
     line breaks or terminal escape sequences (they are shown escaped, as Python writes them)."""
@@ -171,7 +192,9 @@ def _main(argv: Sequence[str] | None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:
+            _unrecognized(parser, getattr(args, "verb", None), extra)
     except SystemExit as e:  # a usage error (exit status 2, already reported) or --help (0)
         return e.code if isinstance(e.code, int) else 2
     if not getattr(args, "verb", None):

@@ -30,7 +30,7 @@ A script (JSON) names the clips and the commands::
 ``weights`` (locomotion clip → weight, missing names 0, summing to 1) start a ramp of ``ramp``
 seconds. ``play`` fades the named clip in over ``blend`` seconds, plays it once and fades back
 to the locomotion over its last ``blend`` seconds; ``{"time": t, "return": true, "blend": b}``
-returns earlier.
+returns earlier (a return needs a play before it).
 
 Transition timing follows seed 000 §3.3. A ``blend`` is seconds of the reference clip (the first
 locomotion clip): a fade lasts ``blend · fps · r`` output frames, ``r`` the locomotion's pace
@@ -213,7 +213,13 @@ def parse_script(data: dict, base: Path, load) -> Script:
             commands.append(Command(t, "return", blend=_number(c.get("blend", 0.3), f"{where}.blend", 0.0, limit_s, why)))
         else:
             raise MjmotionError(f"{where}: expected one of weights, play or return")
-    commands.sort(key=lambda c: c.time)
+    order = sorted(range(len(commands)), key=lambda k: commands[k].time)
+    playing = False
+    for k in order:  # a return ends the action a play started; with none started it would never act
+        if commands[k].kind == "return" and not playing:
+            raise MjmotionError(f"script.commands[{k}]: a return at {commands[k].time:g} s with no play before it (nothing to return from)")
+        playing = commands[k].kind == "play" or (playing and commands[k].kind == "weights")
+    commands = [commands[k] for k in order]
     if commands[0].kind != "weights" or commands[0].time > 0:
         commands.insert(0, Command(0.0, "weights", np.eye(len(loco))[0], ramp=0.0))
     return Script(

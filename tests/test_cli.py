@@ -128,6 +128,17 @@ def test_bad_frames_and_missing_file_are_one_line_errors(walk, tmp_path, capsys)
     assert err.startswith("error: ") and "missing.bvh" in err and "Traceback" not in err
 
 
+def test_words_no_option_took_point_at_the_verbs_help(walk, tmp_path, capsys):
+    """Extra words are reported by the verb's parser; numbers after a comma-list option get its spelling."""
+    assert main(["info", str(walk), "extra"]) == 2
+    assert capsys.readouterr().err == "error: unrecognized arguments: extra (see 'mjmotion info --help')\n"
+    assert main(["blend", str(walk), str(walk), "--weights", "0.5", "0.5", "-o", str(tmp_path / "b.bvh")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--weights takes one comma-separated list (W1,W2[,...])" in err and "'mjmotion blend --help'" in err
+    assert main(["--bogus"]) == 2 and "(see 'mjmotion --help')" in capsys.readouterr().err
+    assert not (tmp_path / "b.bvh").exists()
+
+
 #: Libraries a verb loads only when it runs (each costs 0.1–0.5 s of start-up).
 HEAVY = ("mujoco", "scipy", "casadi", "matplotlib", "numba")
 

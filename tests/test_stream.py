@@ -173,6 +173,15 @@ def test_transition_timing_scales_with_the_locomotion_pace(mocap):
         ({"duration": "long"}, "script.duration"),
         ({"speed": 2}, "unknown field"),
         ({"commands": [{"time": 0, "weights": {"walk": 1}}, {"time": 7.0, "play": "kick"}]}, r"commands\[1\].time 7: at or after the stream's end"),
+        (
+            {"commands": [{"time": 1.0, "return": True}, {"time": 0, "weights": {"walk": 1}}]},
+            r"commands\[0\]: a return at 1 s with no play before it",
+        ),
+        (
+            {"commands": [{"time": 3.0, "play": "kick"}, {"time": 3.5, "return": True}, {"time": 4.0, "return": True}]},
+            r"commands\[2\]: a return at 4 s with no play",
+        ),
+        ({"commands": [{"time": 2.0, "play": "kick"}, {"time": 1.0, "return": True}]}, r"commands\[1\]: a return at 1 s"),
     ],
 )
 def test_script_errors_name_the_field(mocap, change, message):

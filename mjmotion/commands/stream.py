@@ -28,7 +28,7 @@ punch) and back. The script is JSON; clip paths are relative to it:
                 {"time": 4.0, "weights": {"walk": 1}, "ramp": 0.5}]}
 
 Optional: "fps" (default the first locomotion clip's), "loop_blend" seconds (0.4); a command
-{"time": t, "return": true, "blend": b} ends a played clip early.
+{"time": t, "return": true, "blend": b} ends a played clip early (it needs a play before it).
 
 A blend is seconds of the first locomotion clip (the reference): fading from or back to a faster
 mix takes longer, by the mix's pace relative to the reference (Macleod 2006, §3.3), and the played
