@@ -1,7 +1,7 @@
 """Whole-database audits: every clip of a folder through the judge, one row each, streamed to disk.
 
-- :func:`find_clips` lists the ``.bvh`` files under a folder (recursively; links that lead out of it
-  are not followed); :func:`sha256_file` hashes one.
+- :func:`list_clips` lists the ``.bvh`` files under a folder (:func:`mjmotion.inputs.find_bvh`:
+  recursively; links that lead out of it are not followed) with their hashes (:func:`fingerprint`).
 - :func:`judge_options` are ``mjmotion evaluate``'s options with their defaults (the judge's own
   parser, so new judge options arrive by themselves); :func:`audit_clip` evaluates one clip on a
   worker through the same one-file evaluation as ``evaluate`` and returns its row.
@@ -31,6 +31,7 @@ from typing import Any
 from . import __version__
 from .errors import MjmotionError
 from .executor import one_line
+from .inputs import find_bvh
 from .outputs import write_text_atomic, write_with
 from .thresholds import JUDGE_REVISION
 
@@ -79,24 +80,6 @@ def flavour(names: Sequence[str]) -> str:
         if all(n in low for n in needed):
             return label
     return f"{names[0]}/{len(names)} joints"
-
-
-def find_clips(root: str | os.PathLike[str]) -> list[Path]:
-    """Every ``.bvh`` under ``root`` (any case), sorted; linked folders are not entered and linked
-    files count only if they resolve inside ``root``."""
-    base = Path(root).resolve()
-    out = []
-    for folder, dirs, files in os.walk(base, followlinks=False):
-        dirs.sort()
-        for name in files:
-            p = Path(folder) / name
-            if p.suffix.lower() != ".bvh":
-                continue
-            if p.is_symlink() and not p.resolve().is_relative_to(base):
-                continue
-            if p.is_file():
-                out.append(p)
-    return sorted(out)
 
 
 def sha256_file(path: str | os.PathLike[str]) -> str:
@@ -488,8 +471,9 @@ def read_source_map(path: str | os.PathLike[str], clips: Iterable[str]) -> dict[
 def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = None) -> list[Clip]:
     """The clips under ``root`` with sizes and hashes (and their sources' hashes)."""
     out = []
-    for p in find_clips(root):
-        rel = p.relative_to(root.resolve()).as_posix()
+    base = root.resolve()
+    for p in find_bvh(base):
+        rel = p.relative_to(base).as_posix()
         src = tuple(source_map.get(rel, ())) if source_map else ()
         sha, listed = fingerprint(p)
         out.append(Clip(rel, str(p), listed.stat[2], sha, src, tuple(sha256_file(s) for s in src), listed))

@@ -18,6 +18,7 @@ import errno
 import os
 import stat
 from collections.abc import Iterator
+from pathlib import Path
 from typing import BinaryIO
 
 from .caps import MAX_FILE_BYTES
@@ -132,3 +133,21 @@ def read_text(path: str | os.PathLike[str], limit: int = MAX_FILE_BYTES, what: s
     if nul >= 0:
         raise InputError(os.fspath(path), f"binary data (a NUL byte at character {nul}); expected {what}")
     return text
+
+
+def find_bvh(root: str | os.PathLike[str]) -> list[Path]:
+    """Every ``.bvh`` file under the folder ``root`` (any case), sorted, as paths under ``root`` as given.
+    Linked folders are not entered, and a linked file counts only if it resolves inside ``root``: a
+    folder a user names is all that is read (audit, evaluate, studio and demo list folders through this)."""
+    given = Path(root)
+    base = given.resolve()
+    out = []
+    for folder, dirs, files in os.walk(given, followlinks=False):
+        dirs.sort()
+        for name in files:
+            p = Path(folder) / name
+            if p.suffix.lower() != ".bvh" or (p.is_symlink() and not p.resolve().is_relative_to(base)):
+                continue
+            if p.is_file():
+                out.append(p)
+    return sorted(out)

@@ -30,6 +30,7 @@ from mjmotion import audit, bvh, cli, executor
 from mjmotion import evaluate as ev
 from mjmotion.commands.evaluate import evaluate_file
 from mjmotion.errors import MjmotionError
+from mjmotion.inputs import find_bvh
 from mjmotion.trim import leading_transient
 
 BAD = Path(__file__).resolve().parent / "data" / "bad"
@@ -84,7 +85,7 @@ def dask2():
 
 
 def _listed(root: Path) -> list[str]:
-    return sorted(p.relative_to(root).as_posix() for p in audit.find_clips(root))
+    return sorted(p.relative_to(root).as_posix() for p in find_bvh(root))
 
 
 def _rows(out: Path) -> dict[str, dict]:
@@ -97,7 +98,7 @@ def _same(a, b) -> bool:
     return a == b
 
 
-def test_find_clips_recurses_and_stays_inside(corpus):
+def test_the_listing_recurses_and_stays_inside(corpus):
     listed = _listed(corpus)
     assert "bundled/WALK.BVH" in listed and "hostile/empty.bvh" in listed
     assert not any(p.startswith("linked") for p in listed) and len(listed) == len(CUTS) + 1 + len(HOSTILE)

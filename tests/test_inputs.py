@@ -112,3 +112,41 @@ def test_every_error_is_an_mjmotion_error():
     from mjmotion.errors import MjmotionError
 
     assert issubclass(inputs.InputError, MjmotionError)
+
+
+def _folder_with_links(tmp_path):
+    """DIR with a clip, an upper-case one in a subfolder, a link to a clip inside, and links leading out."""
+    root, outside = tmp_path / "dir", tmp_path / "outside"
+    (root / "sub").mkdir(parents=True)
+    outside.mkdir()
+    from mjmotion.audit import _standing_bvh
+
+    for p in (root / "a.bvh", root / "sub" / "B.BVH", outside / "far.bvh"):
+        p.write_text(_standing_bvh(frames=5))
+    (root / "notes.txt").write_text("x")
+    (root / "inside.bvh").symlink_to(root / "a.bvh")
+    (root / "out.bvh").symlink_to(outside / "far.bvh")
+    (root / "linked").symlink_to(outside, target_is_directory=True)
+    return root
+
+
+def test_find_bvh_lists_the_folder_and_nothing_a_link_leads_out_to(tmp_path):
+    root = _folder_with_links(tmp_path)
+    assert [p.relative_to(root).as_posix() for p in inputs.find_bvh(root)] == ["a.bvh", "inside.bvh", "sub/B.BVH"]
+    assert all(str(p).startswith(str(root)) for p in inputs.find_bvh(root))  # paths as the folder was named
+    assert inputs.find_bvh(tmp_path / "outside") == [tmp_path / "outside" / "far.bvh"]
+
+
+def test_every_folder_reader_lists_through_find_bvh(tmp_path, monkeypatch):
+    """evaluate's folder walk and the studio's --data list what find_bvh lists (both followed links out before)."""
+    from mjmotion.cli import main
+    from mjmotion.commands import evaluate
+    from mjmotion.studio.clips import ClipLibrary
+
+    root = _folder_with_links(tmp_path)
+    seen = []
+    monkeypatch.setattr(evaluate, "evaluate_files", lambda files, opts, jobs: seen.extend(files) or [])
+    main(["evaluate", str(root)])
+    assert [os.path.relpath(f, root) for f in seen] == ["a.bvh", "inside.bvh", os.path.join("sub", "B.BVH")]
+    names = ClipLibrary.from_paths([], str(root)).names()
+    assert len(names) == 3 and not any("far" in n for n in names), names

@@ -87,7 +87,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
     """DIR and OUT_DIR, checked before any work (each error names the path)."""
-    from ..audit import find_clips
+    from ..inputs import find_bvh
 
     root = Path(args.dir)
     if not root.is_dir():
@@ -103,7 +103,7 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
         raise MjmotionError(f"-o {out}: {above} is not a folder")
     if out.exists() and any(out.iterdir()) and not (args.resume or args.force):
         raise MjmotionError(f"-o {out}: already exists; pass --resume to continue its audit or --force to start over")
-    if not find_clips(root):
+    if not find_bvh(root):
         raise MjmotionError(f"{root}: no .bvh files found (searched recursively)")
     return root, out
 
@@ -116,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
     from .. import audit
     from ..errors import require_number
     from ..executor import Executor, check_options, start
+    from ..inputs import find_bvh
     from ._common import units_scale
 
     if args.timeout is not None:
@@ -127,7 +128,8 @@ def run(args: argparse.Namespace) -> int:
     opts = audit.judge_options(units=args.units, up=args.up)
     source_map = None
     if args.source_map:
-        rels = [p.relative_to(root.resolve()).as_posix() for p in audit.find_clips(root)]
+        base = root.resolve()
+        rels = [p.relative_to(base).as_posix() for p in find_bvh(base)]
         source_map = audit.read_source_map(args.source_map, rels)
     workers = args.workers if args.workers is not None or args.scheduler else _default_workers()
     # The files are listed and hashed (and a resumed table read) in a thread while the workers start:

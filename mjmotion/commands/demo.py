@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import MjmotionError
+from ..inputs import find_bvh
 
 NAME = "demo"
 HELP = "run a short version of every experiment with plots and videos (bundled clips, or --data DIR)"
@@ -43,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
         data = Path(args.data)
         if not data.is_dir():
             raise MjmotionError(f"--data {args.data}: not a directory")
-        if not any(p.suffix.lower() == ".bvh" for p in data.rglob("*")):  # before any work or folder is made
+        if not find_bvh(data):  # before any work or folder is made
             raise MjmotionError(f"--data {args.data}: no .bvh files in it; expected the shared CMU clips (its flavour folders)")
     out = Path(args.out)
     if out.exists() and not out.is_dir():

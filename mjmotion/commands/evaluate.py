@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import MjmotionError, printable, require_number
+from ..inputs import find_bvh
 from ..outputs import check_output, write_text_atomic
 from ._common import add_input_options, check_same_file, load, load_first, naming, prop_option
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, UniqueProps, integer, number
@@ -328,7 +329,7 @@ def run(args: argparse.Namespace) -> int:
     check_options(args)
     opts = {k: v for k, v in vars(args).items() if not k.startswith("_")}
     if os.path.isdir(args.path):
-        files = sorted(str(p) for p in Path(args.path).rglob("*") if p.suffix.lower() == ".bvh" and p.is_file())
+        files = [str(p) for p in find_bvh(args.path)]
         if not files:
             raise MjmotionError(f"{args.path}: no .bvh files found (searched recursively)")
         if args.ball is not None:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from .. import bvh, mjcf
 from ..errors import MjmotionError
+from ..inputs import find_bvh
 from ..skeleton import Motion
 
 #: Largest BVH file (bytes) a Studio reads or accepts as an upload (the largest shared clip is 3.4 MB).
@@ -65,7 +66,7 @@ class ClipLibrary:
             root = Path(data)
             if not root.is_dir():
                 raise MjmotionError(f"--data {data}: not a folder")
-            found = sorted(p for p in root.rglob("*") if p.suffix.lower() == ".bvh" and p.is_file())
+            found = find_bvh(root)
             if not found:
                 raise MjmotionError(f"--data {data}: no .bvh files in it")
             paths += found[:MAX_DATA_CLIPS]
