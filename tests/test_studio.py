@@ -64,6 +64,45 @@ def test_library_reads_only_the_given_files_and_data_folder(tmp_path, walk):
         ClipLibrary.from_paths([], str(tmp_path / "missing"))
 
 
+def test_library_leaves_out_a_leading_t_pose_as_the_verbs_do(mocap, tmp_path, capsys):
+    """A daz clip opens without its T-pose (frames 0-3), so the Evaluate tab reads what `mjmotion evaluate` prints;
+    --keep-start keeps it, and an upload is read the same way."""
+    import json
+
+    from mjmotion.cli import main
+
+    path = mocap / "cmu_cgspeed_daz" / "07_01.bvh"
+    clip = ClipLibrary.from_paths([str(path)]).get("07_01")
+    raw = bvh.read(path)
+    assert clip.skipped == 4 and clip.motion.n_frames == raw.n_frames - 4
+    np.testing.assert_allclose(clip.motion.root_positions, raw.root_positions[4:])
+    assert main(["evaluate", str(path), "--json", str(tmp_path / "e.json")]) == 0
+    (entry,) = json.loads((tmp_path / "e.json").read_text())
+    cli = entry["report"]
+    rows = dict(engine.evaluate(clip.motion).rows)
+    for key in ("n_frames", "planted_skate_mm_per_s", "max_joint_speed_rad_s", "physics_violation_ratio"):
+        assert rows[key] == pytest.approx(cli[key], rel=1e-9), key
+    kept = ClipLibrary.from_paths([str(path)], keep_start=True).get("07_01")
+    assert kept.skipped == 0 and kept.motion.n_frames == raw.n_frames
+    _, up = ClipLibrary([]).with_upload("07_01.bvh", path.read_bytes())
+    assert up.skipped == 4 and up.motion.n_frames == clip.motion.n_frames
+    assert main(["studio", str(path), "--check"]) == 0
+    assert "07_01.bvh: skipped frames 0-3" in capsys.readouterr().err
+
+
+def test_the_tabs_first_pair_is_of_one_skeleton(mocap):
+    """A folder of two skeletons opens with a pair the Blend and Stream tabs can use (it opened on a walk of one
+    skeleton and a run of another: an error before the user did anything)."""
+    from mjmotion.studio.tabs import partner
+
+    lib = ClipLibrary.from_paths(
+        [str(mocap / p) for p in ("cmu_asfamc_converted/16_15.bvh", "cmu_cgspeed_daz/02_03.bvh", "cmu_asfamc_converted/10_01.bvh")]
+    )
+    assert partner(lib, "16_15", "run", "turn") == "10_01"  # no run of its skeleton: another of its clips
+    assert partner(lib, "16_15", "run", "turn", default="—") == "—"
+    assert partner(lib, "02_03", "walk") is None
+
+
 # --- worker ---------------------------------------------------------------------------------
 def test_worker_latest_request_wins_cancel_and_errors_keep_it_running():
     done, errors, started = [], [], threading.Event()

@@ -340,3 +340,50 @@ def test_the_floor_grid_stands_at_the_judges_floor(page):
     assert z == pytest.approx(judged_floor(lifted).height, abs=1e-9) and z == pytest.approx(judged_floor(walk).height + 0.04, abs=2e-3)
     page.stream()
     assert page.session.scene_floor.position[2] == 0.0
+
+
+def test_typed_values_are_held_to_their_controls_and_the_page_shows_what_the_server_does(page):
+    """What the review found: a Speed typed below its range ran the playhead backwards for good; keys 1-3 moved the
+    stream but not its sliders; Go to hit frame left the Frame slider elsewhere; a report stayed for a clip no longer
+    shown; weights that do not sum to 1 were rescaled without a word; an abort frame past the shot ran as its end."""
+    s = page.session
+    page.stream()
+    page.tab("Stream")
+    page.page.keyboard.press("2")
+    page.wait_for(lambda: [h.value for h in s.tabs["Stream"].weights] == [0.0, 1.0, 0.0])
+    page.wait_for(lambda: s.live.target_weights[1] > 0.999)
+    page.pause()
+    walk = synth.walk(seconds=2.0).motion
+    s.show([("walk", walk, ())])
+    page.set_number("Speed", -3)
+    page.wait_for(lambda: s.player.speed == 0.1 and s.speed.value == 0.1)
+    page.tab("Evaluate")
+    page.click("Evaluate shown clip")
+    page.idle()
+    assert s.tabs["Evaluate"].result is not None and "planted_skate" in s.tabs["Evaluate"].report.content
+    page.tab("Blend")
+    page.set_number("Weight 1", 0.3)
+    page.set_number("Weight 2", 0.3)
+    page.click("Blend")
+    page.idle()
+    blend = s.tabs["Blend"]
+    assert "Weights scaled to sum to 1: 0.5, 0.5" in blend.note.content
+    ev = s.tabs["Evaluate"]
+    assert ev.result is None and ev.report.content == "" and s.timeline.marks is None  # the report was of the walk
+    page.tab("Hit")
+    page.click("Load shot")
+    page.idle()
+    hit = s.tabs["Hit"]
+    page.click("Play")
+    page.wait_for(lambda: s.player.index > 3)
+    page.click("Go to hit frame")
+    page.wait_for(lambda: int(s.timeline.value) == hit.shot.hit_frame and s.player.index == hit.shot.hit_frame)
+    page.tab("Vary")
+    vary = s.tabs["Vary"]
+    n = s.library.get(vary.clip.value).motion.n_frames
+    assert vary.abort.max == n - 2  # the slider spans the chosen shot
+    vary.abort.value = n + 100  # a value typed past it reaches the server as is
+    vary.mode.value = "abort"
+    vary.run()
+    assert f"has {n} frames; expected 1 to {n - 2}" in s.status.content
+    vary.mode.value = "scale"

@@ -101,9 +101,14 @@ def trim_start(m: Motion, path: str, args: argparse.Namespace, note: bool = True
 
     m, k = skip_leading_transient(m)
     if k and note:
-        shown = "frame 0" if k == 1 else f"frames 0-{k - 1}"
-        sys.stderr.write(f"note: {path}: skipped {shown}, a leading T-pose, transition or glitch (--keep-start keeps them)\n")
+        note_skipped(path, k)
     return m, k
+
+
+def note_skipped(name: str, k: int) -> None:
+    """The one note line on stderr for a clip whose first ``k`` frames were left out."""
+    shown = "frame 0" if k == 1 else f"frames 0-{k - 1}"
+    sys.stderr.write(f"note: {name}: skipped {shown}, a leading T-pose, transition or glitch (--keep-start keeps them)\n")
 
 
 def load(path: str, args: argparse.Namespace, frames: str | None = None, *, trim: bool = True, note: bool = True) -> Motion:

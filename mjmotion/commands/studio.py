@@ -37,6 +37,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=integer(1, 65535, what="a TCP port"), default=8080, help="port, 1 to 65535 (default 8080)")
     p.add_argument("--out", default="studio_output", metavar="DIR", help="the folder saved clips go to (default ./studio_output)")
+    p.add_argument(
+        "--keep-start",
+        action="store_true",
+        help="keep a clip's leading T-pose or transition (by default it is left out, as every verb leaves it out)",
+    )
     p.add_argument("--check", action="store_true", help="read and validate the clips, print what would be served, and exit (no server)")
 
 
@@ -44,10 +49,14 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import MjmotionError
     from ..studio.app import LOCAL_HOSTS, Studio
     from ..studio.clips import ClipLibrary
+    from ._common import note_skipped
 
     if not 0 <= args.port <= 65535:
         raise MjmotionError(f"--port {args.port}: expected 0-65535")
-    library = ClipLibrary.from_paths(args.files, args.data)
+    library = ClipLibrary.from_paths(args.files, args.data, keep_start=args.keep_start)
+    for clip in map(library.get, library.names()):
+        if clip.skipped:
+            note_skipped(str(clip.source or clip.name), clip.skipped)
     if args.check:
         print(f"mjmotion studio: {len(library.names())} clips ready: {', '.join(library.names())}")
         return 0

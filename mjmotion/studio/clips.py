@@ -34,6 +34,7 @@ class Clip:
         source: the file it was read from (``None`` for bundled clips and uploads).
         prop: the prop it holds (the bundled shots' bat), or ``None``.
         hit_frame: the known impact frame (bundled shots), or ``None``.
+        skipped: leading file frames left out (a T-pose or transition, as every verb skips them).
     """
 
     name: str
@@ -41,12 +42,24 @@ class Clip:
     source: Path | None = None
     prop: mjcf.Prop | None = None
     hit_frame: int | None = None
+    skipped: int = 0
+
+
+def _trimmed(motion: Motion, keep_start: bool) -> tuple[Motion, int]:
+    """``motion`` without a leading T-pose or transition (:func:`mjmotion.trim.skip_leading_transient`,
+    as the command-line verbs read clips) unless ``keep_start``, and how many frames were left out."""
+    if keep_start:
+        return motion, 0
+    from ..trim import skip_leading_transient
+
+    return skip_leading_transient(motion)
 
 
 class ClipLibrary:
     """An ordered set of clips by name; :meth:`with_upload` returns a new library (pages keep their own)."""
 
-    def __init__(self, clips: list[Clip]):
+    def __init__(self, clips: list[Clip], keep_start: bool = False):
+        self.keep_start = keep_start
         self._clips = {c.name: c for c in clips}
         if len(self._clips) != len(clips):
             raise MjmotionError("clip names must be unique")
@@ -59,8 +72,9 @@ class ClipLibrary:
         return cls([Clip(name, c.motion.replace(name=name), None, c.prop, c.hit_frame) for name, c in synth.library().items()])
 
     @classmethod
-    def from_paths(cls, files: list[str], data: str | None = None) -> ClipLibrary:
-        """Clips from ``files`` and the ``.bvh`` files under ``data`` (sorted); the bundled library when both are empty."""
+    def from_paths(cls, files: list[str], data: str | None = None, keep_start: bool = False) -> ClipLibrary:
+        """Clips from ``files`` and the ``.bvh`` files under ``data`` (sorted); the bundled library when both are empty.
+        A file's leading T-pose or transition is left out, as the verbs do, unless ``keep_start``."""
         paths = [Path(f) for f in files]
         if data is not None:
             root = Path(data)
@@ -75,10 +89,10 @@ class ClipLibrary:
         clips: list[Clip] = []
         names: set[str] = set()
         for p in paths:
-            motion = bvh.read(p, max_bytes=MAX_CLIP_BYTES)
+            motion, skipped = _trimmed(bvh.read(p, max_bytes=MAX_CLIP_BYTES), keep_start)
             name = _unique(p.stem, names)
-            clips.append(Clip(name, motion.replace(name=name), p.resolve()))
-        return cls(clips)
+            clips.append(Clip(name, motion.replace(name=name), p.resolve(), skipped=skipped))
+        return cls(clips, keep_start)
 
     def names(self) -> list[str]:
         return list(self._clips)
@@ -98,10 +112,10 @@ class ClipLibrary:
         shown = os.path.basename(filename) or "upload.bvh"
         if len(content) > MAX_CLIP_BYTES:
             raise MjmotionError(f"{shown}: {len(content)} bytes is more than the {MAX_CLIP_BYTES // 2**20} MiB limit for a clip")
-        motion = bvh.parse(content, path=shown)
+        motion, skipped = _trimmed(bvh.parse(content, path=shown), self.keep_start)
         name = _unique(Path(shown).stem, set(self._clips))
-        clip = Clip(name, motion.replace(name=name))
-        return ClipLibrary([*self._clips.values(), clip]), clip
+        clip = Clip(name, motion.replace(name=name), skipped=skipped)
+        return ClipLibrary([*self._clips.values(), clip], self.keep_start), clip
 
     def shots(self) -> list[str]:
         """Clips that can be adapted to a ball: those holding a prop, two-handed swings, kicks and punches by name."""

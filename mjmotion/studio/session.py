@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import kinematics, mjcf
 from .. import rotations as rot
-from ..errors import MjmotionError
+from ..errors import MjmotionError, OutputExistsError
 from ..feet import judged_model
 from ..skeleton import Motion
 from . import engine
@@ -29,6 +29,7 @@ from .jobs import Job, Worker
 from .player import SPEEDS, Player
 from .scene import DRAW_MODES, PALETTE, Kinematics, Pose, PrimitiveDrawing
 from .skinned import register_skin_modes
+from .tabs import clamp
 
 register_skin_modes()  # the Character menu: capsules, skin (LBS), skin (DQS), both
 
@@ -126,7 +127,7 @@ class Session:
         self.play_button.on_click(lambda e: self.toggle_play())
         self.step_buttons.on_click(lambda e: self._step(self.step_buttons.value))
         self.timeline.on_update(self._on_timeline)
-        self.speed.on_update(lambda e: self._set_player(speed=float(self.speed.value)))
+        self.speed.on_update(lambda e: self._set_player(speed=clamp(self.speed)))
         self.loop.on_update(lambda e: self._set_player(loop=bool(self.loop.value)))
         self.upload.on_upload(self._on_upload)
         self.save_button.on_click(lambda e: self.save(self.save_name.value))
@@ -165,7 +166,10 @@ class Session:
             return
         for cb in self._listeners:
             cb(self.library.names())
-        self.set_status(f"loaded {clip.name}: {clip.motion.n_frames} frames at {clip.motion.fps:g} fps, {clip.motion.skeleton.n_joints} joints")
+        skipped = f" (its first {clip.skipped} frames, a T-pose or transition, left out)" if clip.skipped else ""
+        self.set_status(
+            f"loaded {clip.name}: {clip.motion.n_frames} frames at {clip.motion.fps:g} fps, {clip.motion.skeleton.n_joints} joints{skipped}"
+        )
 
     # --- characters -----------------------------------------------------------------------------
     def clear_cast(self) -> None:
@@ -197,6 +201,8 @@ class Session:
         with self.lock:
             if not keep_marks and "Hit" in getattr(self, "tabs", {}):
                 self.tabs["Hit"].clear_marks()
+            if "Evaluate" in getattr(self, "tabs", {}):
+                self.tabs["Evaluate"].clear()  # its report and marks were of the clip shown before
             placed = [
                 (label, m if not k else m.replace(root_positions=m.root_positions + np.array([0.0, SPACING * k, 0.0])), props)
                 for k, (label, m, props) in enumerate(motions)
@@ -214,7 +220,7 @@ class Session:
                 # The grid at the main clip's floor as the judge finds it (a daz clip's stands 3 cm up).
                 self.scene_floor.position = (0.0, 0.0, engine.floor_height(motions[main][1]))
             n = max(m.n_frames for _, m, _ in motions)
-            self.player = Player(n, motions[main][1].fps, speed=float(self.speed.value), loop=bool(self.loop.value))
+            self.player = Player(n, motions[main][1].fps, speed=clamp(self.speed), loop=bool(self.loop.value))
             self.timeline.max = max(n - 1, 1)
             self.timeline.value = 0
             self.play_button.label = "Pause"
@@ -314,6 +320,7 @@ class Session:
             if self.live is not None and which == ">":
                 self._advance_live(1)
             self._draw(f)
+            self._dirty = True  # the next tick moves the Frame slider there too
 
     def _on_timeline(self, event: Any) -> None:
         if event.client is None:  # the ticker moving the slider
@@ -468,4 +475,9 @@ def save_path(folder: Path, filename: str, inputs: list[Path]) -> Path:
     path = (folder / filename).resolve()
     if path.parent != folder:
         raise MjmotionError(f"save as {filename!r}: must stay inside {folder}")
-    return check_output(path, force=False, inputs=inputs)
+    try:
+        return check_output(path, force=False, inputs=inputs)
+    except OutputExistsError as e:
+        if "already exists" not in str(e):
+            raise  # an input of the studio: said as it is
+        raise OutputExistsError(f"save as {filename!r}: {path} already exists; the studio never replaces a file, choose another name") from e

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from ..engine import BLEND_METHODS, PATH_METHODS, blend_weights, grid_image, make_blend
-from . import NONE, pick, refresh
+from . import NONE, clamp, partner, pick, refresh, weights_of
 
 N_SLOTS = 3
 
@@ -19,7 +19,7 @@ class BlendTab:
         gui = session.client.gui
         names = session.library.names()
         first = pick(names, "walk", "turn|warp")
-        second = pick(names, "run", "turn", default=names[min(1, len(names) - 1)])
+        second = partner(session.library, first, "run", "turn") or names[min(1, len(names) - 1)]
         self.clips = [
             gui.add_dropdown("Clip 1", tuple(names), initial_value=first),
             gui.add_dropdown("Clip 2", tuple(names), initial_value=second),
@@ -48,29 +48,28 @@ class BlendTab:
         for k, d in enumerate(self.clips):
             refresh(d, names, optional=k == 2)
 
-    def _weights(self, sliders: list[Any], n: int) -> np.ndarray:
-        v = np.array([float(h.value) for h in sliders[:n]])
-        if v.sum() <= 0:
-            v = np.ones(n)
-        return v / v.sum()
-
     def run(self) -> None:
         names = [d.value for d in self.clips if d.value != NONE]
         lib = self.s.library
         motions = [lib.get(n).motion for n in names]
         n = len(motions)
-        w0 = self._weights(self.w_start, n)
+        w0, scaled = weights_of(self.w_start[:n])
         curve = self.weights_kind.value == "curve"
-        weights = blend_weights(w0, self._weights(self.w_end, n) if curve else None, motions[0].duration) if curve else w0
-        method, path, thr = self.method.value, self.path.value, float(self.threshold.value)
+        if curve:
+            w1, scaled_end = weights_of(self.w_end[:n])
+            weights, scaled = blend_weights(w0, w1, motions[0].duration), scaled or scaled_end
+        else:
+            weights = w0
+        shown_weights = f" Weights scaled to sum to 1: {', '.join(f'{x:.3g}' for x in w0)}." if scaled else ""
+        method, path, thr = self.method.value, self.path.value, clamp(self.threshold)
 
         def job(progress):
-            return make_blend(motions, weights, method, path, thr, progress), names
+            return make_blend(motions, weights, method, path, thr, progress), names, method, shown_weights
 
         self.s.submit("blend", job, self._done, label="Blend")
 
     def _done(self, out: Any) -> None:
-        result, names = out
+        result, names, method, shown_weights = out
         lib = self.s.library
         shown = [("blend", result.motion, ())]
         for k, name in enumerate(names):
@@ -82,5 +81,6 @@ class BlendTab:
         if img is not None:
             self.grid.image = img
         self.grid.visible = img is not None
-        self.note.content = f"{result.note}; {result.motion.n_frames} frames. Blend (blue) beside {', '.join(names)} at their registered frames."
+        at = "the same frame numbers" if method == "linear" else "their registered frames"
+        self.note.content = f"{result.note}; {result.motion.n_frames} frames. Blend (blue) beside {', '.join(names)} at {at}.{shown_weights}"
         self.s.set_status(f"blended {' + '.join(names)}")

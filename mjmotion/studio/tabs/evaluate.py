@@ -22,6 +22,7 @@ class EvaluateTab:
         self.report = gui.add_markdown("")
         self.result: engine.Evaluation | None = None
         self._actor: Any = None
+        self._last_colors: tuple[Any, dict[int, tuple[int, int, int]]] | None = None
         self.button.on_click(lambda e: self.run())
 
     def run(self) -> None:
@@ -39,6 +40,9 @@ class EvaluateTab:
 
     def _done(self, out: Any, actor: Any) -> None:
         e, img = out
+        if actor is not self.s.shown:  # another clip was shown while it ran: its report would be of the wrong clip
+            self.s.set_status(f"evaluated {actor.label}, which is no longer shown; press Evaluate again", error=True)
+            return
         self.result, self._actor = e, actor
         self.strip.image = img
         self.strip.visible = True
@@ -49,13 +53,25 @@ class EvaluateTab:
         self.report.content = table(e.rows)
         self.s.set_status(f"evaluated {actor.label}")
 
+    def clear(self) -> None:
+        """Forget the report: it measured a clip no longer shown (its marks would sit on another timeline)."""
+        if self.result is None:
+            return
+        last = self._last_colors
+        if last is not None and last[1]:
+            last[0].set_geom_colors({})  # the feet untinted (a drag keeps the same drawings)
+        self.result, self._actor, self._last_colors = None, None, None
+        self.strip.visible = False
+        self.legend.content = self.report.content = ""
+        self.s.timeline.marks = None
+
     def on_frame(self, frame: int) -> None:
         e, a = self.result, self._actor
         if e is None or a is None or a not in self.s.cast:
             return
         f = min(frame, len(e.contacts) - 1)
         colors = {int(g): CONTACT_RGB for i, side in enumerate(e.sides) if e.contacts[f, i] for g in e.foot_geoms.get(side, ())}
-        last = getattr(self, "_last_colors", None)
+        last = self._last_colors
         if last is None or last[0] is not a.drawing or last[1] != colors:  # a new drawing (Character menu) starts untinted
             a.drawing.set_geom_colors(colors)
             self._last_colors = (a.drawing, colors)

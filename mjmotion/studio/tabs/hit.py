@@ -28,7 +28,7 @@ class HitTab:
         shots = session.library.shots() or session.library.names()
         self.clip = gui.add_dropdown("Shot", tuple(shots), initial_value=pick(shots, "drive|swing|golf"))
         self.load = gui.add_button("Load shot")
-        self.ball = gui.add_vector3("Ball", (0.0, 0.0, 0.0), step=0.01, hint="the ball's centre, metres (Z up); drag the gizmo or type")
+        self.ball = gui.add_vector3("Ball", (0.0, 0.0, 0.0), step=0.0001, hint="the ball's centre, metres (Z up); drag the gizmo or type")
         self.solver = gui.add_dropdown("Solver", ("dls", "nlp"), initial_value="dls", hint="dls: fast, used while dragging; nlp: CasADi/IPOPT")
         self.adapt_nlp = gui.add_button("Adapt with NLP")
         self.to_hit = gui.add_button("Go to hit frame")
@@ -86,6 +86,7 @@ class HitTab:
                 self.s.player.playing = False
                 self.s.play_button.label = "Play"
                 self.s._draw(self.shot.hit_frame)
+                self.s._dirty = True  # the next tick moves the Frame slider there too
 
     def _on_release(self, event: Any) -> None:
         if getattr(event, "phase", None) == "end" and self._gizmo is not None:

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from ..live import LiveStream
-from . import NONE, pick, refresh
+from . import NONE, clamp, partner, pick, refresh, weights_of
 
 N_SLOTS = 3
 
@@ -17,7 +17,8 @@ class StreamTab:
         self.s = session
         gui = session.client.gui
         names = session.library.names()
-        loco = [pick(names, "walk", "turn|warp|fast"), pick(names, "run", "turn", default=NONE)]
+        first = pick(names, "walk", "turn|warp|fast")
+        loco = [first, partner(session.library, first, "run", "turn", default=NONE)]
         self.loco = [
             gui.add_dropdown("Locomotion 1", tuple(names), initial_value=loco[0]),
             gui.add_dropdown("Locomotion 2", (NONE, *names), initial_value=loco[1]),
@@ -38,7 +39,7 @@ class StreamTab:
             h.on_update(self._on_weight)
         self.kick.on_click(lambda e: self.play("kick"))
         self.punch.on_click(lambda e: self.play("punch"))
-        self.back.on_click(lambda e: self._command(lambda live: live.stop_action(float(self.blend.value))))
+        self.back.on_click(lambda e: self._command(lambda live: live.stop_action(clamp(self.blend))))
         for label, key, fn in (("Kick", "K", lambda: self.play("kick")), ("Punch", "P", lambda: self.play("punch")), ("Return", "R", self._return)):
             cmd = gui.add_command(label, hotkey=key)
             cmd.on_trigger(lambda e, fn=fn: fn())
@@ -74,8 +75,7 @@ class StreamTab:
         self.s.set_status(f"streaming {' + '.join(live.locomotion)} (actions: {acts}); move the weights, press Kick or Punch (keys K, P)")
 
     def _slider_weights(self, n: int) -> np.ndarray:
-        v = np.array([float(h.value) for h in self.weights[:n]])
-        return v / v.sum() if v.sum() > 0 else np.eye(n)[0]
+        return weights_of(self.weights[:n])[0]
 
     def _command(self, fn: Any) -> None:
         with self.s.lock:
@@ -91,20 +91,22 @@ class StreamTab:
     def _on_weight(self, event: Any) -> None:
         if event.client is None:
             return
-        self._command(lambda live: live.set_weights(self._slider_weights(len(live.locomotion)), float(self.ramp.value)))
+        self._command(lambda live: live.set_weights(self._slider_weights(len(live.locomotion)), clamp(self.ramp)))
 
     def _solo(self, k: int) -> None:
         def go(live: LiveStream) -> None:
             if k < len(live.locomotion):
-                live.set_weights(np.eye(len(live.locomotion))[k], float(self.ramp.value))
+                live.set_weights(np.eye(len(live.locomotion))[k], clamp(self.ramp))
+                for j, h in enumerate(self.weights):  # the sliders show what the stream now blends toward
+                    h.value = 1.0 if j == k else 0.0
 
         self._command(go)
 
     def _return(self) -> None:
-        self._command(lambda live: live.stop_action(float(self.blend.value)))
+        self._command(lambda live: live.stop_action(clamp(self.blend)))
 
     def play(self, action: str) -> None:
-        self._command(lambda live: live.play(action, float(self.blend.value)))
+        self._command(lambda live: live.play(action, clamp(self.blend)))
 
     def on_live(self, frame: Any) -> None:
         """Called by the page a few times a second with the stream's current frame."""

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from .. import engine
-from . import pick, refresh, table
+from . import clamp, pick, refresh, table
 
 
 class VaryTab:
@@ -24,14 +24,26 @@ class VaryTab:
         self.plot = gui.add_image(np.zeros((2, 2, 3), np.uint8), label="scores", visible=False)
         self.report = gui.add_markdown("")
         self.button.on_click(lambda e: self.run())
+        self.clip.on_update(lambda e: self._fit_abort())
+        self._fit_abort()
         session.on_library(lambda n: refresh(self.clip, session.library.shots() or n))
+
+    def _fit_abort(self) -> None:
+        """The Abort frame slider spans the chosen shot (1 to its second-to-last frame)."""
+        if self.clip.value in self.s.library.names():
+            n = self.s.library.get(self.clip.value).motion.n_frames
+            self.abort.max = max(n - 2, 2)
+            if float(self.abort.value) > self.abort.max:
+                self.abort.value = self.abort.max
 
     def run(self) -> None:
         c = self.s.library.get(self.clip.value)
-        scale = float(self.scale.value) if self.mode.value == "scale" else None
-        abort = int(self.abort.value) if self.mode.value == "abort" else None
-        if abort is not None:
-            abort = min(abort, c.motion.n_frames - 2)
+        scale = clamp(self.scale) if self.mode.value == "scale" else None
+        abort = int(float(self.abort.value)) if self.mode.value == "abort" else None
+        if abort is not None and not 1 <= abort <= c.motion.n_frames - 2:
+            # as `vary --abort-at` refuses it (a frame past the shot's end would silently become its last)
+            self.s.set_status(f"Abort frame {abort}: {c.name} has {c.motion.n_frames} frames; expected 1 to {c.motion.n_frames - 2}", error=True)
+            return
         cleanup = bool(self.cleanup.value)
 
         def job(progress):
@@ -44,7 +56,6 @@ class VaryTab:
         v, img = out
         props = (clip.prop,) if clip.prop is not None else ()
         self.s.show([(v.motion.name, v.motion, props), (clip.name, clip.motion, props)])
-        self.abort.max = max(clip.motion.n_frames - 2, 2)
         self.plot.image = img
         self.plot.visible = True
         r = v.report
