@@ -225,6 +225,10 @@ def segment_frames(registration: Registration, weights: np.ndarray) -> np.ndarra
     return 1.0 / np.sum(np.asarray(weights) / seg, axis=1)
 
 
+#: Frames by which a registered clock may fall short of its last whole frame and still end on it.
+CLOCK_SLACK = 1e-4
+
+
 def registered_clock(registration: Registration, weights: WeightCurve, fps: float) -> np.ndarray:
     """Reference times ``τ_n`` ``(N,)`` of the output frames (seed 000 §3.2's timing).
 
@@ -238,7 +242,8 @@ def registered_clock(registration: Registration, weights: WeightCurve, fps: floa
     for _ in range(1 if len(weights.keys) == 1 else 6):
         mid = 0.5 * (nodes[:-1] + nodes[1:]) / fps
         nodes = np.r_[0.0, np.cumsum(segment_frames(registration, weights(mid)))]
-    n_out = int(np.floor(nodes[-1] + 1e-9)) + 1
+    # the registration's spline meets its last node to ~1e-6 frames: a clock that short of a whole frame ends on it
+    n_out = int(np.floor(nodes[-1] + CLOCK_SLACK)) + 1
     return np.interp(np.arange(n_out, dtype=float), nodes, ref)
 
 

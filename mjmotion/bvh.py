@@ -15,6 +15,7 @@ from __future__ import annotations
 import functools
 import io
 import itertools
+import math
 import os
 import sys
 from dataclasses import dataclass
@@ -71,6 +72,10 @@ def read(
 
     Only a regular file is read (a FIFO, a device or a directory is refused before it is
     opened) and never more than ``max_bytes`` of it (:func:`mjmotion.inputs.read_input`).
+
+    Every frame of the file is kept. The command-line verbs (and the Studio) also leave out a
+    leading T-pose or transition (the cgspeed daz clips' frames 0-3); to get the frames they
+    judge, use ``mjmotion.trim.skip_leading_transient(read(path))[0]``.
     """
     p = str(path)
     try:
@@ -98,7 +103,7 @@ def parse(data: bytes | str, path: str = "<string>", scale: float | None = None,
         row, col, what = bad
         ln = first_data_line + 1 + _nonempty_line_offset(lines, first_data_line, row)
         raise BvhError(path, ln, f"value {col + 1} ({what}) is {values[row, col]:g} file units, {_coord_limit(skel)}")
-    return _to_motion(skel, values, 1.0 / frame_time, path)
+    return _to_motion(skel, values, rate_of(frame_time), path)
 
 
 def _coord_limit(skel: Skeleton) -> str:
@@ -168,7 +173,7 @@ def _parse_fast(data: bytes | str, path: str, scale: float | None, up: str) -> M
     skel = _build_skeleton(nodes, path, scale, up)
     if _position_out_of_range(values, skel) is not None:
         return None  # the NumPy path names the line
-    return _to_motion(skel, values, 1.0 / frame_time, path, kernels)
+    return _to_motion(skel, values, rate_of(frame_time), path, kernels)
 
 
 def _parse_values_fast(data: bytes | str, path: str):
@@ -680,10 +685,12 @@ def format_motion(motion: Motion) -> str:
     lost.
     """
     skel = motion.skeleton
-    if not np.all(np.isfinite(motion.rotations)) or not np.all(np.isfinite(motion.root_positions)):
-        raise MjmotionError("motion has non-finite values (NaN or inf); refusing to write it")
-    if motion.translations is not None and not np.all(np.isfinite(motion.translations)):
-        raise MjmotionError("motion has non-finite translations; refusing to write it")
+    # (a Motion's values are finite: skeleton.Motion checks them) What the reader would refuse is not written.
+    if not MIN_FPS <= motion.fps <= MAX_FPS:
+        raise MjmotionError(f"motion {motion.name!r}: {motion.fps:g} fps; a BVH file holds {MIN_FPS:g} to {MAX_FPS:g} frames per second")
+    far = np.abs(motion.local_translations()).max() if motion.n_frames else 0.0
+    if far > MAX_COORD_M:
+        raise MjmotionError(f"motion {motion.name!r}: a position {far:g} m from the origin; a BVH file holds positions within ±{MAX_COORD_M:g} m")
     c = up_matrix(skel.up)
     q_c = rot.from_matrix(c)
     t = motion.n_frames
@@ -743,13 +750,35 @@ def format_motion(motion: Motion) -> str:
 
 
 def frame_time_text(fps: float) -> str:
-    """The shortest frame time (≥ 6 significant digits) that reads back as exactly ``fps``."""
+    """The shortest frame time (≥ 6 significant digits) that reads back as exactly ``fps`` (:func:`rate_of`)."""
+    fps = float(fps)  # (a NumPy scalar's repr is not a number a reader takes)
     ft = 1.0 / fps
+    # 1/fps rounded may not invert back to fps (29.97: 1 / (1/29.97) = 29.969999999999995); a frame time a few
+    # units in the last place away can, so those are tried too
+    near = [ft]
+    for direction in (math.inf, -math.inf):
+        x = ft
+        for _ in range(4):
+            x = math.nextafter(x, direction)
+            near.append(x)
     for digits in range(6, 18):
-        text = f"{ft:.{digits}g}"
-        if 1.0 / float(text) == fps:
-            return text
+        for x in near:
+            text = f"{x:.{digits}g}"
+            if 1.0 / float(text) == fps:
+                return text
     return repr(ft)
+
+
+def rate_of(frame_time: float) -> float:
+    """The frame rate of a file's frame time: the shortest rate whose
+    :func:`frame_time_text` is this frame time, else ``1 / frame_time``. A rate with no frame time that
+    inverts to it exactly (29.97: 1 / (1/29.97) = 29.969999999999995) still reads back as written."""
+    raw = 1.0 / frame_time
+    for digits in range(6, 18):
+        c = float(f"{raw:.{digits}g}")
+        if float(frame_time_text(c)) == frame_time:
+            return c
+    return raw
 
 
 def _wrap_degrees(a: np.ndarray) -> np.ndarray:

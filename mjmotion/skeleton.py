@@ -295,6 +295,12 @@ def detect_scale(extent: float) -> float:
     )
 
 
+#: How far from 1 a rotation quaternion's norm may be before a motion normalises it (operations write them to ~1e-15).
+UNIT_TOLERANCE = 1e-6
+#: A quaternion shorter than this is no rotation.
+ZERO_QUATERNION = 1e-6
+
+
 @dataclass(frozen=True, eq=False)
 class Motion:
     """A clip: a skeleton animated over ``T`` frames.
@@ -310,6 +316,11 @@ class Motion:
             unused (the root's position is ``root_positions``). ``None`` means every joint sits
             at its offset.
         name: a label (the file stem for loaded clips).
+
+    Values are checked when a motion is made (finite, no zero quaternion, at least one frame; an
+    :class:`~mjmotion.errors.MjmotionError` names the frame and joint otherwise), and its arrays
+    are read-only: results may share them with their inputs, so edit a copy (``m.rotations.copy()``)
+    and make a new motion with :meth:`replace`.
     """
 
     skeleton: Skeleton
@@ -336,6 +347,40 @@ class Motion:
             object.__setattr__(self, "translations", tr)
         if not (np.isfinite(self.fps) and self.fps > 0):
             raise MjmotionError(f"fps must be a positive number, got {self.fps}")
+        object.__setattr__(self, "fps", float(self.fps))  # (a NumPy scalar would print as np.float64(…) in a file)
+        if t < 1:
+            raise MjmotionError("a motion needs at least one frame")
+        self._check_values()
+        # Read-only views: an operation's result may share arrays with its input (a blend with weight 1, an
+        # adapted shot's untouched root), so writing into one must not silently change the other.
+        for key in ("root_positions", "rotations", "translations"):
+            a = getattr(self, key)
+            if a is not None and a.flags.writeable:
+                v = a.view()
+                v.flags.writeable = False
+                object.__setattr__(self, key, v)
+
+    def _check_values(self) -> None:
+        """Refuse a non-finite value or a zero quaternion, naming its frame and joint (a NaN would otherwise flow
+        into every metric as ``nan``, or into a solver's raw traceback); normalise quaternions of other lengths."""
+        names = self.skeleton.names
+        for key, a in (("root_positions", self.root_positions), ("rotations", self.rotations), ("translations", self.translations)):
+            if a is None:
+                continue
+            bad = ~np.isfinite(a)
+            if bad.any():
+                where = np.argwhere(bad)[0]
+                joint = f", joint {names[where[1]]!r}" if a.ndim == 3 else ""
+                raise MjmotionError(f"motion {self.name!r}: {key} at frame {where[0]}{joint} is {a[tuple(where)]}; expected finite numbers")
+        norms = np.sqrt(np.einsum("tjk,tjk->tj", self.rotations, self.rotations))
+        zero = norms < ZERO_QUATERNION
+        if zero.any():
+            f, j = np.argwhere(zero)[0]
+            raise MjmotionError(
+                f"motion {self.name!r}: the rotation at frame {f}, joint {names[j]!r} is a zero quaternion; expected a rotation (wxyz)"
+            )
+        if (np.abs(norms - 1.0) > UNIT_TOLERANCE).any():  # scaled quaternions stand for their rotation: stored as unit ones
+            object.__setattr__(self, "rotations", self.rotations / norms[..., None])
 
     def __repr__(self) -> str:
         """``Motion('walk', 22 joints, 241 frames at 60 fps, 4 s)``: what the clip is, not its arrays."""
@@ -367,7 +412,7 @@ class Motion:
         return out
 
     def replace(self, **changes: Any) -> Motion:
-        """A copy with some fields changed (the input is never mutated)."""
+        """A new motion with some fields changed; the others share this one's (read-only) arrays."""
         return dataclasses.replace(self, **changes)
 
     def __getitem__(self, key: slice) -> Motion:

@@ -71,6 +71,18 @@ class PoseSpace:
     translations: bool
     template: Motion
 
+    def __repr__(self) -> str:
+        """``PoseSpace('drive', 22 joints, components=12, parameters=66)``: no arrays."""
+        from .summary import fields
+
+        return fields(
+            "PoseSpace",
+            repr(self.template.name),
+            f"{self.skeleton.n_joints} joints",
+            components=int(self.loadings.shape[1]),
+            parameters=int(self.kept.sum()),
+        )
+
     # --- construction ----------------------------------------------------------------------
     @classmethod
     def fit(cls, source: Motion, translations: bool = False) -> PoseSpace:

@@ -92,6 +92,18 @@ def test_weight_one_reproduces_the_clip_up_to_a_floor_move(walk_run):
     np.testing.assert_allclose(kinematics.joint_positions(lin), kinematics.joint_positions(walk[: lin.n_frames]), atol=1e-6)
 
 
+def test_weight_one_plays_the_registered_span_to_its_last_frame():
+    """With weight 1 on one clip the blend plays every frame of the span the registration covers, the last
+    included (the spline meets its end node to ~1e-6 frames, and a clock 3e-6 short dropped it)."""
+    from mjmotion import synth
+
+    walk, run = synth.walk(seconds=2).motion, synth.run(seconds=2).motion
+    reg = R.register_many([walk, run])
+    for k, w in ((0, [1.0, 0.0]), (1, [0.0, 1.0])):
+        first, last = np.round(reg.times[[0, -1], k]).astype(int)
+        assert B.blend([walk, run], w, registration=reg).n_frames == last - first + 1
+
+
 def test_same_topology_different_bone_lengths_blends_on_first_skeleton(mocap):
     walk = _clip(mocap, "07_01")[:150]
     big = walk.replace(skeleton=walk.skeleton.with_offsets(walk.skeleton.offsets * 1.1), root_positions=walk.root_positions * 1.1)

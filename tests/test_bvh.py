@@ -11,7 +11,7 @@ from reference_fk import file_to_world, reference_fk
 
 from mjmotion import bvh, compiled, kinematics, mjcf
 from mjmotion import rotations as rot
-from mjmotion.errors import BvhError
+from mjmotion.errors import BvhError, MjmotionError
 
 SMALL = """HIERARCHY
 ROOT Hips
@@ -172,11 +172,12 @@ def test_writer_widens_channels_it_needs():
     assert np.abs(_fk_world(back) - _fk_world(changed)).max() < 1e-8
 
 
-def test_refuses_to_write_nan(tmp_path):
+def test_a_nan_never_reaches_a_file(tmp_path):
+    """A NaN rotation is refused when the motion is made, naming its frame and joint (it went on into every metric as nan)."""
     m = bvh.parse(SMALL, "s.bvh")
     q = m.rotations.copy()
     q[1, 1, 0] = np.nan
-    with pytest.raises(Exception, match="non-finite"):
+    with pytest.raises(MjmotionError, match=r"rotations at frame 1, joint 'Chest' is nan; expected finite numbers"):
         bvh.write(m.replace(rotations=q), tmp_path / "nan.bvh")
     assert not (tmp_path / "nan.bvh").exists()
 
@@ -377,3 +378,28 @@ def test_large_files_take_the_compiled_path_and_small_ones_do_not(monkeypatch):
     monkeypatch.setattr(bvh, "FAST_MIN_BYTES", 1 << 62)
     _same_motion(fast, bvh.parse(big, "b.bvh", scale=1.0))
     _same_motion(fast_z, bvh.parse(big, "b.bvh", scale=1.0, up="z"))
+
+
+@pytest.mark.parametrize("fps", [29.97, 59.94, 119.88, 30000 / 1001, 23.976, 24.0, 7.3, 120.0])
+def test_common_rates_read_back_exactly(tmp_path, fps):
+    """1/(1/29.97) is 29.969999999999995: the rate is found again from the frame time written (a NumPy
+    scalar rate was written as 'np.float64(…)', a file the reader refused)."""
+    m = bvh.parse(SMALL, "s.bvh").replace(fps=np.float64(fps))
+    bvh.write(m, tmp_path / "r.bvh")
+    assert "np." not in (tmp_path / "r.bvh").read_text()
+    assert bvh.read(tmp_path / "r.bvh").fps == fps
+
+
+def test_the_3dsmax_frame_time_reads_as_written(mocap):
+    """A frame time we did not write (.0083333) keeps its plain reciprocal."""
+    assert bvh.read(mocap / "cmu_cgspeed_max" / "131_02.bvh").fps == pytest.approx(1 / 0.0083333, rel=1e-15)
+
+
+def test_write_refuses_what_read_would_refuse(tmp_path):
+    m = bvh.parse(SMALL, "s.bvh")
+    with pytest.raises(MjmotionError, match="1e\\+09 fps; a BVH file holds 0.1 to 10000 frames per second"):
+        bvh.write(m.replace(fps=1e9), tmp_path / "f.bvh")
+    far = m.replace(root_positions=m.root_positions + [1e12, 0.0, 0.0])
+    with pytest.raises(MjmotionError, match="positions within ±100000 m"):
+        bvh.write(far, tmp_path / "f.bvh")
+    assert not (tmp_path / "f.bvh").exists()

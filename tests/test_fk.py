@@ -11,8 +11,8 @@ from mjmotion import bvh, fk, kinematics
 
 @pytest.mark.parametrize("seed", range(4))
 def test_numpy_fk_equals_mujoco_on_random_skeletons_with_translations(seed):
-    """Random trees with 6-channel inner joints; quaternions not of unit length (MuJoCo normalises
-    them) and per-frame translations on joints without position channels (MuJoCo ignores them)."""
+    """Random trees with 6-channel inner joints; quaternions not of unit length (the motion normalises
+    them when it is made) and per-frame translations on joints without position channels (MuJoCo ignores them)."""
     rng = np.random.default_rng(seed)
     skel = random_skeleton(rng, n_joints=int(rng.integers(3, 30)))
     m = random_motion(rng, skel, n_frames=12)

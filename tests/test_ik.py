@@ -65,8 +65,9 @@ def test_an_elbow_that_rolls_in_its_clip_also_rolls_in_the_ik(swing):
     assert np.abs(np.diff(c, axis=0)).max() < np.radians(30)  # no wrap between frames (a wrap jumps ~180°; the roll peaks at 20° a frame)
     assert elbow.upper[1] - elbow.lower[1] < np.ptp(c[:, 1]) + 2 * chains.ELBOW_CARRY + 1e-9
     # a hinge whose clip does not roll it keeps its single flexion axis
-    flat = drive.replace(rotations=drive.rotations.copy())
-    flat.rotations[:, elbow.joint] = rot.exp(np.outer(np.radians(np.linspace(10, 90, drive.n_frames)), elbow.basis[:, 0]))
+    q = drive.rotations.copy()
+    q[:, elbow.joint] = rot.exp(np.outer(np.radians(np.linspace(10, 90, drive.n_frames)), elbow.basis[:, 0]))
+    flat = drive.replace(rotations=q)
     assert next(c for c in chains.build_chain(flat, "Spine", "LeftHand", None).joints if c.joint == elbow.joint).dof == 1
 
 

@@ -146,3 +146,32 @@ def test_descendants_of_a_random_tree_match_the_parent_walk():
             if k == j and c != j:
                 below.append(c)
         assert skel.descendants(j) == below
+
+
+def test_a_motion_checks_its_values_and_keeps_its_arrays_read_only():
+    """A NaN or a zero quaternion is refused naming its frame and joint (a NaN went on into every metric as nan, a
+    zero quaternion into SciPy's traceback on write); scaled quaternions are normalised; a result that shares
+    arrays with its input cannot be written into (an adapted shot's root moved its source's too)."""
+    from mjmotion import synth
+
+    walk = synth.walk(seconds=1).motion
+    q = walk.rotations.copy()
+    q[5, 3, 0] = np.nan
+    with pytest.raises(MjmotionError, match=rf"rotations at frame 5, joint '{walk.skeleton.names[3]}' is nan"):
+        walk.replace(rotations=q)
+    q = walk.rotations.copy()
+    q[7, 2] = 0.0
+    with pytest.raises(MjmotionError, match=rf"frame 7, joint '{walk.skeleton.names[2]}' is a zero quaternion"):
+        walk.replace(rotations=q)
+    rp = walk.root_positions.copy()
+    rp[3, 2] = np.inf
+    with pytest.raises(MjmotionError, match="root_positions at frame 3 is inf"):
+        walk.replace(root_positions=rp)
+    with pytest.raises(MjmotionError, match="at least one frame"):
+        walk.replace(rotations=walk.rotations[:0], root_positions=walk.root_positions[:0])
+    scaled = walk.replace(rotations=walk.rotations * 3.0)
+    np.testing.assert_allclose(scaled.rotations, walk.rotations, atol=1e-15)
+    moved = walk.replace(name="moved")  # shares the arrays
+    with pytest.raises(ValueError, match="read-only"):
+        moved.root_positions[:, 2] += 1.0
+    assert type(walk.replace(fps=np.float64(29.97)).fps) is float

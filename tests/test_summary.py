@@ -100,3 +100,23 @@ def test_an_adaptation_prints_its_report_in_a_line():
     assert text.startswith(f"Adaptation('{a.motion.name}', solver=dls, hit_frame={a.report['hit_frame']}, reachable=yes") and len(text) < 250
     cells = _table(a.to_markdown())
     assert cells["hit_error_m"] == summary.number(a.report["hit_error_m"])
+
+
+def test_bundled_clips_spaces_paths_skins_and_scenes_print_in_a_line():
+    """Each printed dozens of lines of arrays (a SynthClip 121 lines); now what it is, in one short line."""
+    from mjmotion import render, skin, style
+    from mjmotion.variations import paths
+
+    clip = synth.drive()
+    space = style.PoseSpace.fit(clip.motion)
+    path = paths.source_path(space, 5)
+    short = clip.motion[:3]
+    shown = {
+        "SynthClip('drive', kind=drive, frames=": repr(clip),
+        "PoseSpace('drive', 22 joints, components=": repr(space),
+        "ScorePath(": repr(path),
+        "SkinnedMotion(": repr(skin.animate(short, normals=False)),
+        "Scene(drive; ": repr(render.build_scene([render.Actor(short, "drive")])),
+    }
+    for start, text in shown.items():
+        assert text.startswith(start) and "\n" not in text and len(text) < 200, text

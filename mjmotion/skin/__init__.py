@@ -108,6 +108,10 @@ class SkinnedMotion:
     normals: np.ndarray | None
     fps: float
 
+    def __repr__(self) -> str:
+        """``SkinnedMotion(11806 vertices, 23608 faces, 241 frames at 60 fps)``: no arrays."""
+        return f"SkinnedMotion({len(self.bind_vertices)} vertices, {len(self.faces)} faces, {len(self.vertices)} frames at {self.fps:.6g} fps)"
+
 
 def bind_qpos(compiled: mjcf.CompiledModel, local: np.ndarray) -> np.ndarray:
     """``(nq,)`` the model's ``qpos0`` with the joints at ``local: (J, 4)`` rotations, standing on the floor."""

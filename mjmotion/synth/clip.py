@@ -73,6 +73,13 @@ class SynthClip:
     warp: Warp | None = None
     params: tuple[tuple[str, float], ...] = ()
 
+    def __repr__(self) -> str:
+        """``SynthClip('drive', kind='drive', frames=166, hit_frame=66, prop='bat')``: what it is, not its arrays."""
+        from ..summary import fields
+
+        prop = self.prop.name if self.prop is not None else None
+        return fields("SynthClip", repr(self.name), f"kind={self.kind}", frames=self.motion.n_frames, hit_frame=self.hit_frame, prop=prop)
+
     def hit_ball(self, radius: float = 0.036, mass: float = 0.16) -> mjcf.Ball:
         """A ball just touching the sweet spot at the hit frame, on the face side: METRICS.md
         ``hit_error_m`` is 0 for it (cricket ball: radius 0.036 m, 0.16 kg)."""

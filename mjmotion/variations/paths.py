@@ -67,6 +67,12 @@ class ScorePath:
     label: str = ""
     shift_b: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
+    def __repr__(self) -> str:
+        """``ScorePath('scale 1.3', frames=166, k=5, components=12)``: no arrays."""
+        from ..summary import fields
+
+        return fields("ScorePath", repr(self.label), frames=self.n_frames, k=self.k, components=int(self.scores.shape[1]))
+
     @property
     def n_frames(self) -> int:
         return int(self.scores.shape[0])
