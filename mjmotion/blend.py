@@ -39,7 +39,10 @@ METHODS = ("registered", "linear")
 # --------------------------------------------------------------------------------------------
 def check_weights(weights: np.ndarray | list[float], n: int, what: str = "weights") -> np.ndarray:
     """Blend weights ``(n,)``: finite, non-negative, summing to 1 (else a clear error)."""
-    w = np.asarray(weights, dtype=float).reshape(-1)
+    try:
+        w = np.asarray(weights, dtype=float)
+    except (TypeError, ValueError):
+        raise MjmotionError(f"{what}: expected {n} numbers (one per clip), got {weights!r}") from None
     if w.shape != (n,):
         raise MjmotionError(f"{what}: expected {n} weights (one per clip), got {w.size}")
     if not np.all(np.isfinite(w)) or np.any(w < 0):

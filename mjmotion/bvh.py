@@ -684,6 +684,8 @@ def format_motion(motion: Motion) -> str:
     without position channels), the missing channels are appended to that joint so nothing is
     lost.
     """
+    if not isinstance(motion, Motion):
+        raise MjmotionError(f"expected a Motion to write, got {type(motion).__name__}")
     skel = motion.skeleton
     # (a Motion's values are finite: skeleton.Motion checks them) What the reader would refuse is not written.
     if not MIN_FPS <= motion.fps <= MAX_FPS:

@@ -458,6 +458,8 @@ def evaluate(
     references. ``floor``: the floor height (m). With ``ball`` and ``hit_frame``: the hitting metrics
     too (effector: the first prop's sweet spot, else the foot or hand geom nearest the ball).
     """
+    if isinstance(sources, Motion) or not all(isinstance(s, Motion) for s in sources):
+        raise MjmotionError("sources: expected a list of Motions (the clips this one was made from), e.g. sources=[walk, run]")
     sources = list(sources)
     if motion.fps > MAX_JUDGED_FPS:
         raise MjmotionError(

@@ -435,7 +435,9 @@ def setup(
         rule = "lowest pass" if source_ball is None else "nearest the ball"
     if not 0 <= hit < motion.n_frames:
         raise MjmotionError(f"--frame {frame}: the clip has frames 0..{motion.n_frames - 1}")
-    tgt = _check_target(np.asarray(target, dtype=float) if target is not None else e_fk[hit] + np.asarray(offset, dtype=float))
+    tgt = _check_target(
+        np.asarray(target, dtype=float) if target is not None else e_fk[hit] + _check_target(np.asarray(offset, dtype=float), "offset")
+    )
     blend = blend_weights(e_fk, hit, falloff, motion.fps, edge)
     tip_rot = tip_frames[:, :3, :3].copy()
     goals = _goals(e_fk, tip_rot, blend, hit, tgt)
@@ -480,9 +482,9 @@ def setup(
     )  # fmt: skip
 
 
-def _check_target(tgt: np.ndarray) -> np.ndarray:
+def _check_target(tgt: np.ndarray, what: str = "target") -> np.ndarray:
     if tgt.shape != (3,) or not np.all(np.isfinite(tgt)):
-        raise MjmotionError(f"the target must be three finite numbers (metres), got {tgt}")
+        raise MjmotionError(f"the {what} must be three finite numbers (metres), got {tgt}")
     return tgt
 
 

@@ -436,7 +436,10 @@ class Motion:
         Returns ``(root_positions (N, 3), rotations (N, J, 4), translations (N, J, 3) | None)``:
         linear interpolation of positions, slerp of rotations.
         """
-        f = np.clip(np.asarray(frames, dtype=float), 0.0, self.n_frames - 1)
+        f = np.asarray(frames, dtype=float)
+        if f.ndim != 1 or not np.isfinite(f).all():
+            raise MjmotionError(f"sample: expected a list of finite frame numbers, got shape {f.shape}" + ("" if f.ndim != 1 else " with NaN or inf"))
+        f = np.clip(f, 0.0, self.n_frames - 1)
         i0 = np.floor(f).astype(int)
         i1 = np.minimum(i0 + 1, self.n_frames - 1)
         a = (f - i0)[:, None]

@@ -31,6 +31,8 @@ def timewarp(motion: Motion, w: Callable[[np.ndarray], np.ndarray], n_frames: in
     ``w`` maps result frame indices ``(n,)`` to source frame indices and must be strictly
     increasing over ``0 … n_frames-1`` and stay inside the source clip.
     """
+    if int(n_frames) < 1:
+        raise MjmotionError(f"timewarp: n_frames {n_frames}; expected at least one frame")
     i = np.arange(n_frames, dtype=float)
     src = np.asarray(w(i), dtype=float)
     if src.shape != i.shape or not np.all(np.isfinite(src)):

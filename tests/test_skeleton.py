@@ -175,3 +175,30 @@ def test_a_motion_checks_its_values_and_keeps_its_arrays_read_only():
     with pytest.raises(ValueError, match="read-only"):
         moved.root_positions[:, 2] += 1.0
     assert type(walk.replace(fps=np.float64(29.97)).fps) is float
+
+
+def test_api_misuse_is_a_clear_error_not_a_traceback():
+    """Each of these raised a raw IndexError, ValueError, TypeError or AttributeError from inside."""
+    from mjmotion import blend, evaluate, hitpoint, registration, synth, transform
+
+    walk, run = synth.walk(seconds=1).motion, synth.run(seconds=1).motion
+    cases = [
+        (lambda: walk.sample(np.array([np.nan])), "finite frame numbers"),
+        (lambda: transform.timewarp(walk, lambda i: i * 1.0, 0), "at least one frame"),
+        (lambda: registration.register_many([walk, run], reference=5), r"reference 5: expected the index of one of the 2 clips"),
+        (lambda: registration.register_many([walk, run], reference=-1), "reference -1"),
+        (lambda: blend.blend([walk, run], "0.5,0.5"), "expected 2 numbers"),
+        (lambda: blend.blend([walk, run], [[0.5, 0.5]]), "expected 2 weights"),
+        (lambda: evaluate.evaluate(walk, sources=walk), "a list of Motions"),
+        (lambda: bvh.write("walk", "never.bvh"), "expected a Motion to write, got str"),
+    ]
+    drive = synth.drive()
+    cases.append(
+        (
+            lambda: hitpoint.adapt(drive.motion, offset=np.array([0.1, 0.0]), frame=drive.hit_frame, prop=drive.prop, style=False),
+            "the offset must be three",
+        )
+    )
+    for call, message in cases:
+        with pytest.raises(MjmotionError, match=message):
+            call()

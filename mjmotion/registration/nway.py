@@ -133,6 +133,8 @@ def register_many(
         raise MjmotionError(f"sample_every must be at least 1 frame of the reference, got {sample_every}")
     prepare(motions)
     pos = positions if positions is not None else [positions_of(m) for m in motions]
+    if reference is not None and not 0 <= int(reference) < len(motions):
+        raise MjmotionError(f"reference {reference}: expected the index of one of the {len(motions)} clips (0 to {len(motions) - 1})")
     ref = choose_reference(motions, pos, window, weights) if reference is None else int(reference)
     pairs = [
         None
