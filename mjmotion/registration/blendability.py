@@ -17,8 +17,8 @@ import numpy as np
 from .grid import DEFAULT_WINDOW, distance_grid
 
 #: Scores above this are reported unblendable. Calibrated on the shared clips
-#: (``python experiments/timewarp_blend.py``, ``blendability.md``): walk and run pairs 0.02–0.75,
-#: a walk with the baseball pitch 124_01 or a golf swing 1.02–1.16.
+#: (``python experiments/timewarp_blend.py``, ``blendability.md``): walk and run pairs 0.01–0.74,
+#: a walk with the baseball pitch 124_01 or a golf swing 0.95–1.17.
 THRESHOLD = 0.9
 #: Frames of a clip (evenly spaced; every frame of a shorter clip) whose windows enter its self-similarity.
 SELF_FRAMES = 200

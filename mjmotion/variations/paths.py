@@ -160,10 +160,11 @@ def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None 
 
 
 def default_abort_frames(path: ScorePath, frame: int, rest_frame: int, fps: float) -> int:
-    """Frames to reach the rest pose: the source's mean speed through the space, at least 0.25 s.
+    """Frames to reach the rest pose, at least 0.25 s: the return's peak speed through the space is the source's mean.
 
-    The return leg covers the distance ``|S_rest − S_f|`` at the average speed of the source's
-    path, so joint speeds stay within those of the source (§3.2.3 "heads straight to the rest pose").
+    The return leg covers the distance ``|S_rest − S_f|`` along a Hermite curve whose peak speed is 1.5× its
+    average, so 1.5·distance / mean speed frames make its peak the source's mean speed (its average 2/3 of it)
+    and joint speeds stay within those of the source (§3.2.3 "heads straight to the rest pose").
     """
     ctrl = path.controlled
     speed = np.linalg.norm(np.diff(ctrl, axis=0), axis=1)
