@@ -6,9 +6,10 @@ output frame (:class:`Track`). :func:`compose` turns any set of tracks into one 
 * joint rotations (all but the root) are the weighted quaternion mean of the tracks'
   (``rotations.weighted_average``);
 * the root is built incrementally (seed 000 §3.2, simplified): each track contributes its heading
-  change and its floor displacement over the frame *expressed in its own heading*; the blend
-  turns by the weighted heading change and steps by the weighted displacement rotated into its
-  own current heading. Height and the root's tilt (its rotation with the heading removed) are
+  change and its floor displacement over the frame *expressed in its own heading at the frame's
+  start*; the blend turns by the weighted heading change and steps by the weighted displacement
+  rotated into its own heading at the frame's start (the seed expresses each step after the
+  clip's turn; per frame the two differ by the product of two small increments). Height and the root's tilt (its rotation with the heading removed) are
   weighted means. A clip is thereby re-aligned to the blend at every frame, which is what Kovar &
   Gleicher's alignment curve achieves for whole frames; with weight 1 on one clip the result is
   that clip exactly, moved rigidly on the floor. Increments never cross a track's own time jump,
