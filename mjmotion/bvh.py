@@ -15,7 +15,6 @@ from __future__ import annotations
 import functools
 import io
 import itertools
-import math
 import os
 import sys
 from dataclasses import dataclass
@@ -752,23 +751,15 @@ def format_motion(motion: Motion) -> str:
 
 
 def frame_time_text(fps: float) -> str:
-    """The shortest frame time (≥ 6 significant digits) that reads back as exactly ``fps`` (:func:`rate_of`)."""
+    """The shortest frame time (≥ 6 significant digits) whose reciprocal is ``fps``, else ``1/fps`` in full (:func:`rate_of`
+    reads either back as ``fps``)."""
     fps = float(fps)  # (a NumPy scalar's repr is not a number a reader takes)
     ft = 1.0 / fps
-    # 1/fps rounded may not invert back to fps (29.97: 1 / (1/29.97) = 29.969999999999995); a frame time a few
-    # units in the last place away can, so those are tried too
-    near = [ft]
-    for direction in (math.inf, -math.inf):
-        x = ft
-        for _ in range(4):
-            x = math.nextafter(x, direction)
-            near.append(x)
     for digits in range(6, 18):
-        for x in near:
-            text = f"{x:.{digits}g}"
-            if 1.0 / float(text) == fps:
-                return text
-    return repr(ft)
+        text = f"{ft:.{digits}g}"
+        if 1.0 / float(text) == fps:
+            return text
+    return repr(ft)  # no frame time inverts to fps (29.97): rate_of finds fps again from this one
 
 
 def rate_of(frame_time: float) -> float:
