@@ -22,6 +22,7 @@ between such vectors and keep the sum.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,6 +77,9 @@ class WeightCurve:
     def __post_init__(self) -> None:
         if not self.keys:
             raise MjmotionError("a weight curve needs at least one key")
+        for k, (time_s, ramp, _) in enumerate(self.keys):
+            if not (math.isfinite(time_s) and math.isfinite(ramp) and ramp >= 0):
+                raise MjmotionError(f"weight key {k}: time {time_s} s, ramp {ramp} s; expected finite numbers and a ramp ≥ 0")
         times = [k[0] for k in self.keys]
         if any(b < a for a, b in zip(times, times[1:], strict=False)):
             raise MjmotionError("weight keys must be in time order")

@@ -191,6 +191,8 @@ def test_api_misuse_is_a_clear_error_not_a_traceback():
         (lambda: blend.blend([walk, run], [[0.5, 0.5]]), "expected 2 weights"),
         (lambda: evaluate.evaluate(walk, sources=walk), "a list of Motions"),
         (lambda: bvh.write("walk", "never.bvh"), "expected a Motion to write, got str"),
+        (lambda: blend.WeightCurve(((0.0, 0.0, np.array([1.0, 0.0])), (1.0, -0.5, np.array([0.0, 1.0])))), r"weight key 1: .* ramp ≥ 0"),
+        (lambda: blend.WeightCurve(((0.0, 0.0, np.array([1.0, 0.0])), (np.nan, 0.5, np.array([0.0, 1.0])))), "weight key 1: time nan"),
     ]
     drive = synth.drive()
     cases.append(
