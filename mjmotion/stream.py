@@ -142,7 +142,7 @@ def _number(value: object, where: str, minimum: float = 0.0, maximum: float = fl
 
 
 def parse_script(data: dict, base: Path, load) -> Script:
-    """A :class:`Script` from JSON ``data``; ``load(path, frames_text)`` reads a clip.
+    """A :class:`Script` from JSON ``data``; ``load(path, frames_text, field)`` reads a clip (frame-range errors name ``field``).
 
     Every mistake is an :class:`MjmotionError` naming the field.
     """
@@ -163,12 +163,7 @@ def parse_script(data: dict, base: Path, load) -> Script:
             raise MjmotionError(f'script.clips.{name}: expected {{"file": PATH, "frames": "A:B" (optional)}}')
         path = Path(spec["file"])
         path = path if path.is_absolute() else base / path
-        try:
-            clips[name] = load(str(path), spec.get("frames")).replace(name=name)
-        except MjmotionError as e:  # the loader speaks of the CLI's --frames; here it is this field
-            if not str(e).startswith("--frames "):
-                raise
-            raise MjmotionError(f"script.clips.{name}.frames {str(e).removeprefix('--frames ')}") from None
+        clips[name] = load(str(path), spec.get("frames"), f"script.clips.{name}.frames").replace(name=name)
     loco = data["locomotion"]
     if not isinstance(loco, list) or not loco or not all(isinstance(x, str) for x in loco):
         raise MjmotionError("script.locomotion: expected a list of clip names")
@@ -233,7 +228,8 @@ def parse_script(data: dict, base: Path, load) -> Script:
 
 
 def load_script(path: str, load) -> Script:
-    """Read a stream script; ``load(path, frames_text)`` reads a clip (the CLI passes its loader).
+    """Read a stream script; ``load(path, frames_text, field)`` reads a clip, its frame-range errors naming
+    ``field`` (the CLI passes its loader).
 
     The file is read and checked by :func:`mjmotion.script.load` (a regular file, safe JSON, the schema)."""
     data = script_schema.load(path)

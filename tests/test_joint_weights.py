@@ -131,7 +131,7 @@ def test_blend_and_stream_use_the_weights(clips, tmp_path, capsys):
     }
     (tmp_path / "s.json").write_text(json.dumps(script))
     assert main(["stream", str(tmp_path / "s.json"), "-o", str(tmp_path / "s.bvh"), "--joint-weights", str(tmp_path / "legs.json")]) == 0
-    parsed = S.parse_script(script, tmp_path, lambda p, f: bvh.read(p)[4:])
+    parsed = S.parse_script(script, tmp_path, lambda p, f, field: bvh.read(p)[4:])
     weighted, unweighted = S.MotionStream(parsed, weights), S.MotionStream(parsed)
     assert not np.array_equal(weighted.registration.times, unweighted.registration.times)
     np.testing.assert_allclose(bvh.read(str(tmp_path / "s.bvh")).root_positions, weighted.run().root_positions, atol=1e-4)

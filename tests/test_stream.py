@@ -18,9 +18,9 @@ ASF = "cmu_asfamc_converted"
 KICK = (500, 720)  # 10_01: approach, right-foot kick near frame 596, recovery (SOURCES.md)
 
 
-def _load(path: str, frames: str | None):
+def _load(path: str, frames: str | None, field: str):
     m = bvh.read(path)
-    return m[parse_frames(frames, m.n_frames)] if frames else m
+    return m[parse_frames(frames, m.n_frames, field)] if frames else m
 
 
 def _script(mocap, **extra) -> dict:

@@ -76,16 +76,18 @@ def read_motion(path: str, args: argparse.Namespace) -> Motion:
     return bvh.read(path, scale=units_scale(getattr(args, "units", "auto")), up=getattr(args, "up", "y"))
 
 
-def load_first(path: str, args: argparse.Namespace, frames: str | None = None, *, trim: bool = True, note: bool = True) -> tuple[Motion, int]:
+def load_first(
+    path: str, args: argparse.Namespace, frames: str | None = None, *, trim: bool = True, note: bool = True, frames_option: str = "--frames"
+) -> tuple[Motion, int]:
     """A clip as every verb reads it, and the file frame it starts at.
 
-    ``frames`` (``A:B``, the file's frame numbers) selects frames; without it a leading T-pose
+    ``frames`` (``A:B``, the file's frame numbers; its errors name ``frames_option``) selects frames; without it a leading T-pose
     or transition (:func:`mjmotion.trim.leading_transient`) is skipped unless ``--keep-start``
     (or ``trim=False``), with one note line on stderr naming the frames (``note``).
     """
     m = read_motion(path, args)
     if frames:
-        sl = parse_frames(frames, m.n_frames)
+        sl = parse_frames(frames, m.n_frames, frames_option)
         return m[sl], sl.indices(m.n_frames)[0]
     if not trim:
         return m, 0
@@ -111,9 +113,11 @@ def note_skipped(name: str, k: int) -> None:
     sys.stderr.write(f"note: {name}: skipped {shown}, a leading T-pose, transition or glitch (--keep-start keeps them)\n")
 
 
-def load(path: str, args: argparse.Namespace, frames: str | None = None, *, trim: bool = True, note: bool = True) -> Motion:
+def load(
+    path: str, args: argparse.Namespace, frames: str | None = None, *, trim: bool = True, note: bool = True, frames_option: str = "--frames"
+) -> Motion:
     """:func:`load_first` without the start frame."""
-    return load_first(path, args, frames, trim=trim, note=note)[0]
+    return load_first(path, args, frames, trim=trim, note=note, frames_option=frames_option)[0]
 
 
 def clip_frame(frame: int, first: int, option: str) -> int:
@@ -173,10 +177,13 @@ def prop_option(motion: Motion, text: str) -> Prop:
     return fit_club(motion, kind)
 
 
-def naming(path: str, e: MjmotionError) -> MjmotionError:
-    """``e`` with ``path`` in front, unless its message already begins with the file or an option
+def named(path: str, message: str) -> str:
+    """``message`` with ``path`` in front, unless it already begins with the file or an option
     (the judge's own errors speak of "a clip": a user with many files needs to know which)."""
-    text = str(e)
-    if text.startswith((path, "-")):
-        return e
-    return MjmotionError(f"{path}: {text}")
+    return message if message.startswith((path, "-")) else f"{path}: {message}"
+
+
+def naming(path: str, e: MjmotionError) -> MjmotionError:
+    """``e`` as :func:`named` words it."""
+    text = named(path, str(e))
+    return e if text == str(e) else MjmotionError(text)

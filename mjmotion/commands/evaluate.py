@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import MjmotionError, printable, require_number
 from ..inputs import find_bvh
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, check_same_file, load, load_first, naming, prop_option
+from ._common import add_input_options, check_same_file, load, load_first, named, naming, prop_option
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, UniqueProps, integer, number
 
 if TYPE_CHECKING:
@@ -389,7 +389,7 @@ def run(args: argparse.Namespace) -> int:
                     print("   " + "  ".join(f"{k}={v:8.3f}" for k, v in row.items()))
     for r in results:
         if "error" in r:
-            sys.stderr.write(f"error: {printable(str(naming(r['file'], MjmotionError(r['error']))))}\n")
+            sys.stderr.write(f"error: {printable(named(r['file'], r['error']))}\n")
     if out is not None:
         write_text_atomic(
             out,

@@ -56,8 +56,8 @@ def run(args: argparse.Namespace) -> int:
 
     out = output_path(args, args.script)
 
-    def load_clip(path: str, frames: str | None):
-        return load(path, args, frames)
+    def load_clip(path: str, frames: str | None, field: str):
+        return load(path, args, frames, frames_option=field)
 
     report = check_output(args.json, args.force, (args.script,)) if args.json else None
     if report is not None and report == out:
