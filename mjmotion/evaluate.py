@@ -41,6 +41,7 @@ from .errors import MjmotionError
 from .feet import (
     FootTrack,
     box_corners,
+    check_sources,
     contacts,
     flight_frames,
     foot_heights_speeds,
@@ -408,17 +409,6 @@ class Report:
         return r
 
 
-def _check_sources(motion: Motion, sources: Sequence[Motion]) -> None:
-    for i, s in enumerate(sources):
-        label = f"source {i + 1} ({s.name or 'unnamed'})"
-        if not motion.skeleton.same_topology(s.skeleton):
-            raise MjmotionError(f"{label}: another skeleton than {motion.name or 'the result'}'s; a source must share the result's skeleton")
-        if abs(s.fps - motion.fps) > 1e-6 * motion.fps:
-            raise MjmotionError(f"{label}: {s.fps:g} fps, the result {motion.fps:g} fps; resample one (mjmotion convert --fps)")
-        if s is motion:
-            raise MjmotionError(f"{label} is the result itself; judge a result against the clip(s) it was made from")
-
-
 #: Compiled models kept per process for the judge, by skeleton and props: a folder's clips often
 #: share one skeleton (cgspeed puts every subject on one), and a compile costs 10-15 ms of each clip.
 MODEL_CACHE = 16
@@ -466,7 +456,9 @@ def evaluate(
             f"{motion.name or 'the clip'}: {motion.fps:g} fps; the judge takes clips up to {MAX_JUDGED_FPS:g} fps (its filter and "
             "speed windows grow with the rate: a million frames at 10,000 fps would need 30 GB); resample it first (mjmotion convert --fps 120)"
         )
-    _check_sources(motion, sources)
+    if hit_frame is not None and ball is None:
+        raise MjmotionError(f"hit_frame={hit_frame} without a ball: the hit frame is where the effector meets ball=mjcf.Ball(...)")
+    check_sources(motion, sources)
     compiled = judge_model(motion.skeleton, props)
     pose = kinematics.forward(compiled, motion)
     track, soles, fl = judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], floor, params.speed_window)

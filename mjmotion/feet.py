@@ -529,6 +529,19 @@ def _stance(track: FootTrack) -> tuple[np.ndarray, np.ndarray]:
     return floors.stance_points(track.heights + track.floor, still, track.lowest[..., :2])
 
 
+def check_sources(motion: Motion, sources: Sequence[Motion]) -> None:
+    """Refuse a source the judge cannot measure ``motion`` against: another skeleton, another
+    frame rate, or the result itself (``evaluate``, ``cleanup`` and ``render`` share the rule)."""
+    for i, s in enumerate(sources):
+        label = f"source {i + 1} ({s.name or 'unnamed'})"
+        if not motion.skeleton.same_topology(s.skeleton):
+            raise MjmotionError(f"{label}: another skeleton than {motion.name or 'the result'}'s; a source must share the result's skeleton")
+        if abs(s.fps - motion.fps) > 1e-6 * motion.fps:
+            raise MjmotionError(f"{label}: {s.fps:g} fps, the result {motion.fps:g} fps; resample one (mjmotion convert --fps)")
+        if s is motion:
+            raise MjmotionError(f"{label} is the result itself; judge a result against the clip(s) it was made from")
+
+
 def judged_feet(
     compiled: CompiledModel,
     motion: Motion,
@@ -566,6 +579,7 @@ def judged_feet(
 
 def judged_floor(motion: Motion, sources: Sequence[Motion] = (), floor: float | None = None) -> floors.Floor:
     """The floor :func:`judged_feet` gives ``motion`` judged against ``sources`` (same skeleton), with its levelling."""
+    check_sources(motion, sources)
     compiled = mjcf.compile(motion.skeleton)
     src = [(s, kinematics.forward(compiled, s)) for s in sources]
     return judged_feet(compiled, motion, kinematics.forward(compiled, motion), src, floor)[2]

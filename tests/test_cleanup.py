@@ -231,6 +231,11 @@ def test_cli_cleanup(tmp_path, capsys):
     assert doc["params"]["clearance"] == 0.0 and doc["floor_from"] == "source"
     again = bvh.read(out)
     assert again.n_frames == w[: again.n_frames].n_frames
+    # The table is what `evaluate --source` says of the written file (on this 1.1° floor, levelled
+    # as the judge levels it; judged from a given floor it read 2.1 mm in the floor, the judge 0).
+    judged = ev.evaluate(again, sources=[bvh.read(walk), bvh.read(run)])
+    for key in ("planted_skate_mm_per_s", "penetrate_mm", "float_mm", "physics_violation_ratio"):
+        assert doc["after"][key] == pytest.approx(getattr(judged, key), rel=1e-3, abs=0.05), key
     assert main(["cleanup", str(src), "-o", str(out)]) == 2
     assert "already exists" in capsys.readouterr().err
     assert main(["cleanup", str(src), "-o", str(src), "--force"]) == 2
@@ -432,6 +437,11 @@ def test_cleanup_of_clean_mocap_keeps_joint_speeds_and_the_floor(rel):
     assert res.plants and after.worst_joint_speed_ratio <= 1.3, after.worst_joint_speed_ratio
     assert after.pop_frames <= before.pop_frames, (before.pop_frames, after.pop_frames)
     assert after.penetrate_mm <= 2.0 and after.planted_skate_mm_per_s <= 0.5 * before.planted_skate_mm_per_s
+    # Plants put on the floor, not above it: a plant raised by its deepest frame floated these
+    # walks 4-7 mm more (16_15: float_mm 0.7 -> 7.5; now 0.8), and the result's own stance floor
+    # rose 0.9-1.5 cm above the floor it was cleaned on (now 0.2-0.8 cm).
+    assert after.float_mm <= before.float_mm + 1.5, (before.float_mm, after.float_mm)
+    assert abs(ev.evaluate(res.motion).floor_m - res.floor.height) <= 0.008, (ev.evaluate(res.motion).floor_m, res.floor.height)
 
 
 def _skimming_foot(t_count: int = 120, plants=((0, 30), (90, 120)), height: float = 0.01, speed: float = 2.0):
@@ -514,3 +524,17 @@ def test_cli_cleanup_says_when_it_levelled_a_tilted_floor(tmp_path, capsys):
     assert main(["cleanup", str(src), "-o", str(tmp_path / "out.bvh"), "--json", str(rep)]) == 0
     assert "levelled from a 1.2° tilt" in capsys.readouterr().out
     assert json.loads(rep.read_text())["floor_tilt_deg"] == pytest.approx(1.2, abs=0.1)
+
+
+def test_cleanup_and_the_floor_refuse_sources_the_judge_refuses():
+    """A source at another frame rate, or the clip itself, was taken by ``cleanup`` and
+    ``feet.judged_floor`` (the judge and the CLI refused it): one rule for all three."""
+    from mjmotion.errors import MjmotionError
+
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh")[2:122]
+    slow = m.resample(m.fps / 2)
+    for call in (lambda src: cl.cleanup(m, sources=src), lambda src: feet.judged_floor(m, src), lambda src: ev.evaluate(m, sources=src)):
+        with pytest.raises(MjmotionError, match="fps, the result"):
+            call([slow])
+        with pytest.raises(MjmotionError, match="the result itself"):
+            call([m])

@@ -407,6 +407,12 @@ def test_cli_evaluate_hit_and_grid(tmp_path, capsys):
     assert doc["report"]["hit"]["launch_contacted"] and set(doc["hit_grid"]) == {"locked", "world"}
     assert main(["evaluate", f, "--ball", "0", "0", "0"]) == 2
     assert "--frame" in capsys.readouterr().err
+    # A hit frame without a ball measured nothing and said nothing.
+    assert main(["evaluate", f, "--frame", "325"]) == 2
+    err = capsys.readouterr().err
+    assert "--frame 325" in err and "--ball" in err and "Traceback" not in err
+    with pytest.raises(ev.MjmotionError, match="hit_frame=325 without a ball"):
+        ev.evaluate(m, hit_frame=325)
 
 
 def test_grip_error_zero_for_the_source_and_sees_a_moved_hand():

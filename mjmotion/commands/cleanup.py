@@ -18,16 +18,18 @@ HELP = "remove footskate: hold foot plants on the floor, two-bone leg IK, root a
 MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Find foot plants with the judge's contact labels (docs/METRICS.md: sole within --h-c of the
 floor and slower than --v-c, with hysteresis), hold the point each plant touches the floor with
-still while the foot turns as captured, raise a plant that is below the floor onto it, lift any
-foot out of the floor, solve the legs with analytic two-bone IK (bone lengths unchanged), move
-the root where a leg cannot reach, and ease every adjustment in and out (--blend seconds) so
-no joint pops. Only hips, knees, ankles and the root change, and only near plants.
+still while the foot turns as captured, raise a plant that stands below the floor onto it (by
+the median depth of its lowest sole point over the plant), lift any foot still in the floor,
+solve the legs with analytic two-bone IK (bone lengths unchanged), move the root where a leg
+cannot reach, and ease every adjustment in and out (--blend seconds) so no joint pops. Only
+hips, knees, ankles and the root change, and only near plants.
 
 The floor is --floor METRES, else that of the --source clip(s) the input was made from (the clips
 of a blend; repeatable), else the input's own stance floor. --source clips also calibrate the
 feet, and the report gives worst_joint_speed_ratio and pop_frames against them (against the
 input without them). Lifting swing feet clear of the floor is an option (--clearance M), off by
-default. Prints footskate, ground and pops before and after.
+default. Prints footskate, ground and pops before and after, as `mjmotion evaluate --source`
+reads them.
 
 examples:
   mjmotion cleanup blend.bvh -o blend_clean.bvh --source walk.bvh --source run.bvh
@@ -95,10 +97,12 @@ def run(args: argparse.Namespace) -> int:
     )
     try:
         res = cl.cleanup(m, params, sources=sources)
-        # Judged as the judge would: against the sources (or the input itself), from the floor the cleanup used.
+        # Judged as `evaluate --source` judges: against the sources (or the input itself), which give the
+        # floor the cleanup used, levelled as it was (a floor passed as given is never levelled: the table
+        # read a cleaned blend on a 1.1° floor 2.1 mm into it where the judge reads 0).
         refs = sources or [m]
-        before = _metrics(m, refs if sources else [m.replace()], res.floor.height, params)
-        after = _metrics(res.motion, refs, res.floor.height, params)
+        before = _metrics(m, refs if sources else [m.replace()], args.floor, params)
+        after = _metrics(res.motion, refs, args.floor, params)
     except MjmotionError as e:
         raise naming(args.file, e) from None
     bvh.write(res.motion, out)

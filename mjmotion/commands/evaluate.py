@@ -320,6 +320,8 @@ def check_options(args: argparse.Namespace) -> None:
         raise MjmotionError("--hit-grid needs one clip, --prop and --frame")
     if args.frame is not None and args.frame < 0:
         raise MjmotionError(f"--frame {args.frame}: expected a frame index ≥ 0")
+    if args.frame is not None and args.ball is None and args.hit_grid is None:
+        raise MjmotionError(f"--frame {args.frame}: the hit frame of --ball (or --hit-grid); give --ball X Y Z, where the ball is met")
     check_floor(args)
     if args.source and os.path.isdir(args.path):
         raise MjmotionError("--source applies to one result clip; give a file, not a folder")

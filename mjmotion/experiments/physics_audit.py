@@ -110,7 +110,8 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
             r0, r1 = _judged(m, done.motion, [m.replace()])
             lines.append(
                 f"cleanup of the clean walk {rel}: planted skate {r0.planted_skate_mm_per_s:.0f} → {r1.planted_skate_mm_per_s:.0f} mm/s, "
-                f"penetrate_mm {r0.penetrate_mm:.1f} → {r1.penetrate_mm:.1f}, worst_joint_speed_ratio {r1.worst_joint_speed_ratio:.2f} "
+                f"penetrate_mm {r0.penetrate_mm:.1f} → {r1.penetrate_mm:.1f}, float_mm {r0.float_mm:.1f} → {r1.float_mm:.1f}, "
+                f"worst_joint_speed_ratio {r1.worst_joint_speed_ratio:.2f} "
                 f"({r1.worst_joint}), pop_frames {r0.pop_frames} → {r1.pop_frames}"
             )
     for label, clips, lin, res in pairs:
@@ -118,7 +119,7 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
         pl0, pl1 = r0.planted_skate_mm_per_s, r1.planted_skate_mm_per_s
         lines.append(
             f"cleanup of the linear blend of {label}: planted skate {pl0:.0f} → {pl1:.0f} mm/s ({100 * (1 - pl1 / pl0):.0f} % less), "
-            f"penetrate_mm {r0.penetrate_mm:.1f} → {r1.penetrate_mm:.1f}, worst_joint_speed_ratio against the inputs "
+            f"penetrate_mm {r0.penetrate_mm:.1f} → {r1.penetrate_mm:.1f}, float_mm {r0.float_mm:.1f} → {r1.float_mm:.1f}, worst_joint_speed_ratio against the inputs "
             f"{r0.worst_joint_speed_ratio:.2f} → {r1.worst_joint_speed_ratio:.2f} ({r1.worst_joint}), pop_frames {r0.pop_frames} → {r1.pop_frames}, "
             f"physics violations {r0.physics_violation_ratio:.2f} → {r1.physics_violation_ratio:.2f}"
         )
