@@ -29,6 +29,10 @@ class OutputExistsError(MjmotionError):
     """An output path exists (and ``--force`` was not given) or names an input."""
 
 
+class AlreadyExistsError(OutputExistsError):
+    """An output path is an existing file that ``--force`` would replace (not an input, not a folder)."""
+
+
 def require_number(label: str, value: object, low: float = 0.0, strict: bool = True, high: float | None = None, what: str = "") -> None:
     """Refuse anything but a finite real number above ``low`` (``strict``) or at least ``low``, and at
     most ``high``; the message names ``label`` (an option or a field) and, if given, ``what`` it is."""

@@ -31,7 +31,7 @@ import tempfile
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
-from .errors import MjmotionError, OutputExistsError
+from .errors import AlreadyExistsError, MjmotionError, OutputExistsError
 from .inputs import kind_of
 
 #: Claims of :func:`check_output`: absolute path → replace allowed (``force``). Kept until
@@ -96,7 +96,7 @@ def check_output(
         _check_replaceable(out, st)
         if not force:
             link = " (a symbolic link)" if stat.S_ISLNK(st.st_mode) else ""
-            raise OutputExistsError(f"{out}: already exists{link}; pass --force to replace it")
+            raise AlreadyExistsError(f"{out}: already exists{link}; pass --force to replace it")
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
         raise MjmotionError(f"{out}: folder {parent} does not exist")

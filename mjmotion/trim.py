@@ -52,7 +52,10 @@ def leading_transient(motion: Motion, max_frames: int = MAX_FRAMES, factor: floa
     return k
 
 
-def skip_leading_transient(motion: Motion) -> tuple[Motion, int]:
-    """``(motion without its leading transient, frames skipped)``."""
+def skip_leading_transient(motion: Motion, keep_start: bool = False) -> tuple[Motion, int]:
+    """``(motion without its leading transient, frames skipped)``; ``keep_start`` (the verbs'
+    and the studio's ``--keep-start``) keeps every frame."""
+    if keep_start:
+        return motion, 0
     k = leading_transient(motion)
     return (motion[k:] if k else motion), k

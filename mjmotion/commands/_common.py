@@ -97,11 +97,9 @@ def load_first(
 def trim_start(m: Motion, path: str, args: argparse.Namespace, note: bool = True) -> tuple[Motion, int]:
     """``m`` without a leading T-pose or transition (unless ``--keep-start``) and the frame it now starts
     at, with one note line on stderr naming the frames skipped (``note``)."""
-    if getattr(args, "keep_start", False):
-        return m, 0
     from ..trim import skip_leading_transient
 
-    m, k = skip_leading_transient(m)
+    m, k = skip_leading_transient(m, getattr(args, "keep_start", False))
     if k and note:
         note_skipped(path, k)
     return m, k

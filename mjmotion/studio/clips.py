@@ -17,6 +17,7 @@ from .. import bvh, mjcf
 from ..errors import MjmotionError
 from ..inputs import find_bvh
 from ..skeleton import Motion
+from ..trim import skip_leading_transient
 
 #: Largest BVH file (bytes) a Studio reads or accepts as an upload (the largest shared clip is 3.4 MB).
 MAX_CLIP_BYTES = 32 * 2**20
@@ -43,16 +44,6 @@ class Clip:
     prop: mjcf.Prop | None = None
     hit_frame: int | None = None
     skipped: int = 0
-
-
-def _trimmed(motion: Motion, keep_start: bool) -> tuple[Motion, int]:
-    """``motion`` without a leading T-pose or transition (:func:`mjmotion.trim.skip_leading_transient`,
-    as the command-line verbs read clips) unless ``keep_start``, and how many frames were left out."""
-    if keep_start:
-        return motion, 0
-    from ..trim import skip_leading_transient
-
-    return skip_leading_transient(motion)
 
 
 class ClipLibrary:
@@ -89,7 +80,7 @@ class ClipLibrary:
         clips: list[Clip] = []
         names: set[str] = set()
         for p in paths:
-            motion, skipped = _trimmed(bvh.read(p, max_bytes=MAX_CLIP_BYTES), keep_start)
+            motion, skipped = skip_leading_transient(bvh.read(p, max_bytes=MAX_CLIP_BYTES), keep_start)
             name = _unique(p.stem, names)
             clips.append(Clip(name, motion.replace(name=name), p.resolve(), skipped=skipped))
         return cls(clips, keep_start)
@@ -112,7 +103,7 @@ class ClipLibrary:
         shown = os.path.basename(filename) or "upload.bvh"
         if len(content) > MAX_CLIP_BYTES:
             raise MjmotionError(f"{shown}: {len(content)} bytes is more than the {MAX_CLIP_BYTES // 2**20} MiB limit for a clip")
-        motion, skipped = _trimmed(bvh.parse(content, path=shown), self.keep_start)
+        motion, skipped = skip_leading_transient(bvh.parse(content, path=shown), self.keep_start)
         name = _unique(Path(shown).stem, set(self._clips))
         clip = Clip(name, motion.replace(name=name), skipped=skipped)
         return ClipLibrary([*self._clips.values(), clip], self.keep_start), clip

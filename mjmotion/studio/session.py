@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import kinematics, mjcf
 from .. import rotations as rot
-from ..errors import MjmotionError, OutputExistsError
+from ..errors import AlreadyExistsError, MjmotionError, OutputExistsError
 from ..feet import judged_model
 from ..skeleton import Motion
 from . import engine
@@ -477,7 +477,5 @@ def save_path(folder: Path, filename: str, inputs: list[Path]) -> Path:
         raise MjmotionError(f"save as {filename!r}: must stay inside {folder}")
     try:
         return check_output(path, force=False, inputs=inputs)
-    except OutputExistsError as e:
-        if "already exists" not in str(e):
-            raise  # an input of the studio: said as it is
+    except AlreadyExistsError as e:  # (an input of the studio is said as check_output says it)
         raise OutputExistsError(f"save as {filename!r}: {path} already exists; the studio never replaces a file, choose another name") from e
