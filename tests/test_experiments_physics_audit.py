@@ -17,3 +17,18 @@ def test_mid_stance_skate_is_zero_for_held_feet_and_the_drag_speed_when_dragged(
     assert stances >= 3 and mid < 1.0 and whole < 1.0, (whole, mid)
     _, dragged, n = pa.mid_stance_skate(corruption.dragged(walk, 0.3))
     assert n >= 3 and dragged == pytest.approx(300.0, abs=5.0)
+
+
+def test_head_sway_reads_a_known_sideways_shake():
+    """The bundled walk's head barely sways; its root shaken sideways by 1 cm at 2 Hz adds an
+    acceleration of amplitude 0.01·(4π)² = 1.58 m/s² (RMS 1.12, a 6 Hz low-pass keeps 99 % of it)."""
+    import numpy as np
+
+    walk = synth.walk(seconds=4.0).motion
+    base = pa.head_sway(walk)
+    t = walk.times
+    side = corruption.walking_direction(walk)[[1, 0]] * np.array([-1.0, 1.0])
+    shaken = walk.replace(root_positions=walk.root_positions + np.outer(0.01 * np.sin(4 * np.pi * t), [*side, 0.0]))
+    expected = 0.01 * (4 * np.pi) ** 2 / np.sqrt(2)
+    assert base < 0.3 * expected
+    assert pa.head_sway(shaken) == pytest.approx(np.hypot(base, expected), rel=0.05)

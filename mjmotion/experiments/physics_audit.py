@@ -186,6 +186,46 @@ def mid_stance_lines(data_dir: Path | None) -> list[str]:
     ]
 
 
+#: The same CMU trials in two conversions (cgspeed daz and iClone): how hard each head sways.
+SAME_TRIALS = (("cmu_cgspeed_daz/07_04.bvh", "cmu_iclone_ccrig/007_04.bvh"), ("cmu_cgspeed_daz/02_01.bvh", "cmu_iclone_ccrig/002_01.bvh"))
+
+
+def head_sway(motion: Motion, cutoff_hz: float = 6.0) -> float:
+    """RMS sideways acceleration (m/s²) of the head joint, low-pass filtered at ``cutoff_hz`` as the
+    judge filters bodies, across the root's direction of travel, 0.15 s from each end left out:
+    a proxy for the roll the upper body asks of the stance foot (docs/METRICS.md, physics residual)."""
+    from .. import kinematics, mjcf
+    from ..filters import lowpass
+
+    names = [n.lower() for n in motion.skeleton.names]
+    head = next((i for i, n in enumerate(names) if n.endswith("head") and "end" not in n), None)
+    if head is None or motion.n_frames < 4:
+        return float("nan")
+    pos = lowpass(kinematics.forward(mjcf.compile(motion.skeleton), motion).joint_positions[:, [0, head]], motion.fps, cutoff_hz)
+    heading = np.gradient(pos[:, 0, :2], axis=0)
+    heading /= np.maximum(np.linalg.norm(heading, axis=1, keepdims=True), 1e-12)
+    side = np.stack([-heading[:, 1], heading[:, 0]], axis=1)
+    acc = np.gradient(np.gradient(pos[:, 1, :2], axis=0), axis=0) * motion.fps**2
+    e = round(0.15 * motion.fps)
+    lateral = np.einsum("ti,ti->t", acc, side)[e : motion.n_frames - e]
+    return float(np.sqrt(np.mean(lateral**2))) if len(lateral) else float("nan")
+
+
+def head_sway_lines(data_dir: Path | None) -> list[str]:
+    """One note: :func:`head_sway` of the :data:`SAME_TRIALS` pairs found under ``data_dir``."""
+    parts: list[str] = []
+    for a, b in SAME_TRIALS if data_dir is not None else ():
+        assert data_dir is not None
+        if (data_dir / a).is_file() and (data_dir / b).is_file():
+            parts.append(f"{Path(a).stem} {head_sway(_read(data_dir / a)):.2f} in daz vs {head_sway(_read(data_dir / b)):.2f} in iClone")
+    if not parts:
+        return []
+    return [
+        "head sideways acceleration (RMS, 6 Hz, m/s², experiments.physics_audit.head_sway), the same CMU trial in two "
+        "conversions: " + "; ".join(parts)
+    ]
+
+
 def _read(path: Path) -> Motion:
     """A shared clip as every verb reads it: its leading T-pose or rest frame skipped (mjmotion/trim.py;
     cgspeed's frames 0–3, iClone 007_04's frame 0)."""
@@ -241,6 +281,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
         table.add(*_row("synthesized", name, rep.to_dict()))
     lines, files = cleanup_of_blends(None if data_dir is None or quick else Path(data_dir), out_dir)
     table.notes.extend(mid_stance_lines(None if data_dir is None or quick else Path(data_dir)))
+    table.notes.extend(head_sway_lines(None if data_dir is None or quick else Path(data_dir)))
     table.notes.extend(lines)
     table.files.extend(files)
     table.write(out_dir)
