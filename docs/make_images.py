@@ -10,7 +10,7 @@ once. Pictures, and the time of each run (1.5 min in all on a 2-core machine, 20
   contacts_registered  experiments/timewarp_blend.py   contacts_registered.png
   launch_64_01         experiments/hitpoint_grid.py    launch_64_01_locked.png  (64_01 × nlp × locked wrist only: 65 s)
   variations_64_01     experiments/variations.py       variants_64_01.png       (64_01 only: 1 s)
-  cleanup_before       experiments/physics_audit.py    cleanup_before.png       (the whole audit, with cleanup_after: 7 s)
+  cleanup_before       experiments/physics_audit.py    cleanup_before.png       (the whole audit, with cleanup_after: 14 s)
   cleanup_after        experiments/physics_audit.py    cleanup_after.png
   skinning             experiments/skinning.py         skinning.png             (12 s)
   skin_vs_capsules     mjmotion.render as `mjmotion render CLIP --skin both --hq` draws it: a frame of a golf

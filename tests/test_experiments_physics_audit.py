@@ -32,3 +32,18 @@ def test_head_sway_reads_a_known_sideways_shake():
     expected = 0.01 * (4 * np.pi) ** 2 / np.sqrt(2)
     assert base < 0.3 * expected
     assert pa.head_sway(shaken) == pytest.approx(np.hypot(base, expected), rel=0.05)
+
+
+def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path):
+    """The audit's cleanup line counts the clips within 1.3x their own joint peaks and names the
+    rest: a clean ASF walk passes, 16_16 does not (its hip at the first toe-off, 1.54x), and a
+    file cleanup cannot read is named as failed, not dropped."""
+    from conftest import require_data
+
+    d = require_data() / "cmu_asfamc_converted"
+    bad = tmp_path / "broken.bvh"
+    bad.write_text("HIERARCHY\nROOT x\n")
+    (line,) = pa.cleanup_of_clips_line([str(d / "16_15.bvh"), str(d / "16_16.bvh"), str(bad)], jobs=1)
+    assert "(2 clips," in line and "≤ 1.3 on 1 of 2" in line, line
+    assert "asfamc_converted 16_16 1.5" in line and "16_15 1." not in line, line
+    assert "; failed: " in line and "broken: " in line, line

@@ -226,6 +226,52 @@ def head_sway_lines(data_dir: Path | None) -> list[str]:
     ]
 
 
+def cleanup_of_clip(path: str) -> dict[str, Any]:
+    """What cleanup does to one captured clip judged against itself (its floor, its feet, its own
+    joint speeds): the headline numbers before and after (runs in worker processes)."""
+    from .. import cleanup
+
+    m = _read(Path(path))
+    done = cleanup.cleanup(m, sources=[m.replace()])
+    r0, r1 = _judged(m, done.motion, [m.replace()])
+    keys = ("planted_skate_mm_per_s", "penetrate_mm", "float_mm", "pop_frames")
+    return {
+        **{f"{k}_before": getattr(r0, k) for k in keys},
+        **{f"{k}_after": getattr(r1, k) for k in keys},
+        "worst_joint_speed_ratio": r1.worst_joint_speed_ratio,
+        "worst_joint": r1.worst_joint,
+    }
+
+
+def cleanup_of_clips_line(files: list[str], executor: Executor | None = None, jobs: int = 2) -> list[str]:
+    """One note: :func:`cleanup_of_clip` over ``files``, summarised, naming every clip that cleanup
+    leaves with a joint over 1.3x its own peak (issue 13's bar for walks) or with new pop frames."""
+    from ..executor import in_order, using
+
+    if not files:
+        return []
+    with using(executor, jobs) as ex:
+        outcomes = in_order(ex.run(cleanup_of_clip, [(f, (f,)) for f in files], desc="cleanup", unit="clip"), files)
+    name = lambda key: f"{Path(key).parent.name.removeprefix('cmu_')} {Path(key).stem}"
+    rows = {name(o.key): o.unwrap() for o in outcomes if o.kind is None}
+    failed = [f"{name(o.key)}: {o.error}" for o in outcomes if o.kind is not None]
+    if not rows:
+        return [f"cleanup failed on every clip: {'; '.join(failed)}"] if failed else []
+    med = lambda k: float(np.median([r[k] for r in rows.values()]))
+    fast = [f"{n} {r['worst_joint_speed_ratio']:.2f} ({r['worst_joint']})" for n, r in rows.items() if r["worst_joint_speed_ratio"] > 1.3]
+    popped = [f"{n} {r['pop_frames_before']} → {r['pop_frames_after']}" for n, r in rows.items() if r["pop_frames_after"] > r["pop_frames_before"]]
+    rise, risen = max((r["float_mm_after"] - r["float_mm_before"], n) for n, r in rows.items())
+    return [
+        f"cleanup of each captured clip against itself ({len(rows)} clip{'s' * (len(rows) != 1)}, experiments.physics_audit.cleanup_of_clip): planted skate "
+        f"median {med('planted_skate_mm_per_s_before'):.0f} → {med('planted_skate_mm_per_s_after'):.0f} mm/s, penetrate_mm at most "
+        f"{max(r['penetrate_mm_after'] for r in rows.values()):.2f} after, float_mm up by at most {rise:.1f} mm ({risen}); worst_joint_speed_ratio "
+        f"≤ 1.3 on {len(rows) - len(fast)} of {len(rows)}"
+        + (f", above it: {', '.join(fast)}" if fast else "")
+        + (f"; new pop frames: {', '.join(popped)}" if popped else "; no new pop frames")
+        + (f"; failed: {'; '.join(failed)}" if failed else "")
+    ]
+
+
 def _read(path: Path) -> Motion:
     """A shared clip as every verb reads it: its leading T-pose or rest frame skipped (mjmotion/trim.py;
     cgspeed's frames 0–3, iClone 007_04's frame 0)."""
@@ -283,6 +329,8 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
     table.notes.extend(mid_stance_lines(None if data_dir is None or quick else Path(data_dir)))
     table.notes.extend(head_sway_lines(None if data_dir is None or quick else Path(data_dir)))
     table.notes.extend(lines)
+    if data_dir is not None and not quick:
+        table.notes.extend(cleanup_of_clips_line(sorted(str(p) for p in Path(data_dir).rglob("*.bvh")), executor, jobs))
     table.files.extend(files)
     table.write(out_dir)
     return table
