@@ -231,6 +231,16 @@ def test_cli_cleanup(tmp_path, capsys):
     assert doc["params"]["clearance"] == 0.0 and doc["floor_from"] == "source"
     again = bvh.read(out)
     assert again.n_frames == w[: again.n_frames].n_frames
+    # Sources that open with daz's T-pose are cut as the judge cuts them: calibrated and judged on
+    # their T-pose frames the table read worst_joint_speed_ratio 0.59 where `evaluate --source` reads 0.93.
+    raw = [str(d / "cmu_cgspeed_daz/07_01.bvh"), str(d / "cmu_cgspeed_daz/09_01.bvh")]
+    rep2 = tmp_path / "raw.json"
+    assert main(["cleanup", str(src), "-o", str(tmp_path / "raw.bvh"), "--json", str(rep2), "--source", raw[0], "--source", raw[1]]) == 0
+    capsys.readouterr()
+    got = json.loads(rep2.read_text())
+    judged_raw = ev.evaluate(bvh.read(tmp_path / "raw.bvh"), sources=[w, r])
+    assert got["after"]["worst_joint_speed_ratio"] == pytest.approx(judged_raw.worst_joint_speed_ratio, rel=1e-3)
+    assert got["before"]["worst_joint_speed_ratio"] == pytest.approx(ev.evaluate(bvh.read(src), sources=[w, r]).worst_joint_speed_ratio, rel=1e-3)
     # The table is what `evaluate --source` says of the written file (on this 1.1° floor, levelled
     # as the judge levels it; judged from a given floor it read 2.1 mm in the floor, the judge 0).
     judged = ev.evaluate(again, sources=[bvh.read(walk), bvh.read(run)])

@@ -240,6 +240,12 @@ def run(args: argparse.Namespace) -> int:
     fs = report["footskate_mm_per_s"]
     if fs["source"] is not None:
         print(f"footskate mm/s: source {fs['source']:.1f}, raw {_mm(fs['raw'])}, cleaned {_mm(fs['result'])}")
+    wj, pops = report["worst_joint_speed_ratio"], report["pop_frames"]
+    print(
+        f"joints against the source (docs/METRICS.md): worst_joint_speed_ratio raw {wj['raw']['ratio']:.2f} ({wj['raw']['joint']}), "
+        f"cleaned {wj['result']['ratio']:.2f} ({wj['result']['joint']}); pop_frames source {pops['source']}, raw {pops['raw']}, "
+        f"cleaned {pops['result']}"
+    )
     if report.get("grip_error_m") is not None:
         g = report["grip_error_m"]
         print(f"grip error: raw {1000 * g['raw']:.1f} mm, cleaned {1000 * g['result']:.1f} mm")

@@ -11,12 +11,19 @@ import numpy as np
 from .. import kinematics, mjcf
 from .. import rotations as rot
 from ..errors import MjmotionError
+from ..filters import lowpass
 from ..ik import analytic
 from ..skeleton import Motion, Skeleton
 from .paths import ScorePath, _smoothstep
 
 #: Foot height (m) under which the source's foot placement is held (METRICS.md h_c = 0.05 plus margin).
 PLANT_HEIGHT = 0.08
+#: A held foot's hip-to-ankle distance follows the variant's hip only below this (Hz), as in
+#: :data:`mjmotion.cleanup.LEG_CUTOFF_HZ`.
+LEG_CUTOFF_HZ = 10.0
+#: Below this bend (degrees) a limb's captured bending plane is mostly noise; the IK's plane turns
+#: smoothly towards the limb's usual one (as :data:`mjmotion.cleanup.STRAIGHT_KNEE_DEG` does).
+STRAIGHT_LIMB_DEG = 15.0
 #: Seconds over which a foot or hand correction fades in and out at the ends of a plant.
 FADE_S = 0.1
 #: A foot whose footprint moves more than this (m) during an abort's return steps instead of sliding …
@@ -68,12 +75,18 @@ def two_bone_ik(
     end: int,
     target_pos: np.ndarray,
     target_rot: np.ndarray,
+    keep: np.ndarray | None = None,
+    keep_fade: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Analytic IK placing joint ``end`` (ankle, wrist) at ``target_pos`` with world orientation ``target_rot``.
 
     The middle joint (knee, elbow) bends in its current plane to get the right reach, then the
     upper joint (hip, shoulder) swings the limb onto the target; the end joint's local rotation
     gives it the target orientation. Reach is clamped to the limb's length.
+
+    Where the limb is nearly straight its plane turns smoothly towards its usual one, and a limb
+    bent the other way is bent the usual way; ``keep: (T,)`` frames (the source's own poses) use
+    their own plane, eased into over ``keep_fade`` frames, so a target at the limb's own end leaves them as they are.
 
     Args:
         world_pos: ``(T, J, 3)`` and ``world_rot: (T, J, 4)``, forward kinematics of the pose.
@@ -100,7 +113,21 @@ def two_bone_ik(
     else:
         ref = np.array([1.0, 0.0, 0.0])
     ref = ref / max(np.linalg.norm(ref), 1e-12)
-    n_unit = np.where(good[:, None], n / np.maximum(nn, 1e-12)[:, None], rot.rotate(q_top, ref))
+    ref_world = rot.rotate(q_top, np.broadcast_to(ref, n.shape))
+    n_unit = n / np.maximum(nn, 1e-12)[:, None]
+    # A frame whose limb bends the other way (a captured glitch through a straight knee) bends it
+    # the usual way: turned round, the knee flipped for one frame (108 rad/s in 64_02 ×1.3, frame 420).
+    n_unit = np.where(np.sum(n_unit * ref_world, axis=-1, keepdims=True) < 0, -n_unit, n_unit)
+    # Below STRAIGHT_LIMB_DEG of bend the plane is mostly noise: turn smoothly towards the usual one
+    # (a plane swivelling from frame to frame through a straight knee spun the hip: 64_05 ×1.3, 21 rad/s).
+    bend = np.degrees(np.arcsin(np.clip(nn / np.maximum(l1 * l2, 1e-12), 0.0, 1.0)))
+    w_plane = _smoothstep(bend / STRAIGHT_LIMB_DEG)[:, None] * good[:, None]
+    n_unit = w_plane * n_unit + (1.0 - w_plane) * ref_world
+    if keep is not None and keep.any():
+        own = np.where(good[:, None], n / np.maximum(nn, 1e-12)[:, None], ref_world)
+        w_own = _fade(keep, keep_fade)[:, None]
+        n_unit = w_own * own + (1.0 - w_own) * n_unit
+    n_unit /= np.maximum(np.linalg.norm(n_unit, axis=-1, keepdims=True), 1e-12)
     r_hip, r_knee, reach_error = analytic.two_bone(h, k, a, target_pos, n_unit)
     q_top_new = rot.multiply(r_hip, q_top)
     q_mid_new = rot.multiply(r_hip, rot.multiply(r_knee, world_rot[:, mid]))
@@ -203,15 +230,24 @@ def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_heig
                 target_rot[between] = np.where(stepping[:, None], turned, target_rot[between])
             target[between] = pivot - rot.rotate(target_rot[between], c)
         # one horizontal shift per plant, where the variant's foot touched down; frames between
-        # plants (fading in and out) take the nearest plant's shift so the target does not jump
+        # two plants (fading out of one and into the next) turn smoothly from one shift to the next
+        # (taking the nearest plant's, the target jumped 15 cm in a frame: 64_05 ×1.3, the hip at 21 rad/s)
         runs = _runs(low)
         starts = np.array([a for a, _ in runs])
         shifts = var.joint_positions[starts, ankle, :2] - target[starts, :2]
-        centres = np.array([0.5 * (a + b - 1) for a, b in runs])
-        t = np.arange(len(low))
-        dist = np.array([np.where(t < a, a - t, np.where(t >= b, t - b + 1, 0)) for a, b in runs])
-        nearest = np.argmin(dist + 1e-6 * np.abs(t[None] - centres[:, None]), axis=0)
-        target[:, :2] += shifts[nearest]
+        per_frame = np.empty((len(low), 2))
+        per_frame[: runs[0][0]] = shifts[0]
+        for i, (a, b) in enumerate(runs):
+            per_frame[a:b] = shifts[i]
+            nxt = runs[i + 1][0] if i + 1 < len(runs) else len(low)
+            if i + 1 < len(runs):
+                u = _smoothstep((np.arange(b, nxt) - b + 1) / (nxt - b + 1))[:, None]
+                per_frame[b:nxt] = (1.0 - u) * shifts[i] + u * shifts[i + 1]
+            else:
+                per_frame[b:] = shifts[i]
+        # ... and none at the source's own poses, where the target is the variant's own ankle (the
+        # shift stepped there in a frame: 64_05 ×0.7's knee at 9 rad/s in its last frame)
+        target[:, :2] += per_frame * (1.0 - _fade(copies, n_fade))[:, None]
         # frames that are the source's own poses (before an abort, outside a scaled segment) stay so
         target[copied] = var.joint_positions[copied, ankle]
         target_rot[copied] = var.joint_rotations[copied, ankle]
@@ -227,6 +263,16 @@ def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_heig
     local = motion.rotations.copy()
     worst = 0.0
     for side, ankle, toe, low, target, target_rot, w in plans:
+        if motion.n_frames >= 4:
+            # The leg's length follows the variant's hip only below LEG_CUTOFF_HZ (as the footskate
+            # cleanup's does): a synthesised pelvis jitters, and a near-straight knee held to a
+            # still footprint turns every millimetre of it into a pop.
+            hip = var.joint_positions[:, int(skel.parents[skel.parents[ankle]])]
+            vec = target - hip
+            dist = np.linalg.norm(vec, axis=-1)
+            smooth = lowpass(dist, motion.fps, LEG_CUTOFF_HZ)
+            ease = w * (1.0 - _fade(copies, n_fade))  # the source's own poses stay exactly so
+            target = hip + vec * (1.0 + ease * (smooth - dist) / np.maximum(dist, 1e-9))[:, None]
         solved, err = two_bone_ik(
             skel,
             var.joint_positions,
@@ -235,6 +281,8 @@ def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_heig
             ankle,
             target,
             target_rot,
+            keep=copies,
+            keep_fade=n_fade,
         )
         if toe is not None:
             for j in [toe, *skel.descendants(toe)]:
@@ -251,9 +299,16 @@ def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_heig
     return motion.replace(rotations=local), held, worst
 
 
-def copied_frames(source: Motion, motion: Motion, path: ScorePath, tol: float = 1e-9) -> np.ndarray:
-    """``(T',) bool``: frames of ``motion`` that are exactly a source frame (moved by ``path.shift_b`` at frame_b)."""
+def copied_frames(source: Motion, motion: Motion, path: ScorePath, tol: float = 1e-9, joints: np.ndarray | None = None) -> np.ndarray:
+    """``(T',) bool``: frames of ``motion`` that are exactly a source frame (moved by ``path.shift_b``
+    at frame_b); with ``joints``, frames whose local rotations of those joints are the source's
+    (wherever the root stands)."""
     out = np.zeros(path.n_frames, dtype=bool)
+    if joints is not None:
+        for sel, frames in ((path.weight <= 0, path.frame_a), (path.weight >= 1, path.frame_b)):
+            dots = np.sum(motion.rotations[sel][:, joints] * source.rotations[frames[sel]][:, joints], axis=-1)
+            out[sel] = np.all(np.abs(np.abs(dots) - 1.0) < tol, axis=1)
+        return out
     for sel, frames, move in (
         (path.weight <= 0, path.frame_a, 0.0),
         (path.weight >= 1, path.frame_b, path.shift_b),
@@ -376,25 +431,43 @@ def restore_grip_minimal(source: Motion, motion: Motion, path: ScorePath, first_
             target_rot = rot.multiply(target_rot, rot.conjugate(local_c))
             target = target - rot.rotate(target_rot, off)
     local = motion.rotations
+    # The arms' and spine's own source poses stay exactly so (the feet may have been repaired already).
+    legs = {j for ankle, _ in skel.feet().values() for j in (int(skel.parents[ankle]), int(skel.parents[skel.parents[ankle]]))}
+    legs |= {d for j in list(legs) for d in skel.descendants(j)}
+    own = copied_frames(source, motion, path, joints=np.array([j for j in range(skel.n_joints) if j not in legs and j > 0], dtype=int))
+    n_fade = max(1, round(FADE_S * motion.fps))
     for _ in range(4):  # the shoulder moves on a sphere about the collarbone: a few passes close the gap
-        turned = _reach_with_shoulder(skel, motion.replace(rotations=local), var, end, target)
+        turned = _reach_with_shoulder(skel, motion.replace(rotations=local), var, end, target, own)
         if turned is local:
             break
         local = turned
         var = kinematics.forward(compiled, motion.replace(rotations=local))
-    local, err = two_bone_ik(skel, var.joint_positions, var.joint_rotations, local, end, target, target_rot)
+    local, err = two_bone_ik(skel, var.joint_positions, var.joint_rotations, local, end, target, target_rot, keep=own, keep_fade=n_fade)
     for j in keep[1:]:
         local[:, j] = src_local[j]
     return motion.replace(rotations=local), float(np.max(err))
 
 
-def _reach_with_shoulder(skel: Skeleton, motion: Motion, pose: kinematics.Pose, end: int, target: np.ndarray) -> np.ndarray:
+#: Seconds over which the collarbone's turn (:func:`_reach_with_shoulder`) is spread either side of
+#: the frames that need it: a turn switched on for the frames out of reach alone was a step of a few
+#: degrees in one frame, the clavicle at up to 13x its captured speed.
+SHOULDER_SPREAD_S = 0.1
+
+
+def _reach_with_shoulder(
+    skel: Skeleton, motion: Motion, pose: kinematics.Pose, end: int, target: np.ndarray, keep: np.ndarray | None = None
+) -> np.ndarray:
     """Local rotations with the collarbone turned so a too-distant ``target`` comes within the arm's reach.
 
-    Where the wrist target lies beyond upper arm + forearm, the joint above the shoulder
-    (the clavicle) swings the shoulder toward the target by the missing length. Returns
-    ``motion.rotations`` itself when nothing is out of reach.
+    Where the wrist target lies beyond 99 % of upper arm + forearm (the elbow keeps a little
+    bend), the joint above the shoulder (the clavicle) swings the shoulder toward the target by
+    the missing length. The turn grows from zero as the target passes 99 % (no step) and is spread
+    smoothly over :data:`SHOULDER_SPREAD_S` either side, never less than each frame needs (a max
+    filter, then a Hann window), easing to none at the ``keep: (T,)`` frames (the source's own
+    poses). Returns ``motion.rotations`` itself when nothing is out of reach.
     """
+    from scipy.ndimage import maximum_filter1d
+
     mid = int(skel.parents[end])
     top = int(skel.parents[mid])
     clav = int(skel.parents[top])
@@ -405,13 +478,28 @@ def _reach_with_shoulder(skel: Skeleton, motion: Motion, pose: kinematics.Pose, 
     reach = np.linalg.norm(p[:, mid] - p[:, top], axis=-1) + np.linalg.norm(p[:, end] - p[:, mid], axis=-1)
     to_target = target - p[:, top]
     dist = np.linalg.norm(to_target, axis=-1)
-    short = dist > reach * (1.0 - 1e-9)
-    if not short.any():
+    missing = np.maximum(dist - 0.99 * reach, 0.0)
+    if not (missing > 1e-9).any():
         return motion.rotations
-    # move the shoulder by the missing length plus 1 % so the elbow keeps a little bend
-    wanted = p[:, top] + to_target * ((dist - 0.99 * reach) / np.maximum(dist, 1e-12))[:, None]
-    r = analytic.shortest_arc(p[:, top] - p[:, clav], wanted - p[:, clav])
-    r[~short] = rot.IDENTITY
+    wanted = p[:, top] + to_target * (missing / np.maximum(dist, 1e-12))[:, None]
+    turn = rot.log(analytic.shortest_arc(p[:, top] - p[:, clav], wanted - p[:, clav]))  # (T, 3) rotation vectors
+    n = max(1, round(SHOULDER_SPREAD_S * motion.fps))
+    angle = np.linalg.norm(turn, axis=-1)
+    need = maximum_filter1d(angle, size=2 * n + 1, mode="nearest")
+
+    def hann(x: np.ndarray, half: int) -> np.ndarray:  # (T,) smoothed over 2·half + 1 frames, ends held
+        window = np.hanning(2 * half + 3)[1:-1]
+        return np.convolve(np.pad(x, half, mode="edge"), window / window.sum(), mode="valid")
+
+    smooth_angle = hann(need, n)
+    if keep is not None and keep.any():
+        # the spread eases to none at the source's own poses (left exactly so, though a golfer's arm
+        # may reach past 99 % there), never below what another frame needs
+        smooth_angle = np.where(keep, 0.0, np.maximum(smooth_angle * (1.0 - _fade(keep, n)), angle))
+    # The turn's direction over twice the span, so every frame the angle reaches has one.
+    axis = np.stack([hann(turn[:, i], 2 * n) for i in range(3)], axis=1)
+    axis /= np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-12)
+    r = rot.exp(axis * smooth_angle[:, None])
     q_clav = rot.multiply(r, pose.joint_rotations[:, clav])
     q_above = pose.joint_rotations[:, above] if above >= 0 else np.broadcast_to(rot.IDENTITY, q_clav.shape)
     out = motion.rotations.copy()

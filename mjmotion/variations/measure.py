@@ -97,7 +97,8 @@ def report(
     first_hand: str | None = "left",
 ) -> dict[str, Any]:
     """Numbers for a variant: ``k``, variance explained, footskate (mm/s, METRICS.md) of source, raw
-    and result, joint-speed ratio, grip error and the first hand's path length."""
+    and result, joint-speed ratios (whole-body and per joint) and pop frames, grip error and the
+    first hand's path length."""
     from .. import evaluate
 
     out: dict[str, Any] = {
@@ -137,6 +138,10 @@ def report(
         "raw": float(evaluate.max_joint_speed_ratio(raw, source)),
         "result": float(evaluate.max_joint_speed_ratio(result, source)),
     }
+    # Per joint (docs/METRICS.md): what the whole-body ratio hides, a joint at several times its own speed.
+    worst = {name: evaluate.worst_joint_speed_ratio(m, source) for name, m in (("raw", raw), ("result", result))}
+    out["worst_joint_speed_ratio"] = {name: {"ratio": float(r), "joint": j} for name, (r, j) in worst.items()}
+    out["pop_frames"] = {name: int(evaluate.pop_frames(m, source).sum()) for name, m in (("source", source), ("raw", raw), ("result", result))}
     if first_hand is not None:
         out["first_hand"] = first_hand
         out["grip_error_m"] = {

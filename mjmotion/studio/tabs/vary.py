@@ -67,6 +67,9 @@ class VaryTab:
         if fs.get("result") is not None:
             rows.append(("footskate (mm/s) source / variant", f"{fs['source']:.1f} / {fs['result']:.1f}"))
         rows.append(("max joint speed ratio", r["max_joint_speed_ratio"]["result"]))
+        worst = r["worst_joint_speed_ratio"]["result"]
+        rows.append(("worst joint speed ratio", f"{worst['ratio']:.2f} ({worst['joint']})"))
+        rows.append(("pop frames source / variant", f"{r['pop_frames']['source']} / {r['pop_frames']['result']}"))
         if "club_path_m" in r:
             rows.append(("club path (m) source / variant", f"{r['club_path_m']['source']:.2f} / {r['club_path_m']['result']:.2f}"))
         self.report.content = table(rows)
