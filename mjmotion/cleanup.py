@@ -13,9 +13,9 @@ planned and §4 left undone. Feet, floor and contacts are the judge's (:mod:`mjm
    (``stiffness``), so the leg does not carry the capture's marker jitter nor chase a glitching
    frame (:func:`pinned_paths`, one sparse least-squares problem per plant). ``hold_orientation``
    holds one world orientation through each plant instead (its middle frame's; stiller feet,
-   but the leg must then stretch at toe-off and the knee pops, measured). A plant below the
-   floor is raised onto it by the median depth of its lowest sole point over the plant (faded in
-   and out, and from one plant's raise to the next's); step 4 lifts the frames that still dip.
+   but the leg must then stretch at toe-off and the knee pops, measured). A plant standing below
+   the floor (the median of its lowest sole point) is raised onto it frame by frame (faded in and
+   out, and from one plant's raise to the next's); step 4 lifts other plants' dips.
 3. **Blend**: within ``blend`` seconds of a plant the same least-squares problem brings the foot
    back to the capture along the smoothest path: the pinned foot's velocity is continuous at
    the plant's edges, so it leaves a held plant from rest and catches the captured swing up over
@@ -711,18 +711,20 @@ def _pin(
         else:
             off, _, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend, exact)
         targets[:, f, :2] += off
-        # A plant under the floor is raised onto it: by the median depth of its lowest sole point over
-        # the plant (frames that still dip are lifted in step 4), faded in and out with the plant (and
-        # from one plant's raise to the next's between close plants, never a step). Raised by its
-        # deepest frame instead, the cleaned walks stood 7-9 mm above their floor (``float_mm``). A plant
-        # above the floor is not lowered: the leg, near full extension at toe-off, would pop.
+        # A plant that stands under the floor (its lowest sole point's median over the plant) is raised
+        # onto it frame by frame, each frame by its own depth, the raise faded in and out with the
+        # plant (and from one plant's raise to the next's between close plants, never a step); the
+        # dips of other plants are lifted in step 4. Raised whole by its deepest frame, a plant stood
+        # on the floor only there: the cleaned walks floated 7-9 mm (``float_mm``), a linear walk/run
+        # blend 19 mm. A plant above the floor is not lowered: the leg, near full extension at
+        # toe-off, would pop.
         low = targets[:, f, 2] + reach[..., 2].min(axis=1) - ground.floor  # (T,) lowest sole point
         deficit = np.array([max(0.0, -float(np.median(low[p.start : p.stop]))) for p in mine])
         if deficit.size and deficit.max() > 0:
             raised += int((deficit > 0).sum())
             inside = np.zeros((t_count, 1))
             for p, d in zip(mine, deficit):
-                inside[p.start : p.stop] = d
+                inside[p.start : p.stop, 0] = np.maximum(-low[p.start : p.stop], 0.0) if d > 0 else 0.0
             targets[:, f, 2] += pin_offsets(mine, np.zeros((t_count, 1)), motion.fps, params.blend, inside)[0][:, 0]
         for p in mine:
             floor_low[p.start : p.stop, f] = 0.0
