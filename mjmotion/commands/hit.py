@@ -21,8 +21,11 @@ ball position at the hit frame, blending IK in and out by the effector's distanc
 point (Hicks 2010, §2.2.5). Coordinates are metres in the model's world frame (Z up).
 The hit frame is the moment of contact: the effector's lowest pass in the downswing (a ball on
 the ground or a tee), or with --source-ball the downswing frame nearest the source's ball; the
-report gives the rule and the effector's height there above the floor the feet stand on
-(measured, not z = 0: CMU subject 64's floor is 2-4 cm below it).
+report gives the rule and the effector's height there above the floor_m of the shot: the lowest
+level its foot joints reach (not z = 0: CMU subject 64's is 2-4 cm below it), on which a fitted
+club rests and under which the effector is not taken. It is not evaluate's floor_m (the stance
+soles'): on the golf swings the two lie within 1 cm, on the CMU kicks and iClone rigs, whose toe
+joints sit higher over the sole, 4-6 cm apart.
 A delivered ball (Hicks 2010, §2.3.2: released, pitching on the floor in MuJoCo with restitution
 0.5) can be given by its release (--ball-release, --release-velocity: the target is then where
 its path passes nearest the source's hit point, §2.5.1, unless --target/--offset say
