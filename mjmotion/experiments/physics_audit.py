@@ -178,12 +178,11 @@ def mid_stance_lines(data_dir: Path | None) -> list[str]:
         if (data_dir / rel).is_file():
             whole, mid, n = mid_stance_skate(_read(data_dir / rel))
             parts.append(f"{rel.split('/')[0].removeprefix('cmu_')} {Path(rel).stem} {whole:.0f} → {mid:.0f} ({n} stances)")
-    if not parts:
-        return []
-    return [
+    head = (
         "planted skate over all contact frames → over the middle third of each full stance (foot flat; mm/s, "
-        "experiments.physics_audit.mid_stance_skate): " + ", ".join(parts)
-    ]
+        "experiments.physics_audit.mid_stance_skate): "
+    )
+    return _note(head, parts, ", ")
 
 
 #: The same CMU trials in two conversions (cgspeed daz and iClone): how hard each head sways.
@@ -218,12 +217,13 @@ def head_sway_lines(data_dir: Path | None) -> list[str]:
         assert data_dir is not None
         if (data_dir / a).is_file() and (data_dir / b).is_file():
             parts.append(f"{Path(a).stem} {head_sway(_read(data_dir / a)):.2f} in daz vs {head_sway(_read(data_dir / b)):.2f} in iClone")
-    if not parts:
-        return []
-    return [
-        "head sideways acceleration (RMS, 6 Hz, m/s², experiments.physics_audit.head_sway), the same CMU trial in two "
-        "conversions: " + "; ".join(parts)
-    ]
+    head = "head sideways acceleration (RMS, 6 Hz, m/s², experiments.physics_audit.head_sway), the same CMU trial in two conversions: "
+    return _note(head, parts, "; ")
+
+
+def _note(head: str, parts: list[str], sep: str) -> list[str]:
+    """One note line, ``head`` then ``parts`` joined by ``sep`` (none without parts)."""
+    return [head + sep.join(parts)] if parts else []
 
 
 def cleanup_of_clip(path: str) -> dict[str, Any]:
