@@ -195,8 +195,9 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
     else:
         try:
             seen, here = fingerprint(path)
-        except OSError as e:  # a worker on another machine without the file at this path
-            raise MjmotionError(f"{path}: cannot be read on this worker ({e.strerror or e})") from None
+        except OSError as e:  # unreadable, or a worker on another machine without the file at this path
+            # not the file's fault: kind "unreadable", which a resume tries again
+            return {"error": one_line(f"{path}: cannot be read on this worker ({e.strerror or e})"), "error_kind": "unreadable"}
         if seen != sha256:
             raise MjmotionError(f"{path}: not the file that was listed (changed since, or this worker sees another file at the path)")
         looked = here.stat
@@ -409,7 +410,10 @@ class Table:
     @staticmethod
     def read(path: Path) -> list[dict[str, Any]]:
         """Rows of an ``audit.csv``; a last line cut short by a crash is dropped."""
-        text = path.read_text(encoding="utf-8")
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as e:
+            raise MjmotionError(f"{path}: cannot be read as an audit table ({one_line(str(e))}); use --force to start over") from None
         records = list(csv.reader(text.splitlines(keepends=True)))
         if not records:
             return []
@@ -468,14 +472,24 @@ def read_source_map(path: str | os.PathLike[str], clips: Iterable[str]) -> dict[
     return out
 
 
+def rel_text(path: Path, base: Path) -> str:
+    """A file's path under ``base`` with ``/``, as the table's text: bytes of a name that are not
+    UTF-8 written as ``\\xNN`` (the CSV and Parquet hold text; the file itself is read by its real path)."""
+    return os.fsencode(path.relative_to(base).as_posix()).decode("utf-8", "backslashreplace")
+
+
 def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = None) -> list[Clip]:
     """The clips under ``root`` with sizes and hashes (and their sources' hashes)."""
     out = []
     base = root.resolve()
     for p in find_bvh(base):
-        rel = p.relative_to(base).as_posix()
+        rel = rel_text(p, base)
         src = tuple(source_map.get(rel, ())) if source_map else ()
-        sha, listed = fingerprint(p)
+        try:
+            sha, listed = fingerprint(p)
+        except OSError:  # unreadable here: listed without a hash, its worker's row says why (a resume tries it again)
+            out.append(Clip(rel, str(p), 0, "", src, ()))
+            continue
         out.append(Clip(rel, str(p), listed.stat[2], sha, src, tuple(sha256_file(s) for s in src), listed))
     return out
 
@@ -588,13 +602,13 @@ def run(
             c = by_rel[out.key]
             value = out.value if out.ok else {"error": out.error}
             err = value.get("error")
-            kind = (out.kind or "input") if err is not None else None
+            kind = (value.get("error_kind") or out.kind or "input") if err is not None else None
             table.add(
                 {
                     "path": c.rel, "size": c.size, "sha256": c.sha256, "status": "ok" if err is None else "error",
                     "error": err, "error_kind": kind, "seconds": out.seconds if math.isfinite(out.seconds) else None,
                     "source_files": json.dumps(list(c.sources)) if c.sources else None, "options": options[c.rel],
-                    "mjmotion_version": __version__, **{k: v for k, v in value.items() if k != "error"},
+                    "mjmotion_version": __version__, **{k: v for k, v in value.items() if k not in ("error", "error_kind")},
                 }
             )  # fmt: skip
     finally:

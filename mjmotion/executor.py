@@ -92,6 +92,31 @@ def one_line(text: str) -> str:
     return " ".join(str(text).split()) or "(no message)"
 
 
+def _connect(client_class: Any, scheduler: str, timeout: float) -> Any:
+    """A Dask client of the scheduler at ``scheduler``, or one ``MjmotionError`` naming it after ``timeout``
+    seconds. Dask's own ``timeout`` bounds the TCP connect only: a port that accepts and never speaks
+    Dask (another server) held ``audit`` for good, so the whole start runs in a thread with a deadline."""
+    import threading
+
+    box: dict[str, Any] = {}
+
+    def start() -> None:
+        try:
+            box["client"] = client_class(scheduler, timeout=timeout, set_as_default=False)
+        except Exception as e:  # OSError, TimeoutError, ValueError for a malformed address
+            box["error"] = e
+
+    thread = threading.Thread(target=start, name="mjmotion-dask-connect", daemon=True)
+    thread.start()
+    thread.join(timeout + 2.0)
+    if "client" in box:
+        return box["client"]
+    # The half-made client is abandoned; its clean-up at exit would only print a traceback.
+    sys.unraisablehook = lambda _: None
+    why = type(box["error"]).__name__ if "error" in box else "no Dask handshake"
+    raise MjmotionError(f"--scheduler {scheduler}: no Dask scheduler answered within {timeout:g} s ({why})")
+
+
 def _call(fn: Callable[..., Any], args: tuple) -> tuple[Any, str | None, float]:
     """Runs on the worker: ``(value, input-error message, seconds)``; other exceptions propagate (Dask retries them)."""
     start = time.perf_counter()
@@ -285,12 +310,7 @@ class Dask(Executor):
         self.address = scheduler
         if scheduler is not None:
             check_address(scheduler)
-            try:
-                self.client = Client(scheduler, timeout=connect_timeout, set_as_default=False)
-            except Exception as e:  # OSError, TimeoutError, ValueError for a malformed address
-                raise MjmotionError(
-                    f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout:g} s ({one_line(str(e))})"
-                ) from None
+            self.client = _connect(Client, scheduler, connect_timeout)
         else:
             # Workers forked from this process start in a quarter of a second with ``preload`` already
             # loaded (spawned ones take a second or more each to import Dask, NumPy and MuJoCo again).

@@ -135,19 +135,29 @@ def read_text(path: str | os.PathLike[str], limit: int = MAX_FILE_BYTES, what: s
     return text
 
 
-def find_bvh(root: str | os.PathLike[str]) -> list[Path]:
+def find_bvh(root: str | os.PathLike[str], unreadable: list[str] | None = None) -> list[Path]:
     """Every ``.bvh`` file under the folder ``root`` (any case), sorted, as paths under ``root`` as given.
-    Linked folders are not entered, and a linked file counts only if it resolves inside ``root``: a
-    folder a user names is all that is read (audit, evaluate, studio and demo list folders through this)."""
+    Linked folders are not entered, and a linked file counts only if it resolves inside ``root`` (a
+    link loop is no file): a folder a user names is all that is read (audit, evaluate, studio and
+    demo list folders through this). Folders that cannot be listed are appended to ``unreadable``."""
     given = Path(root)
     base = given.resolve()
     out = []
-    for folder, dirs, files in os.walk(given, followlinks=False):
+
+    def listing_failed(e: OSError) -> None:
+        if unreadable is not None:
+            unreadable.append(f"{e.filename}: {e.strerror or e}")
+
+    for folder, dirs, files in os.walk(given, followlinks=False, onerror=listing_failed):
         dirs.sort()
         for name in files:
             p = Path(folder) / name
-            if p.suffix.lower() != ".bvh" or (p.is_symlink() and not p.resolve().is_relative_to(base)):
+            if p.suffix.lower() != ".bvh":
                 continue
-            if p.is_file():
-                out.append(p)
+            try:
+                if (p.is_symlink() and not p.resolve(strict=True).is_relative_to(base)) or not p.is_file():
+                    continue
+            except (OSError, RuntimeError):  # a dangling link or a link loop
+                continue
+            out.append(p)
     return sorted(out)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 import pytest
-from conftest import require_data
+from conftest import require_data, within
 
 from mjmotion import audit, bvh, cli, executor
 from mjmotion import evaluate as ev
@@ -572,3 +572,79 @@ def test_resuming_an_unchanged_folder_starts_no_workers(tmp_path, capsys, monkey
     assert cli.main(["audit", str(root), "-o", str(out), "--resume", "--workers", "1"]) == 0
     text = capsys.readouterr().out
     assert "LocalCluster" in text and "1 evaluated" in text and _rows(out)["walk1.bvh"]["frames"] == m.n_frames // 2
+
+
+def test_awkward_folders_names_and_options(tmp_path, capsys):
+    """Found by a review: a name that is not UTF-8 crashed the table (every resume too), a link loop
+    named *.bvh crashed the listing, --keep-start was taken and ignored, and a corrupt audit.csv was
+    an internal error on --resume."""
+    data = require_data()
+    root = tmp_path / "clips"
+    root.mkdir()
+    daz = bvh.read(data / "cmu_cgspeed_daz/07_01.bvh")[:40]  # opens with the daz T-pose
+    bvh.write(daz, root / "walk.bvh")
+    odd = os.fsdecode(b"caf\xe9.bvh")
+    shutil.copy(root / "walk.bvh", root / odd)
+    (root / "a.bvh").symlink_to(root / "b.bvh")
+    (root / "b.bvh").symlink_to(root / "a.bvh")
+    assert _listed(root) == sorted(["walk.bvh", odd])
+    out = tmp_path / "audit"
+    assert cli.main(["audit", str(root), "-o", str(out), "--workers", "1", "--keep-start"]) == 0
+    capsys.readouterr()
+    rows = _rows(out)
+    assert set(rows) == {"walk.bvh", "caf\\xe9.bvh"} and all(r["status"] == "ok" for r in rows.values())
+    want = evaluate_file(str(root / "walk.bvh"), audit.judge_options(keep_start=True))
+    assert rows["walk.bvh"]["skipped_frames"] == want["skipped_frames"] == 0
+    assert rows["walk.bvh"]["planted_skate_mm_per_s"] == want["report"]["planted_skate_mm_per_s"]
+    assert len(pq.read_table(out / "audit.parquet").to_pylist()) == 2
+    assert cli.main(["audit", str(root), "-o", str(out), "--resume", "--keep-start"]) == 0  # every row kept, nothing crashes
+    assert "every file's row is kept" in capsys.readouterr().out
+    (out / "audit.csv").write_bytes(b"\xff\xfe")
+    _refused(["audit", str(root), "-o", str(out), "--resume"], capsys, "cannot be read as an audit table", "--force")
+
+
+def test_a_file_that_cannot_be_read_is_an_error_row_a_resume_tries_again(tmp_path, monkeypatch):
+    """An unreadable file stopped the whole audit (hashed in the main process), and read errors on a
+    worker were kept for good by --resume as if the file were bad."""
+    data = require_data()
+    clip = tmp_path / "walk.bvh"
+    bvh.write(bvh.read(data / "cmu_asfamc_converted/16_15.bvh")[:30], clip)
+    real = audit.fingerprint
+
+    def refuse(path):
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(audit, "fingerprint", refuse)
+    (listed,) = audit.list_clips(tmp_path)
+    assert listed.sha256 == "" and listed.rel == "walk.bvh"
+    row = audit.audit_clip(listed.path, listed.sha256, audit.judge_options())
+    assert row["error_kind"] == "unreadable" and "cannot be read" in row["error"] and "Permission denied" in row["error"]
+    monkeypatch.setattr(audit, "fingerprint", real)
+    readable = audit.list_clips(tmp_path)[0]
+    options = audit.options_text(audit.judge_options(), readable)
+    kept = {"sha256": "", "options": options, "mjmotion_version": audit.__version__, "status": "error", "error_kind": "unreadable"}
+    assert not audit.reusable(kept, readable, options)
+    assert not audit.reusable({**kept, "sha256": readable.sha256}, readable, options)  # read later: tried again
+
+
+def test_a_port_that_never_speaks_dask_is_one_error_line(tmp_path, capsys):
+    """A scheduler address whose port accepts and never answers (another server) held audit for good:
+    Dask's timeout bounds only the TCP connect."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    port = server.getsockname()[1]
+    held: list = []
+    threading.Thread(target=lambda: [held.append(server.accept()) for _ in range(8)], daemon=True).start()
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    shutil.copy(BAD / "empty.bvh", clips / "x.bvh")
+    t0 = time.perf_counter()
+    with within(30, "audit against a silent port"):
+        _refused(
+            ["audit", str(clips), "-o", str(tmp_path / "o"), "--scheduler", f"tcp://127.0.0.1:{port}", "--connect-timeout", "1"],
+            capsys,
+            f"--scheduler tcp://127.0.0.1:{port}: no Dask scheduler answered within 1 s",
+        )
+    assert time.perf_counter() - t0 < 10.0
+    server.close()

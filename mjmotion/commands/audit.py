@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from pathlib import Path
 
 from ..errors import MjmotionError
@@ -29,12 +30,13 @@ Work runs on a Dask LocalCluster on this machine (--workers N, bound to 127.0.0.
 Dask cluster (--scheduler tcp://HOST:8786, started with 'dask scheduler' and 'dask worker'; its
 workers need mjmotion installed and DIR at the same path). A bad file is a row with status=error
 and its message; a worker that dies is replaced and its clips rerun by Dask; a clip running longer
-than --timeout is an error row. Nothing in DIR is written. The exit status is 0 when every file has
+than --timeout is an error row, and so is a file that cannot be read (a folder that cannot be
+listed is named in a note). Nothing in DIR is written. The exit status is 0 when every file has
 its row, error rows included.
 
 With --resume, rows whose file (SHA-256), judge options, sources, judge revision and mjmotion
 version are unchanged are kept and not recomputed (errors that might go away -- a time limit, a
-lost worker -- are retried); a changed or new file is evaluated. When nothing is left to evaluate, no
+lost worker, a file that could not be read -- are retried); a changed or new file is evaluated. When nothing is left to evaluate, no
 workers are started (and no --scheduler contacted), and histograms.png is kept when what it draws is
 unchanged (a digest of its values is stored in the PNG).
 
@@ -103,8 +105,11 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
         raise MjmotionError(f"-o {out}: {above} is not a folder")
     if out.exists() and any(out.iterdir()) and not (args.resume or args.force):
         raise MjmotionError(f"-o {out}: already exists; pass --resume to continue its audit or --force to start over")
-    if not find_bvh(root):
-        raise MjmotionError(f"{root}: no .bvh files found (searched recursively)")
+    unreadable: list[str] = []
+    if not find_bvh(root, unreadable):
+        raise MjmotionError(f"{root}: no .bvh files found (searched recursively)" + (f"; cannot list {unreadable[0]}" if unreadable else ""))
+    for folder in unreadable:
+        sys.stderr.write(f"note: {folder}; the .bvh files in it are not audited\n")
     return root, out
 
 
@@ -125,11 +130,11 @@ def run(args: argparse.Namespace) -> int:
     units_scale(args.units)
     check_options(args.workers, args.scheduler)
     root, out = check_paths(args)
-    opts = audit.judge_options(units=args.units, up=args.up)
+    opts = audit.judge_options(units=args.units, up=args.up, keep_start=args.keep_start)
     source_map = None
     if args.source_map:
         base = root.resolve()
-        rels = [p.relative_to(base).as_posix() for p in find_bvh(base)]
+        rels = [audit.rel_text(p, base) for p in find_bvh(base)]
         source_map = audit.read_source_map(args.source_map, rels)
     workers = args.workers if args.workers is not None or args.scheduler else _default_workers()
     # The files are listed and hashed (and a resumed table read) in a thread while the workers start:
