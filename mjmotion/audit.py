@@ -644,6 +644,18 @@ def histograms_digest(headline: Mapping[str, Sequence[float]], title: str) -> st
     return hashlib.sha256(json.dumps(drawn, sort_keys=True).encode()).hexdigest()
 
 
+def _md_cell(text: str) -> str:
+    """``text`` safe in a Markdown table cell: one line, its pipes escaped."""
+    return " ".join(text.split("\n")).replace("|", "\\|")
+
+
+def _md_code(path: str) -> str:
+    """A path as inline code in a table cell, whatever it holds (backticks, pipes, line breaks)."""
+    text = _md_cell(path)
+    fence = "``" if "`" in text else "`"
+    return f"{fence} {text} {fence}" if fence == "``" else f"`{text}`"
+
+
 def write_summary(
     out_dir: Path, rows: Sequence[Mapping[str, Any]], *, root: Path, executor: str, computed: int, seconds: float, timeout: float | None
 ) -> tuple[list[str], tuple[str, ...]]:
@@ -705,11 +717,11 @@ def write_summary(
         for k, vals in metrics.items():
             if k in varying:
                 worst = sorted(vals, key=lambda t: -t[0])[:WORST]
-                lines.append(f"| {k} | " + "; ".join(f"`{p}` {v:.4g}" for v, p in worst) + " |")
+                lines.append(f"| {k} | " + "; ".join(f"{_md_code(p)} {v:.4g}" for v, p in worst) + " |")
     errors = [r for r in rows if r.get("status") != "ok"]
     if errors:
         lines += ["", "## Errors", "", "| clip | kind | message |", "|---|---|---|"]
-        lines += [f"| `{r['path']}` | {r.get('error_kind')} | {str(r.get('error')).replace('|', '/')} |" for r in errors]
+        lines += [f"| {_md_code(r['path'])} | {r.get('error_kind')} | {_md_cell(str(r.get('error')))} |" for r in errors]
     params = next((r["params"] for r in ok if r.get("params")), None)
     opts = next((r["options"] for r in rows if r.get("options")), None)
     lines += [

@@ -648,3 +648,10 @@ def test_a_port_that_never_speaks_dask_is_one_error_line(tmp_path, capsys):
         )
     assert time.perf_counter() - t0 < 10.0
     server.close()
+
+
+def test_summary_cells_hold_any_path():
+    """summary.md's tables broke on paths holding a pipe, a backtick or a line break (found by a review)."""
+    assert audit._md_code("a|b.bvh") == "`a\\|b.bvh`"
+    assert audit._md_code("tick`x.bvh") == "`` tick`x.bvh ``"
+    assert audit._md_code("new\nline.bvh") == "`new line.bvh`" and audit._md_cell("bad | x\ny") == "bad \\| x y"
