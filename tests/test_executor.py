@@ -163,6 +163,14 @@ def test_dask_time_limit(dask2):
     assert sorted(o.value for o in dask2.run(square, [(i, (i,)) for i in range(4)], progress=False)) == [0, 1, 4, 9]
 
 
+def test_a_task_that_overran_the_limit_between_polls_is_a_timeout(dask2):
+    """A task finishing over its limit before the poll saw it running came back ok (found by a review:
+    a 55 MB clip at 2 s with --timeout 1, when another clip's time-out held the loop)."""
+    outs = {o.key: o for o in dask2.run(slow, [(i, (i, 0.4)) for i in range(3)], timeout=0.2, progress=False)}
+    assert outs[1].kind == "timeout" and "over the time limit of 0.2 s" in outs[1].error and outs[1].value is None
+    assert outs[0].ok and outs[2].ok
+
+
 def test_stopping_early_cancels_the_rest(dask2):
     outs = dask2.run(slow, [(i, (i, 2.0)) for i in range(1, 3)], progress=False)
     first = next(outs)  # task 2 (task 1 sleeps)
