@@ -53,7 +53,7 @@ from . import floor as floors
 from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError, require_number
-from .filters import lowpass
+from .filters import lowpass, smooth_cover
 from .ik import analytic
 from .skeleton import Motion
 from .thresholds import H_C, HYSTERESIS, SPEED_WINDOW, V_C
@@ -392,16 +392,13 @@ def swing_lift(heights: np.ndarray, speeds: np.ndarray, planted: np.ndarray, fps
     plant: it leaves the floor before it moves, and the rest of the plant stays on the floor.
     Returns ``(T,)`` ≥ 0.
     """
-    from scipy.ndimage import distance_transform_edt, maximum_filter1d
+    from scipy.ndimage import distance_transform_edt
 
     need = np.where((speeds > v_c) & ~planted, np.maximum(clearance + 1e-3 - heights, 0.0), 0.0)
     if not need.any():
         return need
     n = max(1, round(ramp * fps))
-    # Hann(2n+1) of a (2n+1) max filter is ≥ the need at every frame (each tap sees that frame);
-    # edge padding keeps that true at the clip's ends.
-    padded = np.pad(maximum_filter1d(need, size=2 * n + 1, mode="nearest"), n, mode="edge")
-    lift = _hann_smooth_max(padded[:, None], n)[n:-n, 0]
+    lift = smooth_cover(need, n)  # ≥ the need at every frame, smooth
     # Zero on each plant's core (all but its first and last quarter, at most n frames each), rising
     # smoothly over n frames away from it: inside the plant when it is long enough, else beyond it.
     core = np.zeros_like(planted)
@@ -775,16 +772,13 @@ def _pin(
     out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
     # No sole below the floor (plants on it): lift those targets, spread smoothly over a few frames
     # (a max filter and a Hann window cover every frame's need), and re-solve.
-    from scipy.ndimage import maximum_filter1d
-
     n_lift = max(1, round(params.lift_ramp * motion.fps))
     for _ in range(3):
         need = np.maximum(floor_low - ground.feet(kinematics.forward(compiled, out)), 0.0)
         if need.max() <= 1e-4:
             break
         need = need + 1e-4 * (need > 0)
-        spread = np.pad(maximum_filter1d(need, size=2 * n_lift + 1, axis=0, mode="nearest"), ((n_lift, n_lift), (0, 0)), mode="edge")
-        lift = _hann_smooth_max(spread, n_lift)[n_lift:-n_lift]
+        lift = smooth_cover(need, n_lift)
         targets[:, :, 2] += lift
         lifts += lift
         support |= lift > 1e-9

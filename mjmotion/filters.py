@@ -10,7 +10,10 @@ of speed and ~14 m/s² of acceleration). The judge smooths first, two ways:
   (Savitzky–Golay), for foot speeds: it keeps a foot's start from rest sharp, where a 6 Hz
   low-pass would spread a swing's speed a tenth of a second into the still plant beside it.
 
-Both are written out here (SciPy's ``butter``/``filtfilt`` and ``savgol_filter`` give the same
+The operations share :func:`smooth_cover` (a smooth curve never below a need: how the cleanup
+lifts a foot and the variations turn a collarbone without a step) and :func:`hann_smooth`.
+
+Both filters are written out here (SciPy's ``butter``/``filtfilt`` and ``savgol_filter`` give the same
 numbers, ``tests/test_filters.py``) because importing ``scipy.signal`` pulls in ``scipy.stats``,
 ``interpolate`` and ``optimize``: over a second, half of a one-clip ``mjmotion evaluate``. The
 recursion runs in NumPy alone (even ``scipy.linalg`` costs 0.15-0.2 s to import in every fresh
@@ -267,3 +270,22 @@ def moving_mean(x: np.ndarray, size: int, axis: int = 0) -> np.ndarray:
     """Mean of the centred ``size`` frames along ``axis``, the ends extended by their own values
     (``scipy.ndimage.uniform_filter1d``, ``mode="nearest"``; equal to rounding)."""
     return _windows(np.asarray(x, dtype=float), size, axis, "edge").mean(axis=-1)
+
+
+def hann_smooth(x: np.ndarray, half: int, axis: int = 0) -> np.ndarray:
+    """Weighted mean of the centred ``2·half + 1`` frames along ``axis`` under a Hann window (its
+    two zero end taps left out), the ends extended by their own values."""
+    x = np.asarray(x, dtype=float)
+    if half < 1:
+        return x
+    window = np.hanning(2 * half + 3)[1:-1]
+    return np.asarray(_windows(x, 2 * half + 1, axis, "edge") @ (window / window.sum()))
+
+
+def smooth_cover(x: np.ndarray, half: int, axis: int = 0) -> np.ndarray:
+    """A smooth curve never below ``x``: the maximum over the centred ``2·half + 1`` frames along
+    ``axis``, then :func:`hann_smooth` over as many (each frame's window holds only values at least
+    its own), the ends extended by their own values. How the cleanup lifts a foot and the
+    variations turn a collarbone without a step."""
+    x = np.asarray(x, dtype=float)
+    return hann_smooth(_windows(x, 2 * half + 1, axis, "edge").max(axis=-1), half, axis)

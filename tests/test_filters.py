@@ -92,3 +92,22 @@ def test_window_filters_are_scipys_ndimage_filters(size):
     assert np.array_equal(filters.dilate(mask, size), dil) and np.array_equal(filters.erode(mask, size), ero)
     assert np.allclose(filters.moving_mean(x, size), ndimage.uniform_filter1d(x, size=size, axis=0, mode="nearest"), rtol=0, atol=1e-12)
     assert np.array_equal(filters.dilate(mask[:, 1], size), dil[:, 1])  # one-dimensional too
+
+
+def test_smooth_cover_is_never_below_and_equals_a_max_filter_then_a_hann_window():
+    """The shared lift of the cleanup and the variations' collarbone: at least the need at every frame,
+    and SciPy's maximum_filter1d (edge mode) followed by the same Hann window, to rounding."""
+    from scipy.ndimage import maximum_filter1d
+
+    from mjmotion.filters import hann_smooth, smooth_cover
+
+    rng = np.random.default_rng(3)
+    for t_count, half in ((60, 6), (5, 6), (200, 12)):
+        need = np.maximum(rng.normal(size=(t_count, 2)), 0.0)
+        got = smooth_cover(need, half)
+        assert got.shape == need.shape and np.all(got >= need - 1e-12)
+        window = np.hanning(2 * half + 3)[1:-1]
+        peak = maximum_filter1d(need, size=2 * half + 1, axis=0, mode="nearest")
+        want = np.stack([np.convolve(np.pad(peak[:, i], half, mode="edge"), window / window.sum(), mode="valid") for i in range(2)], axis=1)
+        assert np.allclose(got, want, atol=1e-12)
+    assert np.allclose(hann_smooth(np.full(30, 2.5), 4), 2.5) and hann_smooth(np.arange(4.0), 0).tolist() == [0, 1, 2, 3]

@@ -11,7 +11,7 @@ import numpy as np
 from .. import kinematics, mjcf
 from .. import rotations as rot
 from ..errors import MjmotionError
-from ..filters import lowpass
+from ..filters import hann_smooth, lowpass, smooth_cover
 from ..ik import analytic
 from ..skeleton import Motion, Skeleton
 from .paths import ScorePath, _smoothstep
@@ -239,8 +239,8 @@ def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_heig
         per_frame[: runs[0][0]] = shifts[0]
         for i, (a, b) in enumerate(runs):
             per_frame[a:b] = shifts[i]
-            nxt = runs[i + 1][0] if i + 1 < len(runs) else len(low)
             if i + 1 < len(runs):
+                nxt = runs[i + 1][0]
                 u = _smoothstep((np.arange(b, nxt) - b + 1) / (nxt - b + 1))[:, None]
                 per_frame[b:nxt] = (1.0 - u) * shifts[i] + u * shifts[i + 1]
             else:
@@ -466,8 +466,6 @@ def _reach_with_shoulder(
     filter, then a Hann window), easing to none at the ``keep: (T,)`` frames (the source's own
     poses). Returns ``motion.rotations`` itself when nothing is out of reach.
     """
-    from scipy.ndimage import maximum_filter1d
-
     mid = int(skel.parents[end])
     top = int(skel.parents[mid])
     clav = int(skel.parents[top])
@@ -485,19 +483,13 @@ def _reach_with_shoulder(
     turn = rot.log(analytic.shortest_arc(p[:, top] - p[:, clav], wanted - p[:, clav]))  # (T, 3) rotation vectors
     n = max(1, round(SHOULDER_SPREAD_S * motion.fps))
     angle = np.linalg.norm(turn, axis=-1)
-    need = maximum_filter1d(angle, size=2 * n + 1, mode="nearest")
-
-    def hann(x: np.ndarray, half: int) -> np.ndarray:  # (T,) smoothed over 2·half + 1 frames, ends held
-        window = np.hanning(2 * half + 3)[1:-1]
-        return np.convolve(np.pad(x, half, mode="edge"), window / window.sum(), mode="valid")
-
-    smooth_angle = hann(need, n)
+    smooth_angle = smooth_cover(angle, n)
     if keep is not None and keep.any():
         # the spread eases to none at the source's own poses (left exactly so, though a golfer's arm
         # may reach past 99 % there), never below what another frame needs
         smooth_angle = np.where(keep, 0.0, np.maximum(smooth_angle * (1.0 - _fade(keep, n)), angle))
     # The turn's direction over twice the span, so every frame the angle reaches has one.
-    axis = np.stack([hann(turn[:, i], 2 * n) for i in range(3)], axis=1)
+    axis = hann_smooth(turn, 2 * n)
     axis /= np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-12)
     r = rot.exp(axis * smooth_angle[:, None])
     q_clav = rot.multiply(r, pose.joint_rotations[:, clav])
