@@ -23,14 +23,14 @@ import math
 import os
 import socket
 import time
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from . import __version__
 from .errors import MjmotionError
-from .executor import one_line
+from .executor import Aside, one_line
 from .inputs import find_bvh
 from .outputs import write_text_atomic, write_with
 from .thresholds import JUDGE_REVISION
@@ -558,13 +558,28 @@ class Result:
     unchanged: tuple[str, ...] = ()
 
 
-def _load_drawing() -> None:
-    """Import what the summary's histograms need (Matplotlib's figure and its Agg canvas: half a second)."""
+def load_drawing(warm: bool = False) -> None:
+    """Import what the summary's histograms need (Matplotlib's figure and its Agg canvas: half a second);
+    ``warm``: also draw a small histogram to memory (the first drawing loads fonts and caches: a tenth of
+    a second that a side process spends before the last row rather than after it)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.backends.backend_agg
     import matplotlib.figure
+
+    if warm:
+        import tempfile
+
+        from . import plots
+
+        with tempfile.TemporaryDirectory(prefix="mjmotion-warm-up-") as tmp:
+            plots.histograms({"warm-up": [0.0, 1.0, 1.0]}, Path(tmp) / "warm-up.png", title="warm-up")
+
+
+def warm_drawing() -> None:
+    """:func:`load_drawing` with a first drawing (the preload of the audit's side process)."""
+    load_drawing(warm=True)
 
 
 def run(
@@ -578,9 +593,11 @@ def run(
     opts: dict[str, Any] | None = None,
     progress: bool = True,
     planned: Plan | None = None,
+    aside: Aside | None = None,
 ) -> Result:
     """Audit every clip under ``root`` into ``out_dir`` on the executor ``ex`` (see the module doc);
-    ``planned``: the :func:`plan` of the same arguments, made already (e.g. while the workers started)."""
+    ``planned``: the :func:`plan` of the same arguments, made already (e.g. while the workers started);
+    ``aside``: a side process that draws the histograms (made with :func:`load_drawing` as its preload)."""
     opts = opts if opts is not None else judge_options()
     work = planned if planned is not None else plan(root, out_dir, resume=resume, source_map=source_map, opts=opts)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -593,7 +610,8 @@ def run(
         # While the first clips run, this process is idle: the Parquet writer and the summary's
         # Matplotlib are loaded now rather than after the last row (where nothing runs beside them).
         table.write_parquet()
-        _load_drawing()
+        if aside is None:
+            load_drawing()
 
     # A resumed audit with nothing new to evaluate sends nothing out (``ex`` may be a bare Executor).
     outcomes = ex.run(audit_clip, tasks, timeout=timeout, desc="audit", unit="clip", progress=progress, meanwhile=meanwhile) if tasks else ()
@@ -617,7 +635,7 @@ def run(
     seconds = time.perf_counter() - work.started
     where = ex.describe() if todo else "no workers (nothing new to evaluate)"
     files = [str(table.csv), str(table.parquet)]
-    written, unchanged = write_summary(out_dir, rows, root=root, executor=where, computed=len(todo), seconds=seconds, timeout=timeout)
+    written, unchanged = write_summary(out_dir, rows, root=root, executor=where, computed=len(todo), seconds=seconds, timeout=timeout, aside=aside)
     return Result(rows, len(todo), seconds, where, files + written, unchanged)
 
 
@@ -656,12 +674,27 @@ def _md_code(path: str) -> str:
     return f"{fence} {text} {fence}" if fence == "``" else f"`{text}`"
 
 
+def _here(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Callable[[], Any]:
+    """``fn(*args, **kwargs)`` now, in this process (what :meth:`Aside.call` does without a side process)."""
+    value = fn(*args, **kwargs)
+    return lambda: value
+
+
 def write_summary(
-    out_dir: Path, rows: Sequence[Mapping[str, Any]], *, root: Path, executor: str, computed: int, seconds: float, timeout: float | None
+    out_dir: Path,
+    rows: Sequence[Mapping[str, Any]],
+    *,
+    root: Path,
+    executor: str,
+    computed: int,
+    seconds: float,
+    timeout: float | None,
+    aside: Aside | None = None,
 ) -> tuple[list[str], tuple[str, ...]]:
     """``summary.md`` and ``histograms.png``: counts by flavour, distributions, worst clips, errors, parameters.
     Returns the files written and the files kept: ``histograms.png`` is drawn again only when what it
-    draws changed (:func:`histograms_digest`, stored in the PNG; Matplotlib is not even loaded otherwise)."""
+    draws changed (:func:`histograms_digest`, stored in the PNG; Matplotlib is not even loaded otherwise), in
+    the side process ``aside`` if given, while the rest is written."""
     import numpy as np
 
     from . import plots
@@ -690,13 +723,15 @@ def write_summary(
     # Histograms of the headline metrics that vary (a breakdown like sensitivity[h_c=…].x, hit.x and the rest are in the tables).
     headline = {k: varying[k] for k in HEADLINE if k in varying}
     png = out_dir / "histograms.png"
+    drawn: Callable[[], object] = lambda: None
     if headline:
         title = f"{len(ok)} clips of {root.name}"
         digest = histograms_digest(headline, title)
         if plots.png_text(png).get(HISTOGRAMS_KEY) == digest:
             unchanged = (str(png),)
         else:
-            plots.histograms(headline, png, title=title, metadata={HISTOGRAMS_KEY: digest})
+            draw = aside.call if aside is not None else _here
+            drawn = draw(plots.histograms, headline, png, title=title, metadata={HISTOGRAMS_KEY: digest})
             files.append(str(png))
     else:
         png.unlink(missing_ok=True)  # an older table's picture would no longer match summary.md
@@ -733,5 +768,6 @@ def write_summary(
         f"- report thresholds: `{params}`",
         "- metric definitions: the report fields of mjmotion/evaluate.py (see `mjmotion evaluate --help`)",
     ]
+    drawn()  # the picture first: summary.md shows it
     write_text_atomic(out_dir / "summary.md", "\n".join(lines) + "\n")
     return [str(out_dir / "summary.md"), *files], unchanged

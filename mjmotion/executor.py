@@ -14,7 +14,7 @@ error's one-line message (bad input: not retried). Anything else is retried by D
 more than ``distributed.scheduler.allowed-failures`` times (killed, out of memory) is kind
 ``"worker"`` (Dask reschedules it before that: every key still comes back exactly once); a task that
 runs longer than ``timeout`` seconds is kind ``"timeout"``: its future is cancelled and its worker
-restarted through its nanny (a Python thread cannot be interrupted). Scheduling, retries and worker
+process ended, which its nanny replaces at once (a Python thread cannot be interrupted). Scheduling, retries and worker
 management are Dask's; this module only streams the outcomes, enforces the time limit and shows
 progress (a tqdm bar on a terminal, a plain line every few seconds otherwise).
 
@@ -285,6 +285,21 @@ def _executing(dask_worker: Any) -> dict[str, float]:
     return {str(ts.key): now - ts.start_time for ts in list(dask_worker.state.executing) if ts.start_time}
 
 
+#: Whether Dask loaded its dashboard in the process evaluating this (a scheduler's).
+_DASHBOARD_LOADED = "'distributed.dashboard.scheduler' in __import__('sys').modules"
+
+
+def _dashboard_loaded() -> bool:
+    return bool(eval(_DASHBOARD_LOADED))
+
+
+def _end_process() -> None:
+    """Runs on a Dask worker: end its process now (its nanny starts a new one, as after a crash)."""
+    import os
+
+    os._exit(70)
+
+
 class Dask(Executor):
     """A Dask ``Client``: on a new ``LocalCluster`` of ``workers`` one-thread worker processes (bound to
     127.0.0.1; its dashboard on a free port if ``dashboard``), or on the scheduler at ``scheduler``."""
@@ -334,9 +349,18 @@ class Dask(Executor):
             self.address = self.cluster.scheduler_address
         info = self.client.scheduler_info()
         self.workers = sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values()) or (workers or 0)
-        # A local scheduler runs in this process: its dashboard is up if Dask could load it (it needs Bokeh).
-        running = "dashboard" in info.get("services", {}) and (self.cluster is None or "distributed.dashboard.scheduler" in sys.modules)
+        # The scheduler's web server (its "dashboard" service) also runs without a dashboard, for its health
+        # routes: the dashboard is up where the scheduler runs if Dask could load it there (it needs Bokeh).
+        running = "dashboard" in info.get("services", {}) and (_dashboard_loaded() if self.cluster is not None else self._remote_dashboard_loaded())
         self.dashboard = self.client.dashboard_link if running else None
+
+    def _remote_dashboard_loaded(self) -> bool:
+        # Asked of the scheduler process: ``eval`` of our own constant text, because a function of ours
+        # would be sent by reference and the scheduler's machine need not have mjmotion installed.
+        try:
+            return bool(self.client.run_on_scheduler(eval, _DASHBOARD_LOADED))
+        except Exception:  # a scheduler that refuses to run functions: no link rather than a dead one
+            return False
 
     def describe(self) -> str:
         where = "a LocalCluster" if self.cluster is not None else f"the scheduler at {self.address}"
@@ -403,7 +427,7 @@ class Dask(Executor):
                 self.client.cancel(pending)
 
     def _expire(self, futures: dict[Any, tuple[Any, Any]], done: set[Any], timeout: float) -> Iterator[Outcome]:
-        """Tasks running longer than ``timeout``: an outcome each, the future cancelled, the worker restarted."""
+        """Tasks running longer than ``timeout``: an outcome each, the future cancelled, the worker process ended."""
         running = self.client.run(_executing, on_error="return")
         restart = []
         for address, since in running.items():
@@ -417,8 +441,13 @@ class Dask(Executor):
                     restart.append(address)
                     yield Outcome(futures[k][0], error=f"still running after the time limit of {timeout:g} s", kind="timeout")
         if restart:
-            # Only a nanny can stop the stuck thread; a worker without one keeps computing but gets no more of our tasks' results.
-            self.client.restart_workers(sorted(set(restart)), raise_for_error=False)
+            # A thread stuck in a task cannot be stopped: its worker process is ended and its nanny forks a new
+            # one at once (the nanny's own restart first waits four seconds for the thread, holding this loop).
+            # A worker without a nanny would not come back: it keeps computing but gets no more of our tasks.
+            info = self.client.scheduler_info()["workers"]
+            ended = sorted(a for a in set(restart) if info.get(a, {}).get("nanny"))
+            if ended:
+                self.client.run(_end_process, workers=ended, on_error="ignore")
 
     def close(self) -> None:
         self.client.close()
@@ -453,6 +482,58 @@ def load(preload: Iterable[str | Callable[[], object]]) -> None:
             item()
         else:
             importlib.import_module(item)
+
+
+class Aside:
+    """One process beside the workers for this process's own serial work (the audit's histograms).
+
+    Forked at once (before Dask is loaded: make it first), it loads ``preload`` while this process is
+    still starting the cluster, on a core that is otherwise idle then: Matplotlib's import (half a second
+    of CPU) no longer competes with the workers, and the drawing at the end runs beside the rest of the
+    summary. Where processes are not forked (not Linux), or once the process is lost, :meth:`call` runs
+    the function here instead.
+    """
+
+    def __init__(self, preload: Sequence[str | Callable[[], object]] = ()):
+        self.pool: Any = None
+        if sys.platform.startswith("linux"):
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor
+
+            self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
+            self.pool.submit(load, tuple(preload))  # forks now (a fork pool starts its process on the first task)
+
+    def call(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Callable[[], Any]:
+        """Start ``fn(*args, **kwargs)`` in the side process; returns a function that waits for its value
+        (and raises what ``fn`` raised). A lost side process (killed) is not an error: ``fn`` runs here."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        if self.pool is not None:
+            try:
+                future = self.pool.submit(fn, *args, **kwargs)
+            except BrokenProcessPool:
+                pass
+            else:
+
+                def wait() -> Any:
+                    try:
+                        return future.result()
+                    except BrokenProcessPool:
+                        return fn(*args, **kwargs)
+
+                return wait
+        value = fn(*args, **kwargs)
+        return lambda: value
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=False, cancel_futures=True)
+
+    def __enter__(self) -> Aside:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def check_options(workers: int | None = None, scheduler: str | None = None, jobs: int | None = None) -> None:

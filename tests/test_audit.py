@@ -422,7 +422,9 @@ def dask_processes(tmp_path):
 def test_audit_on_a_dask_scheduler_and_workers_gives_the_same_table(corpus, tmp_path, dask_processes, dask2, capsys):
     out_remote, out_local = tmp_path / "remote", tmp_path / "local"
     assert cli.main(["audit", str(corpus), "-o", str(out_remote), "--scheduler", dask_processes]) == 0
-    assert f"the scheduler at {dask_processes}, 2 worker" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert f"the scheduler at {dask_processes}, 2 worker" in printed
+    assert "dashboard" not in printed  # started with --no-dashboard: its web server's address is no dashboard
     audit.run(corpus, out_local, dask2, progress=False)
     remote, local = _rows(out_remote), _rows(out_local)
     assert sorted(remote) == sorted(local) == _listed(corpus)

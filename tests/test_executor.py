@@ -163,6 +163,29 @@ def test_dask_time_limit(dask2):
     assert sorted(o.value for o in dask2.run(square, [(i, (i,)) for i in range(4)], progress=False)) == [0, 1, 4, 9]
 
 
+def stamped(i: int) -> tuple[float, int]:
+    """Task 1 hangs; the others take 50 ms and say when they ended and in which process."""
+    time.sleep(120 if i == 1 else 0.05)
+    return time.time(), os.getpid()
+
+
+def test_a_time_out_ends_the_stuck_worker_without_holding_the_stream(dask2):
+    """Dask's nanny restart gives a stuck thread four seconds (0.8 x 5 s) before it kills the process, and
+    the call held the stream: clips finished meanwhile came back 4.2 s late and the worker's slot sat idle
+    (found by a review). Now the process is ended at once and its replacement takes clips."""
+    lag, pids, timed_out = [], set(), []
+    for o in dask2.run(stamped, [(i, (i,)) for i in range(80)], timeout=1.0, progress=False):
+        if o.ok:
+            lag.append(time.time() - o.value[0])
+            pids.add(o.value[1])
+        else:
+            timed_out.append(o.key)
+    assert timed_out == [1] and len(lag) == 79
+    assert max(lag) < 2.0  # 4.2 s when the restart held the loop
+    assert len(pids) == 2  # the worker that never hung and the successor of the one that did (its clips ran)
+    dask2.client.wait_for_workers(2, timeout=60)
+
+
 def test_a_task_that_overran_the_limit_between_polls_is_a_timeout(dask2):
     """A task finishing over its limit before the poll saw it running came back ok (found by a review:
     a 55 MB clip at 2 s with --timeout 1, when another clip's time-out held the loop)."""
@@ -314,3 +337,24 @@ def test_evaluate_folder_runs_on_the_executors_process_pool(tmp_path, monkeypatc
     monkeypatch.undo()
     serial = cmd.evaluate_files(files, opts, 1)
     assert json.dumps([r.get("row") for r in got]) == json.dumps([r.get("row") for r in serial])  # NaN included
+
+
+def loaded(name: str) -> tuple[int, bool]:
+    """Which process this runs in, and whether ``name`` is loaded there."""
+    import sys
+
+    return os.getpid(), name in sys.modules
+
+
+def test_aside_runs_in_its_own_process_with_its_preload_and_falls_back_here_when_lost():
+    import sys
+
+    before = "colorsys" in sys.modules
+    with executor.Aside(preload=("colorsys",)) as aside:
+        pid, has = aside.call(loaded, "colorsys")()
+        assert pid != os.getpid() and has
+        assert ("colorsys" in sys.modules) == before  # loaded over there, not here
+        with pytest.raises(ValueError, match="invalid literal"):
+            aside.call(int, "x")()  # what the function raises comes back
+        os.kill(pid, signal.SIGKILL)  # lost (killed, out of memory): the work is done here instead
+        assert aside.call(loaded, "json")() == (os.getpid(), True)

@@ -120,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
 
     from .. import audit
     from ..errors import require_number
-    from ..executor import Executor, check_options, start
+    from ..executor import Aside, Executor, check_options, start
     from ..inputs import find_bvh
     from ._common import units_scale
 
@@ -137,26 +137,33 @@ def run(args: argparse.Namespace) -> int:
         rels = [audit.rel_text(p, base) for p in find_bvh(base)]
         source_map = audit.read_source_map(args.source_map, rels)
     workers = args.workers if args.workers is not None or args.scheduler else _default_workers()
+    # Forked before Dask loads: the histograms' Matplotlib loads there meanwhile, off the workers' cores.
+    # A resume may have nothing to draw (and should exit at once), so it draws in this process.
+    aside = Aside(preload=(audit.warm_drawing,)) if not args.resume else None
     # The files are listed and hashed (and a resumed table read) in a thread while the workers start:
     # hashing and reading release the interpreter's lock, the start-up is mostly imports and forks.
-    with ThreadPoolExecutor(1, thread_name_prefix="audit-plan") as pool:
-        planned = pool.submit(audit.plan, root, out, resume=args.resume, source_map=source_map, opts=opts)
-        # A resume first learns whether anything is left to evaluate: an unchanged folder starts no workers
-        # (and contacts no scheduler), so it costs a fraction of the first run.
-        idle = args.resume and not planned.result().todo
-        where = dict(workers=workers, scheduler=args.scheduler, connect_timeout=args.connect_timeout, dashboard=args.dashboard)
-        ex = Executor() if idle else start(**where, preload=audit.PRELOAD)
-        with ex:
-            if args.force:  # only once the workers answer: a refused start leaves the old audit as it was
-                for name in audit.OUTPUTS:
-                    (out / name).unlink(missing_ok=True)
-            if idle:
-                print(f"auditing {root}: every file's row is kept (nothing new or changed); no workers started", flush=True)
-            else:
-                print(f"auditing {root} on {ex.describe()}" + (f"; dashboard {ex.dashboard}" if ex.dashboard else ""), flush=True)
-            if args.dashboard and ex.dashboard is None and args.scheduler is None and not idle:
-                print("note: --dashboard: Dask started no dashboard (it needs bokeh: pip install bokeh)", flush=True)
-            res = audit.run(root, out, ex, timeout=args.timeout, opts=opts, planned=planned.result())
+    try:
+        with ThreadPoolExecutor(1, thread_name_prefix="audit-plan") as pool:
+            planned = pool.submit(audit.plan, root, out, resume=args.resume, source_map=source_map, opts=opts)
+            # A resume first learns whether anything is left to evaluate: an unchanged folder starts no workers
+            # (and contacts no scheduler), so it costs a fraction of the first run.
+            idle = args.resume and not planned.result().todo
+            where = dict(workers=workers, scheduler=args.scheduler, connect_timeout=args.connect_timeout, dashboard=args.dashboard)
+            ex = Executor() if idle else start(**where, preload=audit.PRELOAD)
+            with ex:
+                if args.force:  # only once the workers answer: a refused start leaves the old audit as it was
+                    for name in audit.OUTPUTS:
+                        (out / name).unlink(missing_ok=True)
+                if idle:
+                    print(f"auditing {root}: every file's row is kept (nothing new or changed); no workers started", flush=True)
+                else:
+                    print(f"auditing {root} on {ex.describe()}" + (f"; dashboard {ex.dashboard}" if ex.dashboard else ""), flush=True)
+                if args.dashboard and ex.dashboard is None and args.scheduler is None and not idle:
+                    print("note: --dashboard: Dask started no dashboard (it needs bokeh: pip install bokeh)", flush=True)
+                res = audit.run(root, out, ex, timeout=args.timeout, opts=opts, planned=planned.result(), aside=aside)
+    finally:
+        if aside is not None:
+            aside.close()
     n_err = sum(r["status"] != "ok" for r in res.rows)
     rate = f" ({res.computed / res.seconds:.2f} clips/s)" if res.computed and res.seconds > 0 else ""
     print(f"{len(res.rows)} clips: {len(res.rows) - n_err} ok, {n_err} error; {res.computed} evaluated in {res.seconds:.1f} s{rate}")
