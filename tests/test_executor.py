@@ -237,6 +237,42 @@ def test_plain_progress_lines_when_not_a_terminal():
     assert len(lines) == 3  # the closing line is not repeated
 
 
+def _on_a_terminal(code: str, columns: int) -> str:
+    """What ``code`` writes in a child process whose standard streams are a pseudo-terminal ``columns`` wide."""
+    import fcntl
+    import pty
+    import struct
+    import subprocess
+    import sys
+    import termios
+
+    main, side = pty.openpty()
+    fcntl.ioctl(side, termios.TIOCSWINSZ, struct.pack("HHHH", 24 if columns else 0, columns, 0, 0))
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    proc = subprocess.Popen([sys.executable, "-c", code], stdin=side, stdout=side, stderr=side, env=env)
+    os.close(side)
+    out = b""
+    while True:
+        try:
+            data = os.read(main, 4096)
+        except OSError:  # the child closed its end
+            break
+        if not data:
+            break
+        out += data
+    proc.wait(timeout=60)
+    os.close(main)
+    return out.decode(errors="replace")
+
+
+@pytest.mark.parametrize("columns", [100, 0])
+def test_a_bar_on_a_terminal_even_one_that_reports_no_width(columns):
+    """A pseudo-terminal of size 0 (some containers' ``-t``) showed nothing at all: tqdm's dynamic width was 0."""
+    code = "from mjmotion.executor import _Progress\nbar = _Progress(3, 'audit', 'clip', True)\nfor _ in range(3): bar.update()\nbar.close()\n"
+    shown = _on_a_terminal(code, columns)
+    assert "audit: 100%" in shown and "3/3" in shown and "clip/s" in shown
+
+
 def test_in_order():
     outs = [executor.Outcome(k, k) for k in ("b", "c", "a")]
     assert [o.key for o in executor.in_order(outs, ["a", "b", "c"])] == ["a", "b", "c"]
