@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import os
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -151,22 +150,11 @@ class _Progress:
         self.start = self.last = time.perf_counter()
         self.bar = None
         if self.enabled and self.stream.isatty():
-            import shutil
-
             from tqdm import tqdm
 
-            try:
-                size = tuple(os.get_terminal_size(self.stream.fileno()))
-            except (OSError, ValueError, AttributeError):
-                size = (0, 0)
-            # A terminal that reports no size (a pseudo-terminal of size 0, as some containers give) got no
-            # bar at all (tqdm hides a bar below the screen's last row): $COLUMNS, $LINES or 80 x 24 then.
-            fixed = min(size) <= 0
-            cols, rows = shutil.get_terminal_size((80, 24)) if fixed else size
-            self.bar = tqdm(
-                total=total, desc=desc, unit=unit, file=self.stream, dynamic_ncols=not fixed,
-                ncols=cols if fixed else None, nrows=rows if fixed else None,
-            )  # fmt: skip
+            from .commands._progress import bar_size
+
+            self.bar = tqdm(total=total, desc=desc, unit=unit, file=self.stream, **bar_size(self.stream))
 
     def update(self) -> None:
         self.done += 1
@@ -309,6 +297,8 @@ def _dashboard_loaded() -> bool:
 
 def _end_process() -> None:
     """Runs on a Dask worker: end its process now (its nanny starts a new one, as after a crash)."""
+    import os
+
     os._exit(70)
 
 

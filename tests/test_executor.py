@@ -271,6 +271,9 @@ def test_a_bar_on_a_terminal_even_one_that_reports_no_width(columns):
     code = "from mjmotion.executor import _Progress\nbar = _Progress(3, 'audit', 'clip', True)\nfor _ in range(3): bar.update()\nbar.close()\n"
     shown = _on_a_terminal(code, columns)
     assert "audit: 100%" in shown and "3/3" in shown and "clip/s" in shown
+    # The verbs' step bar (mjmotion.commands._progress) too: drawn, then erased at the end.
+    code = "from mjmotion.commands._progress import steps\nwith steps('blend', ('read', 'write')) as step: step('read'); step('write')\n"
+    assert "blend: 1/2, write" in _on_a_terminal(code, columns)
 
 
 def test_in_order():

@@ -28,7 +28,7 @@ def steps(desc: str, names: Sequence[str]) -> Iterator[Callable[[str], None]]:
     from tqdm import tqdm
 
     bar = tqdm(
-        total=len(names), desc=desc, unit="step", file=stream, leave=False, dynamic_ncols=True, bar_format="{desc}: {n}/{total}{postfix} [{elapsed}]"
+        total=len(names), desc=desc, unit="step", file=stream, leave=False, bar_format="{desc}: {n}/{total}{postfix} [{elapsed}]", **bar_size(stream)
     )
     started = [False]
 
@@ -44,6 +44,23 @@ def steps(desc: str, names: Sequence[str]) -> Iterator[Callable[[str], None]]:
     finally:
         sys.stderr = stream
         bar.close()
+
+
+def bar_size(stream: TextIO) -> dict[str, Any]:
+    """tqdm's size options for a bar on the terminal ``stream``: its width as it changes, or, where the
+    terminal reports no size (a pseudo-terminal of 0 x 0, as some containers' ``-t`` give: tqdm then
+    hid the bar below the screen's last row and showed nothing), ``$COLUMNS`` x ``$LINES`` or 80 x 24."""
+    import os
+    import shutil
+
+    try:
+        size = tuple(os.get_terminal_size(stream.fileno()))
+    except (OSError, ValueError, AttributeError):
+        size = (0, 0)
+    if min(size) > 0:
+        return {"dynamic_ncols": True}
+    cols, rows = shutil.get_terminal_size((80, 24))
+    return {"ncols": cols, "nrows": rows}
 
 
 class _AboveTheBar:
