@@ -560,8 +560,8 @@ class Result:
 
 def load_drawing(warm: bool = False) -> None:
     """Import what the summary's histograms need (Matplotlib's figure and its Agg canvas: half a second);
-    ``warm``: also draw a small histogram to memory (the first drawing loads fonts and caches: a tenth of
-    a second that a side process spends before the last row rather than after it)."""
+    ``warm``: also draw a small histogram (to a temporary file: the first drawing loads fonts and caches, a
+    tenth of a second that a side process spends before the last row rather than after it)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -597,7 +597,7 @@ def run(
 ) -> Result:
     """Audit every clip under ``root`` into ``out_dir`` on the executor ``ex`` (see the module doc);
     ``planned``: the :func:`plan` of the same arguments, made already (e.g. while the workers started);
-    ``aside``: a side process that draws the histograms (made with :func:`load_drawing` as its preload)."""
+    ``aside``: a side process that draws the histograms (made with :func:`warm_drawing` as its preload)."""
     opts = opts if opts is not None else judge_options()
     work = planned if planned is not None else plan(root, out_dir, resume=resume, source_map=source_map, opts=opts)
     out_dir.mkdir(parents=True, exist_ok=True)
