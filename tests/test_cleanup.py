@@ -258,6 +258,8 @@ def test_cli_cleanup(tmp_path, capsys):
         assert main(["cleanup", str(src), "-o", str(tmp_path / "x.bvh"), *bad]) == 2
         err = capsys.readouterr().err
         assert err.startswith(f"error: {option} ") and "Traceback" not in err
+        if bad[-1] == str(src):  # cleanup's --source is what the input was made from: named as such
+            assert "is the input itself" in err and "the clip(s) the input was made from" in err
     assert d.is_dir()
 
 

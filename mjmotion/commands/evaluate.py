@@ -168,9 +168,10 @@ def check_floor(args: argparse.Namespace) -> None:
         raise MjmotionError(f"--floor {floor:g}: expected a finite floor height in metres (world z)")
 
 
-def load_sources(args: argparse.Namespace, result_path: str, result) -> list:
+def load_sources(args: argparse.Namespace, result_path: str, result, what: str = "the result") -> list:
     """The ``--source`` clips, checked against the result (``result_path``, motion ``result``):
-    same skeleton and frame rate, not the result itself; leading transients cut like the result's."""
+    same skeleton and frame rate, not the result itself; leading transients cut like the result's.
+    ``what``: how the messages call the clip judged against them (``cleanup``: "the input")."""
 
     out = []
     for src in args.source:
@@ -181,12 +182,12 @@ def load_sources(args: argparse.Namespace, result_path: str, result) -> list:
             with open(src, "rb") as a, open(result_path, "rb") as b:
                 same = a.read() == b.read()
         if same:
-            raise MjmotionError(f"--source {src}: is the result itself ({result_path}); give the clip(s) the result was made from")
+            raise MjmotionError(f"--source {src}: is {what} itself ({result_path}); give the clip(s) {what} was made from")
         m = load(src, args, note=False)  # its leading transient skipped like the result's
         if not m.skeleton.same_topology(result.skeleton):
             raise MjmotionError(
                 f"--source {src}: another skeleton ({m.skeleton.n_joints} joints, root {m.skeleton.names[0]!r}) than "
-                f"{result_path} ({result.skeleton.n_joints} joints, root {result.skeleton.names[0]!r}); a source must share the result's skeleton"
+                f"{result_path} ({result.skeleton.n_joints} joints, root {result.skeleton.names[0]!r}); a source must share {what}'s skeleton"
             )
         if abs(m.fps - result.fps) > 1e-6 * result.fps:
             raise MjmotionError(f"--source {src}: {m.fps:g} fps, {result_path} {result.fps:g} fps; resample one first (mjmotion convert --fps)")
