@@ -748,11 +748,19 @@ def write_summary(
         for k, vals in metrics.items():
             a = np.array([v for v, _ in vals])
             lines.append(f"| {k} | {a.size} | {a.min():.4g} | {np.median(a):.4g} | {np.percentile(a, 90):.4g} | {a.max():.4g} |")
-        lines += ["", f"## Worst clips per metric (the {WORST} highest values)", "", "| metric | clips |", "|---|---|"]
+        # Both ends: which is worse depends on the metric (a high skate, a low contact_fraction, a floor far either way).
+        lines += [
+            "",
+            f"## Worst clips per metric (the {WORST} highest and the {WORST} lowest values)",
+            "",
+            "| metric | highest | lowest |",
+            "|---|---|---|",
+        ]
         for k, vals in metrics.items():
             if k in varying:
-                worst = sorted(vals, key=lambda t: -t[0])[:WORST]
-                lines.append(f"| {k} | " + "; ".join(f"{_md_code(p)} {v:.4g}" for v, p in worst) + " |")
+                ranked = sorted(vals, key=lambda t: (-t[0], t[1]))
+                ends = (ranked[:WORST], ranked[::-1][:WORST])
+                lines.append(f"| {k} | " + " | ".join("; ".join(f"{_md_code(p)} {v:.4g}" for v, p in end) for end in ends) + " |")
     errors = [r for r in rows if r.get("status") != "ok"]
     if errors:
         lines += ["", "## Errors", "", "| clip | kind | message |", "|---|---|---|"]

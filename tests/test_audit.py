@@ -508,6 +508,9 @@ def test_the_summary_draws_the_headline_metrics_that_vary(tmp_path, monkeypatch)
     assert set(drawn) == {"planted_skate_mm_per_s"} and str(tmp_path / "histograms.png") in files and not unchanged
     text = (tmp_path / "summary.md").read_text()
     assert "max_root_step_m" in text and "sensitivity[h_c=0.03].skate_mm_per_s" in text  # still in the tables
+    # Both ends of each metric: a low contact_fraction or a floor far below says as much as a high skate.
+    row = [line for line in text.splitlines() if line.startswith("| planted_skate_mm_per_s |")][-1]  # (the first: its distribution)
+    assert row == "| planted_skate_mm_per_s | `c3.bvh` 30; `c2.bvh` 20; `c1.bvh` 10; `c0.bvh` 0 | `c0.bvh` 0; `c1.bvh` 10; `c2.bvh` 20; `c3.bvh` 30 |"
 
 
 def test_the_histograms_are_drawn_again_only_when_what_they_draw_changes(tmp_path, monkeypatch):

@@ -23,8 +23,8 @@ same) and write to OUT_DIR:
                  message, frames, fps, skeleton flavour, every metric of the report), appended and
                  flushed row by row: a crash or Ctrl-C loses at most the clips in flight
   audit.parquet  the same table, rewritten atomically every few seconds and at the end
-  summary.md     counts by flavour, the distribution of each metric (histograms.png), the worst
-                 clips per metric, the errors and the parameters used
+  summary.md     counts by flavour, the distribution of each metric (histograms.png), the clips
+                 at both ends of each metric, the errors and the parameters used
 
 Work runs on a Dask LocalCluster on this machine (--workers N, bound to 127.0.0.1) or on an existing
 Dask cluster (--scheduler tcp://HOST:8786, started with 'dask scheduler' and 'dask worker'; its
