@@ -215,7 +215,7 @@ def worst_joint_speed_ratio(result: Motion, sources: Motion | Sequence[Motion], 
     Per joint, so a glitchy finger in a source cannot hide a popping knee (the whole-body
     :func:`max_joint_speed_ratio` can). The peak is each joint's maximum, not a percentile: a
     clip against itself then reads exactly 1 and a glitch the result inherits from its source
-    does not count (against its own 99th percentile the shared clips read 1.5-44).
+    does not count (against their own 99th percentiles the shared clips read 1.5-44).
     """
     src = _as_list(sources)
     for s in src:
