@@ -419,6 +419,8 @@ class Table:
             return []
         if not text.endswith("\n"):
             records = records[:-1]
+        if not records:  # only a header cut short by a crash: no row was written
+            return []
         header, body = records[0], records[1:]
         if header[: len(META)] != list(META):
             raise MjmotionError(f"{path}: not an audit table of this version (columns {header[:4]}…); use --force to start over")
@@ -446,10 +448,22 @@ def read_source_map(path: str | os.PathLike[str], clips: Iterable[str]) -> dict[
     """``--source-map FILE``: a JSON object from a clip's path under DIR to the clip (or list of clips) it
     was made from; sources are relative to the map file's folder unless absolute."""
     p = Path(path)
+
+    def once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        keys = [k for k, _ in pairs]
+        twice = sorted({k for k in keys if keys.count(k) > 1})
+        if twice:  # JSON would keep the last silently
+            raise MjmotionError(f"--source-map {p}: {twice[0]!r} is given more than once; expected one entry per clip")
+        return dict(pairs)
+
     try:
-        data = json.loads(p.read_text(encoding="utf-8"))
+        data = json.loads(p.read_text(encoding="utf-8"), object_pairs_hook=once)
     except FileNotFoundError:
         raise MjmotionError(f"--source-map {p}: no such file") from None
+    except IsADirectoryError:
+        raise MjmotionError(f"--source-map {p}: is a folder; expected a JSON file") from None
+    except OSError as e:
+        raise MjmotionError(f"--source-map {p}: cannot be read ({e.strerror or e})") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
         raise MjmotionError(f"--source-map {p}: not JSON ({e})") from None
     if not isinstance(data, dict):

@@ -125,6 +125,26 @@ def _unrecognized(parser: argparse.ArgumentParser, verb: str | None, extra: list
     p.error(message)
 
 
+def _refuse_empty(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """An empty value of an option that takes text (a path, a name, a range) is a usage error: ``--json ""``
+    was skipped as if not given, ``-o ""`` became the current folder."""
+    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+    verb = getattr(args, "verb", None)
+    if sub is None or verb not in sub.choices:
+        return
+    p = sub.choices[verb]
+    for a in p._actions:
+        if not a.option_strings or a.type is not None or a.nargs == 0 or a.choices is not None:
+            continue
+        value = getattr(args, a.dest, None)
+        values = value if isinstance(value, list) else [value]
+        if any(isinstance(v, str) and not v.strip() for v in values):
+            option = max(a.option_strings, key=len)
+            p.error(
+                f"argument {option}: {'(empty)' if not any(values) else repr(next(v for v in values if not v.strip()))}: expected {a.metavar or 'a value'}"
+            )
+
+
 def _is_number(word: str) -> bool:
     try:
         float(word)
@@ -195,6 +215,7 @@ def _main(argv: Sequence[str] | None) -> int:
         args, extra = parser.parse_known_args(argv)
         if extra:
             _unrecognized(parser, getattr(args, "verb", None), extra)
+        _refuse_empty(parser, args)
     except SystemExit as e:  # a usage error (exit status 2, already reported) or --help (0)
         return e.code if isinstance(e.code, int) else 2
     if not getattr(args, "verb", None):

@@ -538,13 +538,32 @@ class Aside:
         self.close()
 
 
+#: A LocalCluster of more worker processes than this many per core is refused: the tasks are CPU-bound, and
+#: 256 workers on 2 cores started no clip in 90 s (each a forked process with its nanny and event loops).
+LOCAL_PER_CORE = 4
+
+
+def cores() -> int:
+    """The cores this process may run on."""
+    import os
+
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
 def check_options(workers: int | None = None, scheduler: str | None = None, jobs: int | None = None) -> None:
-    """Refuse worker counts below 1 and ``--scheduler`` with ``--workers`` (before any work)."""
+    """Refuse worker counts below 1 (or, for a LocalCluster, above :data:`LOCAL_PER_CORE` per core) and
+    ``--scheduler`` with ``--workers`` (before any work)."""
     for option, n in (("--workers", workers), ("--jobs", jobs)):
         if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
             raise MjmotionError(f"{option} {n}: expected a number of worker processes ≥ 1")
     if scheduler is not None and workers is not None:
         raise MjmotionError(f"--scheduler {scheduler} and --workers {workers}: the scheduler's cluster has its own workers; give one of them")
+    most = max(4, LOCAL_PER_CORE * cores())
+    if workers is not None and workers > most:
+        raise MjmotionError(
+            f"--workers {workers}: this machine has {cores()} core(s); expected at most {most} local worker processes "
+            "(more only compete for the cores; a bigger cluster is reached with --scheduler)"
+        )
 
 
 def start(
@@ -578,7 +597,8 @@ def add_options(p: argparse.ArgumentParser, default: str = "") -> None:
         "--workers",
         type=integer(1, 4096, what="a number of worker processes"),
         metavar="N",
-        help="run on a Dask LocalCluster of N worker processes on this machine (bound to 127.0.0.1)" + (f" ({default})" if default else ""),
+        help=f"run on a Dask LocalCluster of N worker processes on this machine (bound to 127.0.0.1; at most {LOCAL_PER_CORE} per core)"
+        + (f" ({default})" if default else ""),
     )
     p.add_argument(
         "--scheduler",

@@ -482,8 +482,34 @@ def test_bad_input_is_one_error_line(corpus, tmp_path, capsys):
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o4"), "--source-map", str(bad_map)], capsys, "'nope.bvh' is not a .bvh file")
     bad_map.write_text(json.dumps({"bundled/WALK.BVH": "missing_source.bvh"}))
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(bad_map)], capsys, "missing_source.bvh not found")
+    # --resume into a folder that was never an audit wrote an audit among its files; 256 local workers on a
+    # few cores started no clip in 90 s; --dashboard with --scheduler waited for the scheduler first.
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("mine")
+    _refused(["audit", str(corpus), "-o", str(tmp_path / "mine"), "--resume"], capsys, "holds no audit.csv to resume")
+    assert [f.name for f in (tmp_path / "mine").iterdir()] == ["notes.txt"]
+    _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--workers", "4097"], capsys, "--workers 4097")
+    _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--workers", str(8 * executor.cores() + 4)], capsys, "local worker processes")
+    _refused(
+        ["audit", str(corpus), "-o", str(tmp_path / "o5"), "--scheduler", "tcp://127.0.0.1:1", "--dashboard"], capsys, "--dashboard with --scheduler"
+    )
+    # A key given twice (JSON keeps the last silently) and a folder for a map (was "d: Is a directory").
+    bad_map.write_text('{"bundled/WALK.BVH": "walk_src.bvh", "bundled/WALK.BVH": "run_src.bvh"}')
+    _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(bad_map)], capsys, "'bundled/WALK.BVH' is given more than once")
+    _refused(
+        ["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(tmp_path)], capsys, "--source-map", "is a folder; expected a JSON file"
+    )
     assert _snapshot(corpus) == before
     assert not any((tmp_path / f"o{i}").exists() for i in range(1, 6))
+
+
+def test_a_table_cut_short_in_its_header_has_no_rows(tmp_path):
+    """A crash while the header was written left one unterminated line; reading it for --resume raised
+    IndexError (an internal error, exit 1). Nothing was written after it: no rows, the audit starts afresh."""
+    csv_path = tmp_path / "audit.csv"
+    for text in ("path,size,sha", "x"):
+        csv_path.write_text(text)
+        assert audit.Table.read(csv_path) == []
 
 
 def test_the_summary_draws_the_headline_metrics_that_vary(tmp_path, monkeypatch):

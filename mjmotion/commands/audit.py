@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
@@ -50,10 +49,6 @@ examples:
   mjmotion audit grid/ -o results/grid_audit --source-map grid/sources.json --timeout 120
   mjmotion audit /data/cmu -o /data/cmu_audit --scheduler tcp://10.0.0.5:8786
 """
-
-
-def _default_workers() -> int:
-    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -105,6 +100,8 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
         raise MjmotionError(f"-o {out}: {above} is not a folder")
     if out.exists() and any(out.iterdir()) and not (args.resume or args.force):
         raise MjmotionError(f"-o {out}: already exists; pass --resume to continue its audit or --force to start over")
+    if args.resume and out.exists() and any(out.iterdir()) and not (out / "audit.csv").exists():
+        raise MjmotionError(f"-o {out}: holds no audit.csv to resume; give an audit's folder, a new one, or --force to start an audit here")
     unreadable: list[str] = []
     if not find_bvh(root, unreadable):
         raise MjmotionError(f"{root}: no .bvh files found (searched recursively)" + (f"; cannot list {unreadable[0]}" if unreadable else ""))
@@ -120,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
 
     from .. import audit
     from ..errors import require_number
-    from ..executor import Aside, Executor, check_options, start
+    from ..executor import Aside, Executor, check_options, cores, start
     from ..inputs import find_bvh
     from ._common import units_scale
 
@@ -129,6 +126,10 @@ def run(args: argparse.Namespace) -> int:
     require_number("--connect-timeout", args.connect_timeout, what="seconds")
     units_scale(args.units)
     check_options(args.workers, args.scheduler)
+    if args.dashboard and args.scheduler is not None:
+        raise MjmotionError(
+            f"--dashboard with --scheduler {args.scheduler}: the cluster's scheduler runs its own dashboard (if any); --dashboard is for --workers"
+        )
     root, out = check_paths(args)
     opts = audit.judge_options(units=args.units, up=args.up, keep_start=args.keep_start)
     source_map = None
@@ -136,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
         base = root.resolve()
         rels = [audit.rel_text(p, base) for p in find_bvh(base)]
         source_map = audit.read_source_map(args.source_map, rels)
-    workers = args.workers if args.workers is not None or args.scheduler else _default_workers()
+    workers = args.workers if args.workers is not None or args.scheduler is not None else cores()
     # Forked before Dask loads: the histograms' Matplotlib loads there meanwhile, off the workers' cores.
     # A resume may have nothing to draw (and should exit at once), so it draws in this process.
     aside = Aside(preload=(audit.warm_drawing,)) if not args.resume else None
