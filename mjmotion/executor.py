@@ -52,6 +52,8 @@ LOCAL_CONFIG = {
     "distributed.admin.tick.interval": "1s",
     "distributed.worker.memory.monitor-interval": "500ms",
     "distributed.admin.system-monitor.interval": "2s",
+    # Each local worker runs this module's dask_setup as it starts (it ignores Ctrl-C: see there).
+    "distributed.worker.preload": ["mjmotion.executor"],
 }
 
 
@@ -295,6 +297,44 @@ def _dashboard_loaded() -> bool:
     return bool(eval(_DASHBOARD_LOADED))
 
 
+@contextlib.contextmanager
+def _interrupt_after() -> Iterator[None]:
+    """Hold a Ctrl-C (SIGINT) until the block ends, then raise it; a second one raises at once. Only in the
+    main thread (elsewhere signals cannot be handled, and the block runs as is)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+
+    def hold(signum: int, frame: Any) -> None:
+        held.append(signum)
+        if len(held) > 1:
+            raise KeyboardInterrupt
+
+    before = signal.signal(signal.SIGINT, hold)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
+    if held:
+        raise KeyboardInterrupt
+
+
+def dask_setup(worker: Any) -> None:
+    """Dask's preload hook, run in each local worker process as it starts (:data:`LOCAL_CONFIG`): Ctrl-C at
+    a terminal reaches the whole process group, and every worker printed the traceback of its interrupted
+    event loop under the audit's one ``error: interrupted`` line. The process that started the cluster
+    takes the interrupt and closes its workers; they ignore it."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _end_process() -> None:
     """Runs on a Dask worker: end its process now (its nanny starts a new one, as after a crash)."""
     import os
@@ -338,12 +378,15 @@ class Dask(Executor):
             # worker restarted after a death or a time limit should be forked, warm, like the first.
             self._settings = dask.config.set({**LOCAL_CONFIG, "distributed.worker.multiprocessing-method": method})
             try:
-                # The scheduler's web server (health and metrics routes) always runs, on a free port of
-                # 127.0.0.1; the dashboard on it only when asked (Bokeh's import and its plots cost time).
-                self.cluster = LocalCluster(
-                    n_workers=workers or 1, threads_per_worker=1, processes=True, host="127.0.0.1",
-                    dashboard_address="127.0.0.1:0", scheduler_kwargs={"dashboard": dashboard}, silence_logs=logging.CRITICAL,
-                )  # fmt: skip
+                # A Ctrl-C half-way through the start left Dask closing workers it had not started (printed
+                # AssertionErrors): the first one waits for the cluster, a second one interrupts at once.
+                with _interrupt_after():
+                    # The scheduler's web server (health and metrics routes) always runs, on a free port of
+                    # 127.0.0.1; the dashboard on it only when asked (Bokeh's import and its plots cost time).
+                    self.cluster = LocalCluster(
+                        n_workers=workers or 1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                        dashboard_address="127.0.0.1:0", scheduler_kwargs={"dashboard": dashboard}, silence_logs=logging.CRITICAL,
+                    )  # fmt: skip
             except BaseException:
                 self._settings.__exit__(None, None, None)
                 raise
@@ -486,6 +529,15 @@ def load(preload: Iterable[str | Callable[[], object]]) -> None:
             importlib.import_module(item)
 
 
+def _aside_start(preload: Sequence[str | Callable[[], object]]) -> None:
+    """The side process's first task: it ignores Ctrl-C (the process that made it handles the interrupt and
+    ends it; otherwise it printed a traceback of its wait for work), then loads ``preload``."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    load(preload)
+
+
 class Aside:
     """One process beside the workers for this process's own serial work (the audit's histograms).
 
@@ -503,7 +555,7 @@ class Aside:
             from concurrent.futures import ProcessPoolExecutor
 
             self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
-            self.pool.submit(load, tuple(preload))  # forks now (a fork pool starts its process on the first task)
+            self.pool.submit(_aside_start, tuple(preload))  # forks now (a fork pool starts its process on the first task)
 
     def call(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Callable[[], Any]:
         """Start ``fn(*args, **kwargs)`` in the side process; returns a function that waits for its value
@@ -529,7 +581,9 @@ class Aside:
 
     def close(self) -> None:
         if self.pool is not None:
-            self.pool.shutdown(wait=False, cancel_futures=True)
+            # Waits for the side process to finish what it runs (nothing, once the caller has its values): left
+            # running, its pool's exit handler wrote to a closed pipe at interpreter exit (a printed OSError).
+            self.pool.shutdown(wait=True, cancel_futures=True)
 
     def __enter__(self) -> Aside:
         return self

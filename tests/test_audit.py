@@ -8,6 +8,7 @@ with two ``dask worker`` processes.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -686,3 +687,34 @@ def test_summary_cells_hold_any_path():
     assert audit._md_code("a|b.bvh") == "`a\\|b.bvh`"
     assert audit._md_code("tick`x.bvh") == "`` tick`x.bvh ``"
     assert audit._md_code("new\nline.bvh") == "`new line.bvh`" and audit._md_cell("bad | x\ny") == "bad \\| x y"
+
+
+def test_ctrl_c_at_a_terminal_is_one_line_and_leaves_a_table_to_resume(tmp_path):
+    """Ctrl-C reaches the terminal's whole process group: every Dask worker and the side process printed
+    the traceback of its interrupted loop (5 of them) under the audit's own ``error: interrupted``."""
+    data = require_data()
+    out = tmp_path / "out"
+    env = {**os.environ, "MUJOCO_GL": "egl"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mjmotion.cli", "audit", str(data), "-o", str(out), "--workers", "2"],
+        start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env,
+    )  # fmt: skip
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        csv_path = out / "audit.csv"
+        if csv_path.exists() and csv_path.read_text(errors="replace").count("\n") >= 4:  # the header and 3 rows
+            break
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGINT)  # what a terminal's Ctrl-C does
+    _, err = proc.communicate(timeout=120)
+    if proc.returncode == 0:
+        pytest.skip("the audit finished before the interrupt")
+    assert proc.returncode == 130 and err.strip().endswith("error: interrupted"), err
+    assert "Traceback" not in err and "Exception ignored" not in err, err
+    rows = audit.Table.read(out / "audit.csv")
+    assert 3 <= len(rows) < 42
+    with contextlib.suppress(ProcessLookupError):  # nothing of the group is left running
+        for _ in range(100):
+            os.killpg(proc.pid, 0)
+            time.sleep(0.1)
+        pytest.fail("processes of the interrupted audit are still running")
