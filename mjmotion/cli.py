@@ -20,6 +20,7 @@ import argparse
 import importlib
 import os
 import pkgutil
+import re
 import sys
 import traceback
 from collections.abc import Sequence
@@ -36,8 +37,17 @@ VERB_ORDER = (
 )  # fmt: skip
 
 
+#: What reads as a negative number, not an option: argparse's own pattern takes ``-0.001`` but not ``-1e-3``,
+#: ``-inf`` or ``-nan`` ("--floor -1e-3: expected one argument"); these reach the option's own check now.
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse that reports a usage mistake as one ``error:`` line (status 2)."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str) -> None:  # type: ignore[override]
         sys.stderr.write(f"error: {_one_line(message)} (see '{self.prog} --help')\n")
@@ -137,12 +147,10 @@ def _refuse_empty(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
         if not a.option_strings or a.type is not None or a.nargs == 0 or a.choices is not None:
             continue
         value = getattr(args, a.dest, None)
-        values = value if isinstance(value, list) else [value]
-        if any(isinstance(v, str) and not v.strip() for v in values):
-            option = max(a.option_strings, key=len)
-            p.error(
-                f"argument {option}: {'(empty)' if not any(values) else repr(next(v for v in values if not v.strip()))}: expected {a.metavar or 'a value'}"
-            )
+        blank = [v for v in (value if isinstance(value, list) else [value]) if isinstance(v, str) and not v.strip()]
+        if blank:
+            shown = repr(blank[0]) if blank[0] else "(empty)"
+            p.error(f"argument {max(a.option_strings, key=len)}: {shown}: expected {a.metavar or 'a value'}")
 
 
 def _is_number(word: str) -> bool:

@@ -352,6 +352,17 @@ def test_an_empty_text_option_is_refused(name, capsys):
         assert option in line and ("expected" in line or "not allowed with" in line), line
 
 
+def test_negative_numbers_in_any_spelling_are_values_not_options(tmp_path, human, capsys):
+    """argparse took ``--floor -0.001`` but read ``-1e-3``, ``-inf`` and ``-nan`` as options ("expected one argument")."""
+    walk = _human(human)
+    rep = tmp_path / "r.json"
+    rc, _, err = run(["evaluate", str(walk), "--floor", "-1e-3", "--json", str(rep)], capsys)
+    assert rc == 0, err
+    assert json.loads(rep.read_text())[0]["report"]["floor_m"] == pytest.approx(-0.001)
+    for word in ("-inf", "-NaN", "-1e400"):
+        refused(*run(["evaluate", str(walk), "--floor", word], capsys)[::2], f"--floor {word}: expected a floor height in metres")
+
+
 def test_error_is_one_line_even_for_names_with_line_breaks(tmp_path, capsys):
     odd = tmp_path / "two\nlines\r.bvh"
     line = refused(*run(["convert", str(odd), str(tmp_path / "out.bvh")], capsys)[::2], "no such file")
