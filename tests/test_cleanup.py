@@ -254,6 +254,7 @@ def test_cli_cleanup(tmp_path, capsys):
         (["--floor", "inf"], "--floor"),
         (["--source", str(src)], "--source"),
         (["--source", str(tmp_path / "none.bvh")], "--source"),
+        (["--source", str(rep)], "--source"),  # not a BVH: read as the judged clip's error, not the option's
     ):
         assert main(["cleanup", str(src), "-o", str(tmp_path / "x.bvh"), *bad]) == 2
         err = capsys.readouterr().err

@@ -183,7 +183,11 @@ def load_sources(args: argparse.Namespace, result_path: str, result, what: str =
                 same = a.read() == b.read()
         if same:
             raise MjmotionError(f"--source {src}: is {what} itself ({result_path}); give the clip(s) {what} was made from")
-        m = load(src, args, note=False)  # its leading transient skipped like the result's
+        try:
+            m = load(src, args, note=False)  # its leading transient skipped like the result's
+        except MjmotionError as e:  # named as the option it came from (it read as an error of the judged clip)
+            text = str(e)
+            raise MjmotionError(f"--source {text}" if text.startswith(src) else f"--source {src}: {text}") from None
         if not m.skeleton.same_topology(result.skeleton):
             raise MjmotionError(
                 f"--source {src}: another skeleton ({m.skeleton.n_joints} joints, root {m.skeleton.names[0]!r}) than "
