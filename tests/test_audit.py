@@ -619,10 +619,20 @@ def test_awkward_folders_names_and_options(tmp_path, capsys):
     shutil.copy(root / "walk.bvh", root / odd)
     (root / "a.bvh").symlink_to(root / "b.bvh")
     (root / "b.bvh").symlink_to(root / "a.bvh")
+    os.mkfifo(root / "pipe.bvh")
+    (root / "gone.bvh").symlink_to(root / "nothing")
     assert _listed(root) == sorted(["walk.bvh", odd])
     out = tmp_path / "audit"
     assert cli.main(["audit", str(root), "-o", str(out), "--workers", "1", "--keep-start"]) == 0
-    capsys.readouterr()
+    # Names no row is made for are said (they were dropped without a word), and evaluate DIR says the same.
+    notes = [line for line in capsys.readouterr().err.splitlines() if line.startswith("note:")]
+    assert notes == [
+        f"note: {root / name}: {why}; not audited"
+        for name, why in (("a.bvh", "a link to nothing (or a link loop)"), ("b.bvh", "a link to nothing (or a link loop)"),
+                          ("gone.bvh", "a link to nothing (or a link loop)"), ("pipe.bvh", "not a regular file"))
+    ]  # fmt: skip
+    assert cli.main(["evaluate", str(root), "--keep-start"]) == 0
+    assert capsys.readouterr().err.count("; not evaluated") == 4
     rows = _rows(out)
     assert set(rows) == {"walk.bvh", "caf\\xe9.bvh"} and all(r["status"] == "ok" for r in rows.values())
     want = evaluate_file(str(root / "walk.bvh"), audit.judge_options(keep_start=True))

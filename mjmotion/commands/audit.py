@@ -30,7 +30,7 @@ Dask cluster (--scheduler tcp://HOST:8786, started with 'dask scheduler' and 'da
 workers need mjmotion installed and DIR at the same path). A bad file is a row with status=error
 and its message; a worker that dies is replaced and its clips rerun by Dask; a clip running longer
 than --timeout is an error row, and so is a file that cannot be read (a folder that cannot be
-listed is named in a note). Nothing in DIR is written. The exit status is 0 when every file has
+listed, and a name ending in .bvh that is no file -- a dangling link, a pipe -- is named in a note). Nothing in DIR is written. The exit status is 0 when every file has
 its row, error rows included.
 
 With --resume, rows whose file (SHA-256), judge options, sources, judge revision and mjmotion
@@ -103,10 +103,13 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
     if args.resume and out.exists() and any(out.iterdir()) and not (out / "audit.csv").exists():
         raise MjmotionError(f"-o {out}: holds no audit.csv to resume; give an audit's folder, a new one, or --force to start an audit here")
     unreadable: list[str] = []
-    if not find_bvh(root, unreadable):
+    skipped: list[str] = []
+    if not find_bvh(root, unreadable, skipped):
         raise MjmotionError(f"{root}: no .bvh files found (searched recursively)" + (f"; cannot list {unreadable[0]}" if unreadable else ""))
     for folder in unreadable:
         sys.stderr.write(f"note: {folder}; the .bvh files in it are not audited\n")
+    for name in skipped:
+        sys.stderr.write(f"note: {name}; not audited\n")
     return root, out
 
 
