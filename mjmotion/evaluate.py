@@ -458,6 +458,10 @@ def evaluate(
         )
     if hit_frame is not None and ball is None:
         raise MjmotionError(f"hit_frame={hit_frame} without a ball: the hit frame is where the effector meets ball=mjcf.Ball(...)")
+    if motion.n_frames < 3:  # one minimum, said once (a 1-frame clip failed on foot speeds, a 2-frame one on inverse dynamics)
+        raise MjmotionError(
+            f"{motion.n_frames} frame(s); the judge needs at least 3 frames (speeds and accelerations are differences between frames)"
+        )
     check_sources(motion, sources)
     compiled = judge_model(motion.skeleton, props)
     pose = kinematics.forward(compiled, motion)

@@ -592,7 +592,19 @@ def test_errors_name_the_file_once(tmp_path, capsys):
         "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 1 Xposition\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\nnan\n"
     )
     assert main(["evaluate", str(folder / "one.bvh")]) == 2
-    assert capsys.readouterr().err == f"error: {folder / 'one.bvh'}: a clip needs at least 2 frames for foot speeds\n"
+    assert (
+        capsys.readouterr().err
+        == f"error: {folder / 'one.bvh'}: 1 frame(s); the judge needs at least 3 frames (speeds and accelerations are differences between frames)\n"
+    )
+    # One minimum, said the same way for 2 frames (it failed on foot speeds for 1 and on inverse dynamics for 2),
+    # by --frames when that is what left too few, and by cleanup, which judges before and after.
+    bvh.write(walk(seconds=1.0).motion[:2], tmp_path / "two.bvh")
+    assert main(["evaluate", str(tmp_path / "two.bvh")]) == 2
+    assert "2 frame(s); the judge needs at least 3 frames" in capsys.readouterr().err
+    assert main(["evaluate", str(tmp_path / "two.bvh"), "--frames", "0:1"]) == 2
+    assert capsys.readouterr().err.startswith("error: --frames 0:1: 1 frame(s) of ")
+    assert main(["cleanup", str(folder / "one.bvh"), "-o", str(tmp_path / "c.bvh")]) == 2
+    assert "1 frame(s); the judge needs at least 3 frames" in capsys.readouterr().err
     assert main(["evaluate", str(folder)]) == 2
     err = capsys.readouterr().err.splitlines()
     assert sorted(e.split(": ")[1].split(":")[0] for e in err) == [str(folder / "nan.bvh"), str(folder / "one.bvh")], err
