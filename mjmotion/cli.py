@@ -149,8 +149,7 @@ def _refuse_empty(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
         value = getattr(args, a.dest, None)
         blank = [v for v in (value if isinstance(value, list) else [value]) if isinstance(v, str) and not v.strip()]
         if blank:
-            shown = repr(blank[0]) if blank[0] else "(empty)"
-            p.error(f"argument {max(a.option_strings, key=len)}: {shown}: expected {a.metavar or 'a value'}")
+            p.error(f"{max(a.option_strings, key=len)} {blank[0]!r}: expected {a.metavar or a.dest.upper()}, not an empty value")
 
 
 def _is_number(word: str) -> bool:

@@ -308,7 +308,7 @@ def test_studio_verb_port_in_use_is_one_error_line():
 
 
 @pytest.mark.parametrize(
-    ("host", "why"), [("", "expected an address"), ("999.1.1.1", "not an address"), ("10.99.99.99", "not an address of this machine")]
+    ("host", "why"), [("", "expected HOST, not an empty value"), ("999.1.1.1", "not an address"), ("10.99.99.99", "not an address of this machine")]
 )
 def test_studio_verb_bad_host_is_one_error_line_naming_it(host, why):
     """An empty --host listened on every network (viser's default); a host this machine has not was
