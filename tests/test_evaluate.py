@@ -638,3 +638,16 @@ def test_a_source_that_is_a_folder_is_called_one(tmp_path, capsys):
     bvh.write(walk(seconds=1.0).motion, clip)
     assert main(["evaluate", str(clip), "--source", str(tmp_path)]) == 2
     assert capsys.readouterr().err == f"error: --source {tmp_path}: not a file (a .bvh clip is expected)\n"  # (it said "no such file")
+
+
+def test_a_stature_no_person_has_is_noted_with_the_units_option(capsys):
+    """``--units m`` on a centimetre clip read a 178 m person and empty ground metrics without a word of why."""
+    from mjmotion.cli import main
+
+    clip = str(require_data() / "cmu_asfamc_converted/16_15.bvh")
+    assert main(["evaluate", clip, "--units", "m"]) == 0
+    notes = [line for line in capsys.readouterr().out.splitlines() if "stature" in line]
+    assert notes == ["note: 16_15: stature 178 m, no person's (0.5-3 m): its units are probably not what --units m reads "
+                     "(mjmotion info shows the stature each --units gives)"]  # fmt: skip
+    assert main(["evaluate", clip]) == 0
+    assert "stature" not in capsys.readouterr().out

@@ -199,10 +199,28 @@ def load_sources(args: argparse.Namespace, result_path: str, result, what: str =
     return out
 
 
+#: Statures (m) outside this range are no person's: the clip's units were read wrong (a note says so).
+HUMAN_STATURE_M = (0.5, 3.0)
+
+
+def stature_note(motion: Motion, units: str) -> list[str]:
+    """A note when ``motion``'s stature is no person's: ``--units m`` on a centimetre clip read 178 m and
+    every ground metric empty, without a word of why."""
+    s = motion.skeleton.stature()
+    lo, hi = HUMAN_STATURE_M
+    if lo <= s <= hi:
+        return []
+    return [
+        f"note: {motion.name}: stature {s:.3g} m, no person's ({lo:g}-{hi:g} m): its units are probably not what "
+        f"--units {units} reads (mjmotion info shows the stature each --units gives)"
+    ]
+
+
 def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:
     """Evaluate one file; returns ``{"file", "skipped_frames", "report", "row", "notes"}`` (runs in worker processes)."""
-    _, offset, rep = evaluate_one(path, opts)
-    return {"file": path, "skipped_frames": offset, "report": rep.to_dict(), "row": rep.row(), "notes": rep.notes()}
+    motion, offset, rep = evaluate_one(path, opts)
+    notes = stature_note(motion, opts.get("units", "auto")) + rep.notes()
+    return {"file": path, "skipped_frames": offset, "report": rep.to_dict(), "row": rep.row(), "notes": notes}
 
 
 def evaluate_one(path: str, opts: dict[str, Any]) -> tuple[Motion, int, Report]:
