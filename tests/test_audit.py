@@ -494,6 +494,7 @@ def test_bad_input_is_one_error_line(corpus, tmp_path, capsys):
     _refused(
         ["audit", str(corpus), "-o", str(tmp_path / "o5"), "--scheduler", "tcp://127.0.0.1:1", "--dashboard"], capsys, "--dashboard with --scheduler"
     )
+    _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--connect-timeout", "5"], capsys, "--connect-timeout 5: is the wait for --scheduler")
     # A key given twice (JSON keeps the last silently) and a folder for a map (was "d: Is a directory").
     bad_map.write_text('{"bundled/WALK.BVH": "walk_src.bvh", "bundled/WALK.BVH": "run_src.bvh"}')
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(bad_map)], capsys, "'bundled/WALK.BVH' is given more than once")

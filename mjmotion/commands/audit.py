@@ -75,7 +75,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--connect-timeout",
         type=number(0, 3600, lo_open=True, what="a number of seconds"),
-        default=10.0,
         metavar="S",
         help="seconds to wait for --scheduler to answer (default 10)",
     )
@@ -120,13 +119,16 @@ def run(args: argparse.Namespace) -> int:
 
     from .. import audit
     from ..errors import require_number
-    from ..executor import Aside, Executor, check_options, cores, start
+    from ..executor import CONNECT_TIMEOUT, Aside, Executor, check_options, cores, start
     from ..inputs import find_bvh
     from ._common import units_scale
 
     if args.timeout is not None:
         require_number("--timeout", args.timeout, what="a time limit in seconds")
-    require_number("--connect-timeout", args.connect_timeout, what="seconds")
+    if args.connect_timeout is not None:
+        require_number("--connect-timeout", args.connect_timeout, what="seconds")
+        if args.scheduler is None:
+            raise MjmotionError(f"--connect-timeout {args.connect_timeout:g}: is the wait for --scheduler ADDRESS; there is none to wait for")
     units_scale(args.units)
     check_options(args.workers, args.scheduler)
     if args.dashboard and args.scheduler is not None:
@@ -152,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
             # A resume first learns whether anything is left to evaluate: an unchanged folder starts no workers
             # (and contacts no scheduler), so it costs a fraction of the first run.
             idle = args.resume and not planned.result().todo
-            where = dict(workers=workers, scheduler=args.scheduler, connect_timeout=args.connect_timeout, dashboard=args.dashboard)
+            where = dict(workers=workers, scheduler=args.scheduler, connect_timeout=args.connect_timeout or CONNECT_TIMEOUT, dashboard=args.dashboard)
             ex = Executor() if idle else start(**where, preload=audit.PRELOAD)
             with ex:
                 if args.force:  # only once the workers answer: a refused start leaves the old audit as it was
