@@ -30,8 +30,9 @@ Dask cluster (--scheduler tcp://HOST:8786, started with 'dask scheduler' and 'da
 workers need mjmotion installed and DIR at the same path). A bad file is a row with status=error
 and its message; a worker that dies is replaced and its clips rerun by Dask; a clip running longer
 than --timeout is an error row, and so is a file that cannot be read (a folder that cannot be
-listed, and a name ending in .bvh that is no file -- a dangling link, a pipe -- is named in a note). Nothing in DIR is written. The exit status is 0 when every file has
-its row, error rows included.
+listed, and a name ending in .bvh that is no file -- a dangling link, a pipe -- is named in a
+note). Nothing in DIR is written. The exit status is 0 when every file has its row, error rows
+included.
 
 With --resume, rows whose file (SHA-256), judge options, sources, judge revision and mjmotion
 version are unchanged are kept and not recomputed (errors that might go away -- a time limit, a
