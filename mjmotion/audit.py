@@ -23,6 +23,7 @@ import math
 import os
 import socket
 import time
+from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -450,11 +451,11 @@ def read_source_map(path: str | os.PathLike[str], clips: Iterable[str]) -> dict[
     p = Path(path)
 
     def once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-        keys = [k for k, _ in pairs]
-        twice = sorted({k for k in keys if keys.count(k) > 1})
-        if twice:  # JSON would keep the last silently
-            raise MjmotionError(f"--source-map {p}: {twice[0]!r} is given more than once; expected one entry per clip")
-        return dict(pairs)
+        out = dict(pairs)
+        if len(out) < len(pairs):  # JSON would keep the last silently
+            twice = min(k for k, n in Counter(k for k, _ in pairs).items() if n > 1)
+            raise MjmotionError(f"--source-map {p}: {twice!r} is given more than once; expected one entry per clip")
+        return out
 
     try:
         data = json.loads(p.read_text(encoding="utf-8"), object_pairs_hook=once)
@@ -688,12 +689,6 @@ def _md_code(path: str) -> str:
     return f"{fence} {text} {fence}" if fence == "``" else f"`{text}`"
 
 
-def _here(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Callable[[], Any]:
-    """``fn(*args, **kwargs)`` now, in this process (what :meth:`Aside.call` does without a side process)."""
-    value = fn(*args, **kwargs)
-    return lambda: value
-
-
 def write_summary(
     out_dir: Path,
     rows: Sequence[Mapping[str, Any]],
@@ -712,6 +707,7 @@ def write_summary(
     import numpy as np
 
     from . import plots
+    from .executor import here
 
     ok = [r for r in rows if r.get("status") == "ok"]
     lines = [
@@ -744,7 +740,7 @@ def write_summary(
         if plots.png_text(png).get(HISTOGRAMS_KEY) == digest:
             unchanged = (str(png),)
         else:
-            draw = aside.call if aside is not None else _here
+            draw = aside.call if aside is not None else here
             drawn = draw(plots.histograms, headline, png, title=title, metadata={HISTOGRAMS_KEY: digest})
             files.append(str(png))
     else:

@@ -122,11 +122,16 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _verb_parser(parser: argparse.ArgumentParser, verb: str | None) -> argparse.ArgumentParser | None:
+    """The parser of ``verb`` (None when no verb, or an unknown one, was named)."""
+    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+    return sub.choices.get(verb) if sub is not None and verb else None
+
+
 def _unrecognized(parser: argparse.ArgumentParser, verb: str | None, extra: list[str]) -> None:
     """Report words no option took, through the verb's own parser (its ``--help`` is the one to read); numbers
     left over after an option that takes a comma-separated list get the list's spelling."""
-    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
-    p = sub.choices.get(verb, parser) if sub is not None and verb else parser
+    p = _verb_parser(parser, verb) or parser
     message = f"unrecognized arguments: {' '.join(extra)}"
     lists = [a for a in p._actions if a.option_strings and isinstance(a.metavar, str) and "," in a.metavar]
     if lists and all(_is_number(w) for w in extra):
@@ -138,11 +143,9 @@ def _unrecognized(parser: argparse.ArgumentParser, verb: str | None, extra: list
 def _refuse_empty(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """An empty value of an option that takes text (a path, a name, a range) is a usage error: ``--json ""``
     was skipped as if not given, ``-o ""`` became the current folder."""
-    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
-    verb = getattr(args, "verb", None)
-    if sub is None or verb not in sub.choices:
+    p = _verb_parser(parser, getattr(args, "verb", None))
+    if p is None:
         return
-    p = sub.choices[verb]
     for a in p._actions:
         if not a.option_strings or a.type is not None or a.nargs == 0 or a.choices is not None:
             continue

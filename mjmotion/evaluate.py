@@ -430,6 +430,18 @@ def judge_model(skeleton: Skeleton, props: Sequence[mjcf.Prop] = ()) -> Compiled
     return compiled
 
 
+#: The shortest clip the judge takes: speeds and accelerations are differences between frames.
+MIN_FRAMES = 3
+
+
+def require_frames(n_frames: int) -> None:
+    """One minimum, said once (a 1-frame clip failed on foot speeds, a 2-frame one on inverse dynamics)."""
+    if n_frames < MIN_FRAMES:
+        raise MjmotionError(
+            f"{n_frames} frame(s); the judge needs at least {MIN_FRAMES} frames (speeds and accelerations are differences between frames)"
+        )
+
+
 def evaluate(
     motion: Motion,
     props: Sequence[mjcf.Prop] = (),
@@ -458,10 +470,7 @@ def evaluate(
         )
     if hit_frame is not None and ball is None:
         raise MjmotionError(f"hit_frame={hit_frame} without a ball: the hit frame is where the effector meets ball=mjcf.Ball(...)")
-    if motion.n_frames < 3:  # one minimum, said once (a 1-frame clip failed on foot speeds, a 2-frame one on inverse dynamics)
-        raise MjmotionError(
-            f"{motion.n_frames} frame(s); the judge needs at least 3 frames (speeds and accelerations are differences between frames)"
-        )
+    require_frames(motion.n_frames)
     check_sources(motion, sources)
     compiled = judge_model(motion.skeleton, props)
     pose = kinematics.forward(compiled, motion)

@@ -289,12 +289,8 @@ def _executing(dask_worker: Any) -> dict[str, float]:
     return {str(ts.key): now - ts.start_time for ts in list(dask_worker.state.executing) if ts.start_time}
 
 
-#: Whether Dask loaded its dashboard in the process evaluating this (a scheduler's).
-_DASHBOARD_LOADED = "'distributed.dashboard.scheduler' in __import__('sys').modules"
-
-
-def _dashboard_loaded() -> bool:
-    return bool(eval(_DASHBOARD_LOADED))
+#: The module Dask loads in a scheduler's process when its dashboard runs (it needs Bokeh).
+_DASHBOARD_MODULE = "distributed.dashboard.scheduler"
 
 
 @contextlib.contextmanager
@@ -323,16 +319,21 @@ def _interrupt_after() -> Iterator[None]:
         raise KeyboardInterrupt
 
 
-def dask_setup(worker: Any) -> None:
-    """Dask's preload hook, run in each local worker process as it starts (:data:`LOCAL_CONFIG`): Ctrl-C at
-    a terminal reaches the whole process group, and every worker printed the traceback of its interrupted
-    event loop under the audit's one ``error: interrupted`` line. The process that started the cluster
-    takes the interrupt and closes its workers; they ignore it."""
+def _ignore_interrupt() -> None:
+    """Ignore Ctrl-C (SIGINT) in this process, when called in its main thread (only there can it be set)."""
     import signal
     import threading
 
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def dask_setup(worker: Any) -> None:
+    """Dask's preload hook, run in each local worker process as it starts (:data:`LOCAL_CONFIG`): Ctrl-C at
+    a terminal reaches the whole process group, and every worker printed the traceback of its interrupted
+    event loop under the audit's one ``error: interrupted`` line. The process that started the cluster
+    takes the interrupt and closes its workers; they ignore it."""
+    _ignore_interrupt()
 
 
 def _end_process() -> None:
@@ -396,14 +397,16 @@ class Dask(Executor):
         self.workers = sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values()) or (workers or 0)
         # The scheduler's web server (its "dashboard" service) also runs without a dashboard, for its health
         # routes: the dashboard is up where the scheduler runs if Dask could load it there (it needs Bokeh).
-        running = "dashboard" in info.get("services", {}) and (_dashboard_loaded() if self.cluster is not None else self._remote_dashboard_loaded())
+        running = "dashboard" in info.get("services", {}) and (
+            _DASHBOARD_MODULE in sys.modules if self.cluster is not None else self._remote_dashboard_loaded()
+        )
         self.dashboard = self.client.dashboard_link if running else None
 
     def _remote_dashboard_loaded(self) -> bool:
         # Asked of the scheduler process: ``eval`` of our own constant text, because a function of ours
         # would be sent by reference and the scheduler's machine need not have mjmotion installed.
         try:
-            return bool(self.client.run_on_scheduler(eval, _DASHBOARD_LOADED))
+            return bool(self.client.run_on_scheduler(eval, f"{_DASHBOARD_MODULE!r} in __import__('sys').modules"))
         except Exception:  # a scheduler that refuses to run functions: no link rather than a dead one
             return False
 
@@ -529,12 +532,16 @@ def load(preload: Iterable[str | Callable[[], object]]) -> None:
             importlib.import_module(item)
 
 
+def here(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Callable[[], Any]:
+    """``fn(*args, **kwargs)`` now, in this process, with :meth:`Aside.call`'s answer: a function giving its value."""
+    value = fn(*args, **kwargs)
+    return lambda: value
+
+
 def _aside_start(preload: Sequence[str | Callable[[], object]]) -> None:
     """The side process's first task: it ignores Ctrl-C (the process that made it handles the interrupt and
     ends it; otherwise it printed a traceback of its wait for work), then loads ``preload``."""
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _ignore_interrupt()
     load(preload)
 
 
@@ -576,8 +583,7 @@ class Aside:
                         return fn(*args, **kwargs)
 
                 return wait
-        value = fn(*args, **kwargs)
-        return lambda: value
+        return here(fn, *args, **kwargs)
 
     def close(self) -> None:
         if self.pool is not None:

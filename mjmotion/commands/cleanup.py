@@ -82,6 +82,7 @@ def _metrics(motion, sources, floor, params) -> dict[str, float]:
 def run(args: argparse.Namespace) -> int:
     from .. import bvh
     from .. import cleanup as cl
+    from .. import evaluate as ev
 
     _finite(args.h_c, "--h-c", "a contact height in metres")
     _finite(args.v_c, "--v-c", "a contact speed in m/s")
@@ -91,10 +92,10 @@ def run(args: argparse.Namespace) -> int:
     out = output_path(args, args.file, *args.source)
     rep_path = check_output(args.json, force=args.force, inputs=(args.file, str(out), *args.source)) if args.json else None
     m = load(args.file, args)
-    if m.n_frames < 3:  # the table judges it before and after
-        raise MjmotionError(
-            f"{args.file}: {m.n_frames} frame(s); the judge needs at least 3 frames (speeds and accelerations are differences between frames)"
-        )
+    try:
+        ev.require_frames(m.n_frames)  # the table judges it before and after
+    except MjmotionError as e:
+        raise naming(args.file, e) from None
     sources = load_sources(args, args.file, m, what="the input") if args.source else []  # leading T-poses cut like the input's, as evaluate cuts them
     params = cl.CleanupParams(
         h_c=args.h_c, v_c=args.v_c, blend=args.blend, clearance=args.clearance, floor=args.floor, hold_orientation=args.hold_orientation

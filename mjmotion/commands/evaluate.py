@@ -234,8 +234,8 @@ def evaluate_one(path: str, opts: dict[str, Any]) -> tuple[Motion, int, Report]:
 
     args = argparse.Namespace(**opts)
     m, offset = load_first(path, args, args.frames, note=False)  # the skipped frames are listed once, after the table
-    if args.frames is not None and m.n_frames < 3:
-        raise MjmotionError(f"--frames {args.frames}: {m.n_frames} frame(s) of {path}; the judge needs at least 3")
+    if args.frames is not None and m.n_frames < ev.MIN_FRAMES:
+        raise MjmotionError(f"--frames {args.frames}: {m.n_frames} frame(s) of {path}; the judge needs at least {ev.MIN_FRAMES}")
     sources = load_sources(args, path, m) if getattr(args, "source", None) else []
     props = tuple(prop_option(m, t) for t in args.prop)
     ball = None
