@@ -165,7 +165,7 @@ class Skeleton:
         or foot is found by name.
         """
         feet = self.feet()
-        head = next((j for j, n in enumerate(self.names) if "head" in n.lower() and "end" not in n.lower()), None)
+        head = self.head()
         if head is None or not feet:
             return self.height()
         lengths = np.linalg.norm(self.offsets, axis=1)
@@ -189,6 +189,10 @@ class Skeleton:
         return float(total + tip_len(head) + 0.5 * tip_len(foot_tip))
 
     # --- named parts -----------------------------------------------------------------------
+    def head(self) -> int | None:
+        """The first joint named like a head (not an end bone such as iClone's ``HeadEnd``), or None."""
+        return next((j for j, n in enumerate(self.names) if "head" in n.lower() and "end" not in n.lower()), None)
+
     def feet(self) -> dict[str, tuple[int, int | None]]:
         """``{"left": (ankle, toe or None), "right": (…)}`` found by name.
 

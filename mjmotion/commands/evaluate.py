@@ -219,7 +219,9 @@ def stature_note(motion: Motion, units: str) -> list[str]:
 def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:
     """Evaluate one file; returns ``{"file", "skipped_frames", "report", "row", "notes"}`` (runs in worker processes)."""
     motion, offset, rep = evaluate_one(path, opts)
-    notes = stature_note(motion, opts.get("units", "auto")) + rep.notes()
+    from ..upright import up_note
+
+    notes = up_note(motion) + stature_note(motion, opts.get("units", "auto")) + rep.notes()
     return {"file": path, "skipped_frames": offset, "report": rep.to_dict(), "row": rep.row(), "notes": notes}
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 from ..errors import printable as _shown
 from ._common import add_input_options, read_motion
@@ -41,13 +42,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_input_options(p, trim=False)
 
 
-def describe(path: str, args: argparse.Namespace) -> dict:
+def describe(path: str, args: argparse.Namespace, notes: list[str] | None = None) -> dict:
+    """What ``path`` holds, as ``run`` prints it; ``notes`` gets the ``--up`` note (:func:`mjmotion.upright.up_note`)."""
     from ..bvh import frame_time_text
     from ..trim import leading_transient
+    from ..upright import standing_axis, up_note
 
     m = read_motion(path, args)
     s = m.skeleton
     frame_time = frame_time_text(m.fps)
+    standing = standing_axis(m)
+    if notes is not None:
+        notes += up_note(m, _shown(path), standing)
     return {
         "file": path,
         "joints": s.n_joints,
@@ -60,6 +66,8 @@ def describe(path: str, args: argparse.Namespace) -> dict:
         "leading_transient_frames": leading_transient(m),
         "scale_m_per_unit": s.scale,
         "up": s.up,
+        "standing_axis": None if standing is None else standing.axis,
+        "standing_share": None if standing is None else standing.share,
         "stature_m": s.stature(),
         "feet": {k: {"ankle": s.names[a], "toe": None if t is None else s.names[t]} for k, (a, t) in s.feet().items()},
         "hands": {k: s.names[v] for k, v in s.hands().items()},
@@ -70,7 +78,11 @@ def describe(path: str, args: argparse.Namespace) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    d = describe(args.file, args)
+    notes: list[str] = []
+    d = describe(args.file, args, notes)
+    for line in notes:
+        sys.stderr.write(line + "\n")
+    axis = d["standing_axis"]
     if args.json:
         print(json.dumps(d, indent=2))  # (JSON escapes control characters itself)
         return 0
@@ -80,7 +92,10 @@ def run(args: argparse.Namespace) -> int:
     if d["leading_transient_frames"]:
         k = d["leading_transient_frames"]
         print(f"  start       frames 0-{k - 1} are a leading T-pose/transition: the other verbs skip them unless --keep-start")
-    print(f"  units       {d['scale_m_per_unit']:.6g} m per file unit, up axis {d['up']}; stature ≈ {d['stature_m']:.2f} m")
+    stands = "no axis in most frames" if axis is None else f"{axis.upper()} in {d['standing_share']:.0%} of frames"
+    print(
+        f"  units       {d['scale_m_per_unit']:.6g} m per file unit, up axis {d['up']} (the body stands along {stands}); stature ≈ {d['stature_m']:.2f} m"
+    )
     feet = [f"{side} {f['ankle']}" + (f" → {f['toe']}" if f["toe"] else " (no toe)") for side, f in d["feet"].items()]
     print(f"  feet        {_shown(', '.join(feet) or 'none found by name')}")
     hands = [f"{side} {name}" for side, name in d["hands"].items()]
