@@ -520,7 +520,11 @@ def _parse_values(lines: list[str], start: int, n_channels: int, frames: int, pa
     if bad.any():
         row, col = map(int, np.argwhere(bad)[0])
         ln = start + 1 + _nonempty_line_offset(lines, start, row)
-        raise BvhError(path, ln, f"value {col + 1} is {values[row, col]}; expected a finite number")
+        fields = lines[ln - 1].split() if 0 < ln <= len(lines) else []
+        text = fields[col] if col < len(fields) else str(values[row, col])
+        # A number past a double's range (1e400) reads as inf: say what the file holds, and why.
+        beyond = ", beyond a double's range (±1.8e308)" if text.lower().lstrip("+-") not in ("inf", "infinity", "nan") else ""
+        raise BvhError(path, ln, f"value {col + 1} is {text}{beyond}; expected a finite number")
     return values
 
 
