@@ -188,7 +188,7 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
     file must still look as it did before (a file written to meanwhile is an error row)."""
     from . import bvh
     from . import evaluate as ev
-    from .commands._common import load
+    from .commands._common import load, named
     from .commands.evaluate import evaluate_one
 
     if listed is not None and unchanged(path, listed):
@@ -219,7 +219,8 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
     try:
         motion, offset, report = evaluate_one(path, opts)
     except MjmotionError as e:
-        row: dict[str, Any] = {"error": one_line(str(e))}
+        # Named as evaluate DIR names it: the judge's own errors speak of "a clip".
+        row: dict[str, Any] = {"error": one_line(named(path, str(e)))}
         try:  # the flavour of a clip that reads but cannot be judged
             m = bvh.read(path)
             row.update(frames=m.n_frames, fps=float(m.fps), flavour=flavour(m.skeleton.names), joints=m.skeleton.n_joints)

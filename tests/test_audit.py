@@ -29,6 +29,7 @@ from conftest import require_data, within
 
 from mjmotion import audit, bvh, cli, executor
 from mjmotion import evaluate as ev
+from mjmotion.commands._common import named
 from mjmotion.commands.evaluate import evaluate_file
 from mjmotion.errors import MjmotionError
 from mjmotion.inputs import find_bvh
@@ -129,8 +130,8 @@ def test_audit_on_a_local_cluster_matches_evaluate(corpus, tmp_path, capsys):
             assert row["status"] == "error" and row["error_kind"] == "input"
             try:
                 evaluate_file(path, opts)
-            except Exception as e:  # the message evaluate gives for the same file, on one line
-                assert row["error"] == executor.one_line(str(e))
+            except Exception as e:  # the message evaluate DIR gives for the same file (named), on one line
+                assert row["error"] == executor.one_line(named(path, str(e))) and row["error"].startswith(path + ":")
             else:
                 pytest.fail(f"{rel} evaluates")
             continue
