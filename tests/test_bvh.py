@@ -99,7 +99,18 @@ def test_format_variants_read_the_same(variant):
         (lambda t: t.replace("JOINT Leg", "JOINT Chest"), 15, "duplicate joint name"),
         (lambda t: t.replace("MOTION", "MOTON"), 25, "unexpected"),
     ],
-    ids=["short-line", "frames-mismatch", "nan", "past-double", "non-numeric", "channel-count", "unknown-channel", "frame-time", "duplicate", "no-motion"],
+    ids=[
+        "short-line",
+        "frames-mismatch",
+        "nan",
+        "past-double",
+        "non-numeric",
+        "channel-count",
+        "unknown-channel",
+        "frame-time",
+        "duplicate",
+        "no-motion",
+    ],
 )
 def test_errors_name_file_line_and_problem(mutate, line, words):
     with pytest.raises(BvhError) as e:

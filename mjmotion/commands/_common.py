@@ -30,7 +30,12 @@ def add_input_options(p: argparse.ArgumentParser, trim: bool = True) -> None:
         help="file length unit: auto (detect from the skeleton's size), m, cm, mm, asf (CMU's 5.644 cm), "
         "or a number of metres per unit, 1e-6 to 1000 (default: auto)",
     )
-    p.add_argument("--up", choices=("y", "z"), default="y", help="the file's up axis (default: y, the BVH norm; mjmotion info shows the axis the body stands along)")
+    p.add_argument(
+        "--up",
+        choices=("y", "z"),
+        default="y",
+        help="the file's up axis (default: y, the BVH norm; mjmotion info shows the axis the body stands along)",
+    )
     if trim:
         p.add_argument(
             "--keep-start",
