@@ -446,9 +446,10 @@ class Clip:
     listed: Listed | None = None
 
 
-def read_source_map(path: str | os.PathLike[str], clips: Iterable[str]) -> dict[str, tuple[str, ...]]:
+def read_source_map(path: str | os.PathLike[str], clips: Iterable[str], root: Path | None = None) -> dict[str, tuple[str, ...]]:
     """``--source-map FILE``: a JSON object from a clip's path under DIR to the clip (or list of clips) it
-    was made from; sources are relative to the map file's folder unless absolute."""
+    was made from; sources are relative to the map file's folder unless absolute. With ``root`` (DIR), a
+    clip given as its own source is refused too (the judge refuses it for each clip, after the listing)."""
     p = Path(path)
 
     def once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
@@ -483,9 +484,18 @@ def read_source_map(path: str | os.PathLike[str], clips: Iterable[str]) -> dict[
             s = Path(n) if Path(n).is_absolute() else p.parent / n
             if not s.is_file():
                 raise MjmotionError(f"--source-map {p}: {key!r}: source {n} not found (looked for {s})")
+            if root is not None and _same_file(s, root / key):
+                raise MjmotionError(f"--source-map {p}: {key!r}: source {n} is the clip itself; expected the clip(s) it was made from")
             resolved.append(str(s.resolve()))
         out[key] = tuple(resolved)
     return out
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # (a key whose name is not UTF-8 is held as text with escapes: no such path)
+        return False
 
 
 def rel_text(path: Path, base: Path) -> str:

@@ -484,6 +484,11 @@ def test_bad_input_is_one_error_line(corpus, tmp_path, capsys):
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o4"), "--source-map", str(bad_map)], capsys, "'nope.bvh' is not a .bvh file")
     bad_map.write_text(json.dumps({"bundled/WALK.BVH": "missing_source.bvh"}))
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(bad_map)], capsys, "missing_source.bvh not found")
+    # A clip as its own source (was an error row per clip, after the listing and hashing).
+    bad_map.write_text(json.dumps({"bundled/WALK.BVH": str(corpus / "bundled" / "WALK.BVH")}))
+    _refused(
+        ["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(bad_map)], capsys, "'bundled/WALK.BVH': source", "is the clip itself"
+    )
     # --resume into a folder that was never an audit wrote an audit among its files; 256 local workers on a
     # few cores started no clip in 90 s; --dashboard with --scheduler waited for the scheduler first.
     (tmp_path / "mine").mkdir()

@@ -142,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
     if args.source_map:
         base = root.resolve()
         rels = [audit.rel_text(p, base) for p in find_bvh(base)]
-        source_map = audit.read_source_map(args.source_map, rels)
+        source_map = audit.read_source_map(args.source_map, rels, base)
     workers = args.workers if args.workers is not None or args.scheduler is not None else cores()
     # Forked before Dask loads: the histograms' Matplotlib loads there meanwhile, off the workers' cores.
     # A resume may have nothing to draw (and should exit at once), so it draws in this process.
