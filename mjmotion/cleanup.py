@@ -33,7 +33,9 @@ planned and §4 left undone. Feet, floor and contacts are the judge's (:mod:`mjm
    the knee bends in its captured plane — turning towards its own hinge where the captured knee
    is nearly straight (:data:`STRAIGHT_KNEE_DEG`), whose plane is marker noise — and the hip
    swings the ankle onto the target; the ankle's local rotation then gives the foot its
-   orientation. Bone lengths are unchanged.
+   orientation. Bone lengths are unchanged. A joint's correction turns no faster in one frame
+   than the joint was captured turning (:func:`_despiked`): the legs cancel a one-frame jerk of
+   the captured pelvis only that far, and the foot jerks with the body by the rest.
 
 Frames outside every plant's blend window (and the root window) where no foot is lifted keep
 their joint angles exactly; only hips, knees and ankles (and the root) ever change.
@@ -53,7 +55,7 @@ from . import floor as floors
 from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError, require_number
-from .filters import lowpass, smooth_cover
+from .filters import lowpass, moving_median, smooth_cover
 from .ik import analytic
 from .skeleton import Motion
 from .thresholds import H_C, HYSTERESIS, SPEED_WINDOW, V_C
@@ -841,4 +843,42 @@ def _solve_legs(
             q = rot.normalize(q)
             # Keep each quaternion in the captured one's hemisphere (same rotation, continuous signs).
             rots[act, j] = q * np.where(np.sum(q * moved.rotations[act, j], axis=-1) < 0, -1.0, 1.0)[:, None]
+        for j in (h, k, a):
+            rots[:, j] = _despiked(moved.rotations[:, j], rots[:, j], moved.fps)
     return moved.replace(rotations=rots), unreached
+
+
+#: A leg correction's one-frame spike is removed when alone it is as sharp as this percentile of the
+#: joint's captured angular acceleration (the judge's pops are 4x its 99th percentile).
+SPIKE_PERCENTILE = 99.0
+
+
+def _despiked(captured: np.ndarray, solved: np.ndarray, fps: float) -> np.ndarray:
+    """``solved (T, 4)`` local rotations of a leg joint without the one-frame spikes of its correction
+    from ``captured (T, 4)`` that are sharper than the joint's own captured motion.
+
+    A one-frame jerk of the captured body (a pelvis turned 1-2° and back, daz 05_01 and 08_05) against
+    a held foot made the legs cancel it in that frame: a thigh popping at 4-5x its captured peak
+    acceleration. Where the correction's rotation vector leaves the running median of 3 frames
+    (:func:`mjmotion.filters.moving_median`) by ``e`` with ``2|e|·fps²`` above the joint's captured
+    acceleration peak (:data:`SPIKE_PERCENTILE`-th percentile), ``e`` is scaled down to that peak:
+    the legs cancel as much of the jerk as they can without moving faster than they were captured
+    moving, and the foot jerks with the body by the rest. Smaller spikes (the legs cancelling
+    marker jitter, which holds the plants) and a correction that ramps, steps or holds stay as
+    they are, and so does every other frame."""
+    d = rot.log(rot.multiply(rot.conjugate(captured), solved))
+    median = moving_median(d, 3)
+    excess = np.linalg.norm(median - d, axis=1)
+    if len(captured) < 3 or not excess.any():
+        return solved
+    omega = rot.log(rot.multiply(rot.conjugate(captured[:-1]), captured[1:])) * fps  # (T-1, 3) rad/s
+    peak = float(np.percentile(np.linalg.norm(np.diff(omega, axis=0), axis=1) * fps, SPIKE_PERCENTILE))
+    sharp = 2.0 * excess * fps * fps  # (T,) rad/s²
+    spiked = sharp > max(peak, 1e-9)
+    if not spiked.any():
+        return solved
+    out = solved.copy()
+    keep = (peak / sharp[spiked])[:, None]  # the spike's share that is as sharp as the captured peak
+    q = rot.multiply(captured[spiked], rot.exp(median[spiked] + keep * (d[spiked] - median[spiked])))
+    out[spiked] = q * np.where(np.sum(q * captured[spiked], axis=-1) < 0, -1.0, 1.0)[:, None]
+    return out

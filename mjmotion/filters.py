@@ -272,6 +272,13 @@ def moving_mean(x: np.ndarray, size: int, axis: int = 0) -> np.ndarray:
     return _windows(np.asarray(x, dtype=float), size, axis, "edge").mean(axis=-1)
 
 
+def moving_median(x: np.ndarray, size: int, axis: int = 0) -> np.ndarray:
+    """Median of the centred ``size`` frames along ``axis``, the ends extended by their own values
+    (``scipy.ndimage.median_filter`` along one axis, ``mode="nearest"``). Of 3 frames: a one-frame
+    spike is gone, while ramps, steps and plateaus are left exactly as they are."""
+    return np.median(_windows(np.asarray(x, dtype=float), size, axis, "edge"), axis=-1)
+
+
 def hann_smooth(x: np.ndarray, half: int, axis: int = 0) -> np.ndarray:
     """Weighted mean of the centred ``2·half + 1`` frames along ``axis`` under a Hann window (its
     two zero end taps left out), the ends extended by their own values."""
