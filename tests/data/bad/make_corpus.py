@@ -232,7 +232,11 @@ def cases() -> list[Case]:
         _err("value_nan", "nan among the values (frame 2)", _data_line(1, lambda t: _set(t, 4, "nan")), DATA + 2, "value 5 is nan"),  # fmt: skip
         _err("value_inf", "-inf among the values (frame 3)", _data_line(2, lambda t: _set(t, 17, "-inf")), DATA + 3, "value 18 is -inf"),  # fmt: skip
         _err(
-            "value_overflow", "1e999 (overflows to inf) in frame 1", _data_line(0, lambda t: _set(t, 3, "1e999")), DATA + 1, "value 4 is inf"
+            "value_overflow",
+            "1e999 (overflows to inf) in frame 1",
+            _data_line(0, lambda t: _set(t, 3, "1e999")),
+            DATA + 1,
+            "value 4 is 1e999, beyond a double's range",
         ),  # fmt: skip
         _err(
             "values_too_few",
