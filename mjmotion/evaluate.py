@@ -58,7 +58,20 @@ from .feet import (
 from .filters import moving_mean
 from .mjcf import CompiledModel
 from .skeleton import Motion, Skeleton
-from .thresholds import DEFAULTS, FLOAT_TOL, H_C, H_C_SENSITIVITY, HYSTERESIS, MAX_JUDGED_FPS, SKATE_WINDOW, V_C, Params
+from .thresholds import (
+    ACCEL_FLOOR,
+    DEFAULTS,
+    FLOAT_TOL,
+    H_C,
+    H_C_SENSITIVITY,
+    HYSTERESIS,
+    MAX_JUDGED_FPS,
+    PEAK_PERCENTILE,
+    POP_FACTOR,
+    SKATE_WINDOW,
+    V_C,
+    Params,
+)
 
 __all__ = [
     "FLOAT_TOL", "H_C", "H_C_SENSITIVITY", "HYSTERESIS", "SKATE_WINDOW", "V_C", "FootTrack", "GroundMetrics", "MjmotionError",
@@ -187,13 +200,13 @@ def joint_angular_speeds(motion: Motion) -> np.ndarray:
 
 def joint_angular_accelerations(motion: Motion) -> np.ndarray:
     """``(T, J)`` magnitude (rad/s²) of each joint's local angular acceleration: the change of the
-    angular velocity vector ``2·log(q_t⁻¹ q_{t+1})·fps`` between the steps either side of frame t
-    (0 at the first and last frame)."""
+    angular velocity vector ``log(q_t⁻¹ q_{t+1})·fps`` (:func:`mjmotion.rotations.log`: axis × angle)
+    between the steps either side of frame t, times fps (0 at the first and last frame)."""
     out = np.zeros((motion.n_frames, motion.skeleton.n_joints))
     if motion.n_frames < 3:
         return out
     q = motion.rotations
-    omega = rot.log(rot.multiply(rot.conjugate(q[:-1]), q[1:])) * (2.0 * motion.fps)  # (T-1, J, 3)
+    omega = rot.log(rot.multiply(rot.conjugate(q[:-1]), q[1:])) * motion.fps  # (T-1, J, 3) rad/s
     out[1:-1] = rot.norm(np.diff(omega, axis=0)) * motion.fps
     return out
 
@@ -229,7 +242,11 @@ def worst_joint_speed_ratio(result: Motion, sources: Motion | Sequence[Motion], 
 
 
 def pop_frames(
-    result: Motion, reference: Motion | Sequence[Motion] | None = None, factor: float = 4.0, percentile: float = 99.0, floor: float = 60.0
+    result: Motion,
+    reference: Motion | Sequence[Motion] | None = None,
+    factor: float = POP_FACTOR,
+    percentile: float = PEAK_PERCENTILE,
+    floor: float = ACCEL_FLOOR,
 ) -> np.ndarray:
     """``(T,)`` bool: frames where some joint's angular acceleration (:func:`joint_angular_accelerations`)
     exceeds ``factor`` × that joint's robust peak (``percentile``-th percentile over frames, at

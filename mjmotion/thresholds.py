@@ -53,7 +53,9 @@ PEAK_PERCENTILE = 99.0
 #: Smallest reference peaks (worst_joint_speed_ratio, pops): a joint that barely moves in its
 #: source (a finger held still) would otherwise turn any motion into a huge ratio.
 SPEED_FLOOR = 1.0  #: rad/s
-ACCEL_FLOOR = 60.0  #: rad/s²
+#: rad/s². Until 2026-12 the judge's angular accelerations read twice their value and this was 60:
+#: the same floor, and the same pop frames.
+ACCEL_FLOOR = 30.0
 
 
 @dataclass(frozen=True)

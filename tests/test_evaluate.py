@@ -276,6 +276,21 @@ def test_worst_joint_speed_ratio_sees_a_knee_pop_under_a_glitchy_finger():
     assert ev.joint_angular_accelerations(src)[[0, -1]].max() == 0.0
 
 
+def test_joint_angular_speeds_and_accelerations_are_in_radians_per_second():
+    """A joint turning with a known angular acceleration (10 rad/s² about x, then about a tilted axis)
+    reads it, and its speed, in true units (the acceleration read twice its value until 2026-12)."""
+    from mjmotion import synth
+
+    m = synth.walk(seconds=1.0).motion
+    t = np.arange(m.n_frames) / m.fps
+    for axis in (np.array([1.0, 0.0, 0.0]), np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])):
+        q = m.rotations.copy()
+        q[:, 3] = rot.exp((0.5 * 10.0 * t * t)[:, None] * axis)
+        turned = m.replace(rotations=q)
+        assert ev.joint_angular_accelerations(turned)[1:-1, 3] == pytest.approx(10.0, rel=1e-6)
+        assert ev.joint_angular_speeds(turned)[:, 3] == pytest.approx(10.0 * (t[:-1] + 0.5 / m.fps), rel=1e-6)
+
+
 def test_leading_transient_finds_daz_tpose():
     m = shared_clip("cmu_cgspeed_daz/07_01.bvh")
     assert 3 <= leading_transient(m) <= 4
