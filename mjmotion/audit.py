@@ -39,7 +39,7 @@ from .thresholds import JUDGE_REVISION
 #: Columns every row has, before the metrics (``status`` is ``ok`` or ``error``).
 META = (
     "path", "size", "sha256", "status", "error", "error_kind", "frames", "fps", "flavour", "joints",
-    "skipped_frames", "seconds", "source_files", "options", "mjmotion_version", "params",
+    "standing_axis", "skipped_frames", "seconds", "source_files", "options", "mjmotion_version", "params",
 )  # fmt: skip
 _TYPES = {"size": int, "frames": int, "joints": int, "skipped_frames": int, "fps": float, "seconds": float}
 #: Seconds between rewrites of ``audit.parquet`` while an audit runs.
@@ -190,6 +190,7 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
     from . import evaluate as ev
     from .commands._common import load, named
     from .commands.evaluate import evaluate_one
+    from .upright import standing_axis
 
     if listed is not None and unchanged(path, listed):
         looked = listed.stat
@@ -233,6 +234,8 @@ def audit_clip(path: str, sha256: str, opts: dict[str, Any], sources: tuple[str,
         "fps": float(motion.fps),
         "flavour": flavour(motion.skeleton.names),
         "joints": motion.skeleton.n_joints,
+        # The file axis the body stands along (mjmotion/upright.py): a folder read with the wrong --up shows here.
+        "standing_axis": None if (standing := standing_axis(motion)) is None else standing.axis,
         "skipped_frames": offset,
         "params": json.dumps(d.get("params"), sort_keys=True, default=float),
         **metric_columns(d),
@@ -700,6 +703,30 @@ def _md_code(path: str) -> str:
     return f"{fence} {text} {fence}" if fence == "``" else f"`{text}`"
 
 
+def _misread(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The summary's lines on clips whose body stands along another file axis than the ``--up`` they were
+    read with (their ``standing_axis`` column; nothing when there are none)."""
+    odd = []
+    for r in rows:
+        axis = r.get("standing_axis")
+        try:
+            up = json.loads(r.get("options") or "{}").get("up", "y")
+        except (ValueError, AttributeError):
+            up = "y"
+        if isinstance(axis, str) and axis != f"+{up}":
+            odd.append((r["path"], axis, up))
+    if not odd:
+        return []
+    shown = "; ".join(f"{_md_code(p)} {a.upper()}" for p, a, _ in odd[:WORST]) + (f"; and {len(odd) - WORST} more" if len(odd) > WORST else "")
+    ups = sorted({u for _, _, u in odd})
+    return [
+        "",
+        f"**{len(odd)} clip{'s' * (len(odd) != 1)} stand{'s' * (len(odd) == 1)} along another file axis than `--up {'/'.join(ups)}` reads** "
+        f"(the `standing_axis` column: the head above the feet in most frames): {shown}. Their ground metrics measure a body "
+        "lying down; unless they are of a body lying down, audit them again with the other `--up` (see `mjmotion info CLIP`).",
+    ]
+
+
 def write_summary(
     out_dir: Path,
     rows: Sequence[Mapping[str, Any]],
@@ -737,6 +764,7 @@ def write_summary(
         n = by.setdefault(str(r.get("flavour") or "unreadable"), [0, 0])
         n[0 if r.get("status") == "ok" else 1] += 1
     lines += [f"| {f} | {a + b} | {a} | {b} |" for f, (a, b) in sorted(by.items())]
+    lines += _misread(rows)
     metrics = numeric_metrics(rows)
     files: list[str] = []
     unchanged: tuple[str, ...] = ()

@@ -523,8 +523,8 @@ def _parse_values(lines: list[str], start: int, n_channels: int, frames: int, pa
         fields = lines[ln - 1].split() if 0 < ln <= len(lines) else []
         text = fields[col] if col < len(fields) else str(values[row, col])
         # A number past a double's range (1e400) reads as inf: say what the file holds, and why.
-        beyond = ", beyond a double's range (±1.8e308)" if text.lower().lstrip("+-") not in ("inf", "infinity", "nan") else ""
-        raise BvhError(path, ln, f"value {col + 1} is {text}{beyond}; expected a finite number")
+        what = "not finite" if text.lower().lstrip("+-") in ("inf", "infinity", "nan") else "beyond the largest double (±1.797e308)"
+        raise BvhError(path, ln, f"value {col + 1} {_q(text)} is {what}; expected a finite number")
     return values
 
 

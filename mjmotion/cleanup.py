@@ -874,7 +874,8 @@ def _despiked(captured: np.ndarray, solved: np.ndarray, fps: float) -> np.ndarra
     omega = rot.log(rot.multiply(rot.conjugate(captured[:-1]), captured[1:])) * fps  # (T-1, 3) rad/s
     peak = float(np.percentile(np.linalg.norm(np.diff(omega, axis=0), axis=1) * fps, SPIKE_PERCENTILE))
     sharp = 2.0 * excess * fps * fps  # (T,) rad/s²
-    spiked = sharp > max(peak, 1e-9)
+    # (a frame the solve left as captured stays so, even between two corrected the same way)
+    spiked = (sharp > max(peak, 1e-9)) & np.any(d != 0.0, axis=1)
     if not spiked.any():
         return solved
     out = solved.copy()

@@ -18,7 +18,8 @@ from .errors import MjmotionError, require_number
 #: row an older judge computed beside rows of this one. 2: the ground-reaction segment bound (0.1.0).
 #: 3: the bundled humanoid stands on the soles it was made with (its clips' floor 23 mm higher); a
 #: foot whose quiet frames hold two stances is calibrated on the one it holds most (golf 64_0x's lead foot).
-#: 4: angular accelerations in true rad/s² (the rows' params read accel_floor 30, was 60; no pop frame moves).
+#: 4: angular accelerations in true rad/s² (the rows' params read accel_floor 30, was 60; no pop frame moves);
+#: the rows' standing_axis column (the file axis the body stands along).
 JUDGE_REVISION = 4
 H_C = 0.05  #: contact height, m
 V_C = 0.5  #: contact horizontal speed, m/s (GMD: 2.5 cm/frame at 20 fps)

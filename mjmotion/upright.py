@@ -33,8 +33,11 @@ class Standing:
 
 def standing_axis(motion: Motion) -> Standing | None:
     """The signed file axis the feet-to-head direction (the head joint minus the ankles' midpoint) is
-    closest to in at least :data:`MAJORITY` of ``motion``'s frames (every k-th, at most :data:`SAMPLES`), or None: no head or foot found by name, or no axis holding a majority (a clip lying,
-    rolling or crawling)."""
+    closest to in at least :data:`MAJORITY` of ``motion``'s frames (every k-th, at most :data:`SAMPLES`),
+    or None: no head or foot found by name, or no axis holding a majority (a clip that changes
+    posture, half of it lying). A body lying the same way throughout has an axis: the horizontal
+    one its head points along, which no look at the poses alone tells from a standing body read
+    with the wrong up axis."""
     skel = motion.skeleton
     head, feet = skel.head(), skel.feet()
     if head is None or not feet or motion.n_frames == 0:
@@ -54,13 +57,14 @@ def standing_axis(motion: Motion) -> Standing | None:
 def up_note(motion: Motion, name: str | None = None, standing: Standing | None = None) -> list[str]:
     """One ``note:`` line when ``motion``'s body stands along another file axis than the up axis it was
     read with (``--up``), naming the option that reads it upright if there is one; else nothing.
-    ``standing``: its :func:`standing_axis`, if known."""
+    ``standing``: its :func:`standing_axis`, if known. The advice holds for a standing, walking or
+    running body (a clip of a body lying down reads the same, and is told so)."""
     up = motion.skeleton.up
     standing = standing if standing is not None else standing_axis(motion)
     if standing is None or standing.axis == "+" + up:
         return []
     fix = f"read it with --up {standing.axis[1]}" if standing.axis in ("+y", "+z") else "no --up reads it upright (y and z only)"
     return [
-        f"note: {name or motion.name or 'the clip'}: its body stands along the file's {standing.axis.upper()} axis in "
-        f"{standing.share:.0%} of the frames, not +{up.upper()} as --up {up} reads it: {fix}"
+        f"note: {name or motion.name or 'the clip'}: its head is above its feet along the file's {standing.axis.upper()} axis in "
+        f"{standing.share:.0%} of the frames, not +{up.upper()} as --up {up} reads them: unless the body lies down in this clip, {fix}"
     ]

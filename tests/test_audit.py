@@ -27,7 +27,7 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import require_data, within
 
-from mjmotion import audit, bvh, cli, executor
+from mjmotion import audit, bvh, cli, executor, synth
 from mjmotion import evaluate as ev
 from mjmotion.commands._common import named
 from mjmotion.commands.evaluate import evaluate_file
@@ -239,6 +239,25 @@ def test_plan_only_reads(corpus, tmp_path, dask2):
     planned = audit.plan(corpus, out, resume=True)
     assert not planned.todo and len(planned.kept) == len(planned.clips) == len(_listed(corpus))
     assert _snapshot(corpus) == before and _snapshot(out) == outputs
+
+
+def test_clips_read_with_the_wrong_up_axis_are_named_in_the_summary(tmp_path, dask2):
+    """A Z-up file audited with the default --up y lies on its side: its row's standing_axis says +z,
+    and summary.md names it (the judge's numbers alone looked ordinary: a floor 0.2 m down)."""
+    import dataclasses
+
+    root = tmp_path / "clips"
+    root.mkdir()
+    walk = synth.walk(seconds=1.0).motion
+    bvh.write(walk, root / "yup.bvh")
+    bvh.write(walk.replace(skeleton=dataclasses.replace(walk.skeleton, up="z")), root / "zup.bvh")
+    res = audit.run(root, tmp_path / "out", dask2, progress=False)
+    axes = {r["path"]: r["standing_axis"] for r in res.rows}
+    assert axes == {"yup.bvh": "+y", "zup.bvh": "+z"} and _rows(tmp_path / "out")["zup.bvh"]["standing_axis"] == "+z"
+    summary = (tmp_path / "out" / "summary.md").read_text()
+    assert "**1 clip stands along another file axis than `--up y` reads**" in summary and "`zup.bvh` +Z." in summary
+    res = audit.run(root, tmp_path / "out_z", dask2, opts=audit.judge_options(up="z"), progress=False)
+    assert "`yup.bvh` +Y." in (tmp_path / "out_z" / "summary.md").read_text()
 
 
 def test_resume_recomputes_only_what_changed(corpus, tmp_path, dask2):

@@ -90,8 +90,8 @@ def test_format_variants_read_the_same(variant):
     [
         (lambda t: t.replace("1 2 3 10 20 30 5 6 7 8 9 10 1 2 3", "1 2 3 10 20 30 5 6 7 8 9 10 1 2"), 28, "14 values"),
         (lambda t: t.replace("Frames:\t2", "Frames:\t3"), None, "Frames: 3"),
-        (lambda t: t.replace("4 5 6 -10", "4 5 nan -10"), 29, "value 3 is nan; expected a finite number"),
-        (lambda t: t.replace("4 5 6 -10", "4 5 -1e400 -10"), 29, "value 3 is -1e400, beyond a double's range (±1.8e308); expected a finite"),
+        (lambda t: t.replace("4 5 6 -10", "4 5 nan -10"), 29, "value 3 'nan' is not finite; expected a finite number"),
+        (lambda t: t.replace("4 5 6 -10", "4 5 -1e400 -10"), 29, "value 3 '-1e400' is beyond the largest double (±1.797e308); expected a finite"),
         (lambda t: t.replace("4 5 6 -10", "4 5 x -10"), 29, "not a number"),
         (lambda t: t.replace("CHANNELS 3 Zrotation", "CHANNELS 4 Zrotation"), 9, "CHANNELS says 4"),
         (lambda t: t.replace("Yrotation Xrotation\n", "Yrotation Wrotation\n"), 9, "unknown channel"),

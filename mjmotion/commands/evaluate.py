@@ -135,7 +135,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_judge_options(p)
     p.add_argument("--h-c", type=CONTACT_HEIGHT, default=0.05, metavar="M", help="contact height threshold, at most 1 m (default 0.05 m)")
     p.add_argument("--v-c", type=CONTACT_SPEED, default=0.5, metavar="M/S", help="contact speed threshold, at most 100 m/s (default 0.5 m/s)")
-    p.add_argument("--json", metavar="OUT.json", help="write every metric (and the parameters) as JSON")
+    p.add_argument("--json", metavar="OUT.json", help="write every metric (and the parameters, and each clip's notes) as JSON")
     p.add_argument("--csv", action="store_true", help="print the table as CSV instead of aligned text")
     p.add_argument("--force", action="store_true", help="replace OUT.json if it exists")
     p.add_argument(
@@ -432,6 +432,7 @@ def run(args: argparse.Namespace) -> int:
                             "file": r["file"],
                             "skipped_frames": r.get("skipped_frames"),
                             **({"report": r["report"]} if "report" in r else {"error": r["error"]}),
+                            **({"notes": list(r["notes"])} if "report" in r else {}),  # what the table's note: lines say
                             **({"hit_grid": r["hit_grid"]} if "hit_grid" in r else {}),
                         }
                         for r in results

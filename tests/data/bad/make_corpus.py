@@ -229,14 +229,18 @@ def cases() -> list[Case]:
         _err(
             "value_decimal_comma", "a decimal comma (frame 3)", _data_line(2, lambda t: _set(t, 0, "3,0")), DATA + 3, "value 1 '3,0' is not a number"
         ),  # fmt: skip
-        _err("value_nan", "nan among the values (frame 2)", _data_line(1, lambda t: _set(t, 4, "nan")), DATA + 2, "value 5 is nan"),  # fmt: skip
-        _err("value_inf", "-inf among the values (frame 3)", _data_line(2, lambda t: _set(t, 17, "-inf")), DATA + 3, "value 18 is -inf"),  # fmt: skip
+        _err(
+            "value_nan", "nan among the values (frame 2)", _data_line(1, lambda t: _set(t, 4, "nan")), DATA + 2, "value 5 'nan' is not finite"
+        ),  # fmt: skip
+        _err(
+            "value_inf", "-inf among the values (frame 3)", _data_line(2, lambda t: _set(t, 17, "-inf")), DATA + 3, "value 18 '-inf' is not finite"
+        ),  # fmt: skip
         _err(
             "value_overflow",
             "1e999 (overflows to inf) in frame 1",
             _data_line(0, lambda t: _set(t, 3, "1e999")),
             DATA + 1,
-            "value 4 is 1e999, beyond a double's range",
+            "value 4 '1e999' is beyond the largest double",
         ),  # fmt: skip
         _err(
             "values_too_few",
