@@ -47,3 +47,18 @@ def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path):
     assert "(2 clips," in line and "≤ 1.3 on 1 of 2" in line, line
     assert "asfamc_converted 16_16 1.5" in line and "16_15 1." not in line, line
     assert "; failed: " in line and "broken: " in line, line
+
+
+def test_the_tolerance_scan_loosens_monotonically_and_sees_a_walk_played_fast(tmp_path):
+    """A looser residual_tol never fails more frames of a clip (the decision at each tolerance is exact),
+    and a walk played twice as fast fails more than itself at the judge's tolerance."""
+    import numpy as np
+
+    from mjmotion import bvh
+
+    path = tmp_path / "walk.bvh"
+    bvh.write(synth.walk(seconds=3.0).motion, path)
+    clean = pa.tolerance_scan(str(path), sped_up=False)
+    faster = pa.tolerance_scan(str(path), sped_up=True)
+    assert len(clean) == len(pa.SCAN_TOLS) and np.all(np.diff(clean) <= 0.0)
+    assert faster[0] >= 0.25 and np.all(np.diff(np.add(faster, clean)) <= 0.0)

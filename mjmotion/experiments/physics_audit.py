@@ -221,6 +221,49 @@ def head_sway_lines(data_dir: Path | None) -> list[str]:
     return _note(head, parts, "; ")
 
 
+#: The tolerances :func:`tolerance_lines` tries, the runs that fail at the judge's and the walks whose
+#: speed-up it must still catch (docs/METRICS.md, "Physics residual").
+SCAN_TOLS = (0.12, 0.16, 0.20, 0.25)
+SCAN_RUNS = ("cmu_cgspeed_daz/09_01.bvh", "cmu_cgspeed_daz/02_03.bvh", "cmu_cgspeed_daz/09_02.bvh", "cmu_cgspeed_daz/09_06.bvh")
+SCAN_WALKS = ("cmu_asfamc_converted/16_15.bvh", "cmu_cgspeed_max/131_02.bvh")
+
+
+def tolerance_scan(path: str, sped_up: bool) -> list[float]:
+    """``physics_violation_ratio`` of a clip judged against itself at each of :data:`SCAN_TOLS` (with
+    ``sped_up``: of the clip played twice as fast, against the clip, minus the clip's own)."""
+    from .corruption import sped_up as faster
+
+    m = _read(Path(path))
+    out = []
+    for tol in SCAN_TOLS:
+        p = ev.Params(residual_tol=tol)
+        clean = ev.evaluate(m, params=p, sources=[m.replace()], launch=False).physics_violation_ratio
+        out.append(ev.evaluate(faster(m), params=p, sources=[m], launch=False).physics_violation_ratio - clean if sped_up else clean)
+    return out
+
+
+def tolerance_lines(data_dir: Path | None, executor: Executor | None = None, jobs: int = 2) -> list[str]:
+    """One note: what a looser ``residual_tol`` buys the daz runs that fail and costs the speed-up test
+    on slow walks (:func:`tolerance_scan` of :data:`SCAN_RUNS` and :data:`SCAN_WALKS` found under ``data_dir``)."""
+    from ..executor import in_order, using
+
+    if data_dir is None:
+        return []
+    tasks = [(rel, (str(data_dir / rel), rel in SCAN_WALKS)) for rel in (*SCAN_RUNS, *SCAN_WALKS) if (data_dir / rel).is_file()]
+    if not tasks:
+        return []
+    with using(executor, jobs) as ex:
+        outcomes = in_order(ex.run(tolerance_scan, tasks, desc="tolerances", unit="clip"), [k for k, _ in tasks])
+    show = lambda rel, o: f"{Path(rel).stem} " + " / ".join(f"{'+' if rel in SCAN_WALKS else ''}{v:.2f}" for v in o.unwrap())
+    runs = [show(o.key, o) for o in outcomes if o.key in SCAN_RUNS]
+    walks = [show(o.key, o) for o in outcomes if o.key in SCAN_WALKS]
+    tols = " / ".join(f"{t:g}" for t in SCAN_TOLS)
+    return [
+        f"residual_tol {tols} (experiments.physics_audit.tolerance_scan): physics_violation_ratio of the daz runs "
+        f"{', '.join(runs)}; what the walks played twice as fast add {', '.join(walks)}"
+    ]
+
+
 def _note(head: str, parts: list[str], sep: str) -> list[str]:
     """One note line, ``head`` then ``parts`` joined by ``sep`` (none without parts)."""
     return [head + sep.join(parts)] if parts else []
@@ -328,6 +371,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
     lines, files = cleanup_of_blends(None if data_dir is None or quick else Path(data_dir), out_dir)
     table.notes.extend(mid_stance_lines(None if data_dir is None or quick else Path(data_dir)))
     table.notes.extend(head_sway_lines(None if data_dir is None or quick else Path(data_dir)))
+    table.notes.extend(tolerance_lines(None if data_dir is None or quick else Path(data_dir), executor, jobs))
     table.notes.extend(lines)
     if data_dir is not None and not quick:
         table.notes.extend(cleanup_of_clips_line(sorted(str(p) for p in Path(data_dir).rglob("*.bvh")), executor, jobs))
