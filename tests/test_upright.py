@@ -101,3 +101,14 @@ def test_info_and_evaluate_print_the_note(walk, tmp_path, capsys):
     assert "read it with --up z" in capsys.readouterr().out  # (evaluate prints its notes under the table)
     (clip,) = json.loads((tmp_path / "r.json").read_text())
     assert any("read it with --up z" in n for n in clip["notes"])
+
+
+def test_every_verb_that_loads_a_clip_notes_the_wrong_up(walk, tmp_path, capsys):
+    """cleanup (and render, blend, … through the same loader) of a Z-up file read as Y-up: the note
+    comes before the work (a cleanup of a body lying on its side moved its root 2.6 m)."""
+    path = tmp_path / "zup.bvh"
+    bvh.write(_z_up(walk), path)
+    assert main(["cleanup", str(path), "-o", str(tmp_path / "out.bvh")]) == 0
+    assert "read it with --up z" in capsys.readouterr().err
+    assert main(["cleanup", str(path), "-o", str(tmp_path / "out_z.bvh"), "--up", "z"]) == 0
+    assert "--up" not in capsys.readouterr().err

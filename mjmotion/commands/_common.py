@@ -88,9 +88,16 @@ def load_first(
 
     ``frames`` (``A:B``, the file's frame numbers; its errors name ``frames_option``) selects frames; without it a leading T-pose
     or transition (:func:`mjmotion.trim.leading_transient`) is skipped unless ``--keep-start``
-    (or ``trim=False``), with one note line on stderr naming the frames (``note``).
+    (or ``trim=False``), with one note line on stderr naming the frames (``note``). With ``note``, a
+    clip whose body stands along another axis than ``--up`` reads gets a note line too
+    (:func:`mjmotion.upright.up_note`: a cleanup, render or blend of a body lying on its side).
     """
     m = read_motion(path, args)
+    if note:
+        from ..upright import up_note
+
+        for line in up_note(m, path):
+            sys.stderr.write(line + "\n")
     if frames:
         sl = parse_frames(frames, m.n_frames, frames_option)
         return m[sl], sl.indices(m.n_frames)[0]
