@@ -39,8 +39,11 @@ CONNECT_TIMEOUT = 10.0
 RETRIES = 1
 #: Seconds between plain progress lines when standard error is not a terminal.
 PLAIN_EVERY = 5.0
-#: Seconds between checks of running tasks against the time limit.
+#: Seconds between checks of running tasks against the time limit (and of the cluster having workers).
 POLL = 0.5
+#: Seconds a cluster may have no worker at all before the run ends with an error (every worker lost
+#: and none back: the tasks would wait for good). Generous: an adaptive cluster may take a while to start one.
+NO_WORKERS_WAIT = 120.0
 #: Dask settings of a LocalCluster. The workers' statistical profiler (a stack sample every 10 ms, for the
 #: dashboard) cost a quarter of the CPU time of evaluating the shared clips. The event-loop ticks (every
 #: 20 ms in the scheduler, each nanny and each worker, only to notice a blocked loop), the nannies' memory
@@ -369,6 +372,11 @@ class Dask(Executor):
         if scheduler is not None:
             check_address(scheduler)
             self.client = _connect(Client, scheduler, connect_timeout)
+            try:
+                self._check_workers(scheduler)
+            except BaseException:
+                self.client.close()
+                raise
         else:
             # Workers forked from this process start in a quarter of a second with ``preload`` already
             # loaded (spawned ones take a second or more each to import Dask, NumPy and MuJoCo again).
@@ -402,6 +410,26 @@ class Dask(Executor):
         )
         self.dashboard = self.client.dashboard_link if running else None
 
+    def _check_workers(self, scheduler: str) -> None:
+        """Refuse a cluster whose workers cannot run our tasks: a worker without mjmotion died unpickling the
+        first one (Dask closes it) and the audit waited for good with no worker left and no word; one with
+        another version would judge with another judge. Asked with ``eval`` of constant text (a function of
+        ours is sent by reference, and is what such a worker cannot load)."""
+        from . import __version__
+
+        found = self.client.run(eval, "__import__('mjmotion').__version__", on_error="return")
+        for address, version in sorted(found.items()):
+            if isinstance(version, BaseException):
+                raise MjmotionError(
+                    f"--scheduler {scheduler}: its worker {address} cannot import mjmotion ({one_line(str(version))}); "
+                    f"install mjmotion {__version__} where the workers run (and the clips at the same paths)"
+                )
+            if version != __version__:
+                raise MjmotionError(
+                    f"--scheduler {scheduler}: its worker {address} runs mjmotion {version}, this process {__version__}; "
+                    "one audit is one judge: install the same version on the workers"
+                )
+
     def _remote_dashboard_loaded(self) -> bool:
         # Asked of the scheduler process: ``eval`` of our own constant text, because a function of ours
         # would be sent by reference and the scheduler's machine need not have mjmotion installed.
@@ -429,6 +457,7 @@ class Dask(Executor):
         done: set[Any] = set()
         stream = as_completed([f for _, f in futures.values()], loop=self.client.loop)
         polled = time.perf_counter()
+        alone: float | None = None  # since when the cluster has had no worker
         lost: list[Any] = []
         try:
             meanwhile()
@@ -465,9 +494,19 @@ class Dask(Executor):
                     else:
                         yield Outcome(key, error=f"cancelled by the cluster ({f.status})", kind="worker")
                     continue
-                if timeout is not None and time.perf_counter() - polled >= POLL:
+                if time.perf_counter() - polled >= POLL:
                     polled = time.perf_counter()
-                    yield from self._expire(futures, done, timeout)
+                    if timeout is not None:
+                        yield from self._expire(futures, done, timeout)
+                    if self.client.nthreads():
+                        alone = None
+                    elif alone is None:
+                        alone = polled
+                    elif polled - alone > NO_WORKERS_WAIT:
+                        raise MjmotionError(
+                            f"the Dask cluster at {self.address}: no worker for {NO_WORKERS_WAIT:g} s (every one lost and none back; their logs say why); "
+                            f"{sum(k in done for k in futures)} of {len(futures)} tasks finished"
+                        )
                 time.sleep(0.02)
         finally:
             pending = [f for k, (_, f) in futures.items() if k not in done and f is not None]

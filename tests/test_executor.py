@@ -226,6 +226,77 @@ def test_a_scheduler_that_does_not_answer_is_one_error():
     assert time.perf_counter() - start < 20
 
 
+@contextlib.contextmanager
+def _one_worker_cluster(tmp_path: Path, *worker_args: str, pythonpath: tuple[str, ...] = ()):
+    """A real ``dask scheduler`` and one ``dask worker`` (``worker_args`` added) on 127.0.0.1."""
+    import subprocess
+    import sys
+
+    from distributed import Client
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([*pythonpath, *sys.path])}
+    log = open(tmp_path / "dask.log", "w")
+    dask = [sys.executable, "-m", "dask"]
+    procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"], stdout=log, stderr=log, env=env)]
+    try:
+        procs.append(
+            subprocess.Popen(
+                [*dask, "worker", address, "--nthreads", "1", "--host", "127.0.0.1", "--no-dashboard", *worker_args], stdout=log, stderr=log, env=env
+            )
+        )
+        with Client(address, timeout=60) as c:
+            c.wait_for_workers(1, timeout=120)
+        yield address
+    finally:
+        for p in procs:
+            p.send_signal(signal.SIGINT)
+        for p in reversed(procs):
+            try:
+                p.wait(timeout=20)
+            except Exception:
+                p.kill()
+                p.wait()
+        log.close()
+
+
+def test_a_cluster_whose_workers_cannot_import_mjmotion_is_refused(tmp_path):
+    """A worker without mjmotion died unpickling the first task and the audit waited for good: refused up
+    front, naming the worker and what to install."""
+    (tmp_path / "no_mjmotion.py").write_text(
+        "import sys\n"
+        "class Block:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] == 'mjmotion':\n"
+        "            raise ImportError(f'No module named {name!r}')\n"
+        "sys.meta_path.insert(0, Block())\n"
+    )
+    with _one_worker_cluster(tmp_path, "--preload", "no_mjmotion", pythonpath=(str(tmp_path),)) as address:
+        with pytest.raises(
+            MjmotionError,
+            match=rf"--scheduler {address}: its worker tcp://127.0.0.1:\d+ cannot import mjmotion \(No module named 'mjmotion'\); install mjmotion",
+        ):
+            executor.start(scheduler=address)
+
+
+def test_a_cluster_left_without_workers_ends_the_run(tmp_path, monkeypatch):
+    """Its only worker (no nanny to bring it back) killed by a task: the run ends with an error naming the
+    scheduler once it has had no worker for NO_WORKERS_WAIT, instead of waiting for good."""
+    monkeypatch.setattr(executor, "NO_WORKERS_WAIT", 1.0)
+    with _one_worker_cluster(tmp_path, "--no-nanny") as address:
+        ex = executor.start(scheduler=address)
+        try:
+            start = time.perf_counter()
+            with pytest.raises(MjmotionError, match=rf"the Dask cluster at {address}: no worker for 1 s .* 0 of 2 tasks finished"):
+                list(ex.run(os._exit, [(0, (3,)), (1, (3,))], progress=False))
+            assert time.perf_counter() - start < 30
+        finally:
+            ex.close()
+
+
 def test_plain_progress_lines_when_not_a_terminal():
     buf = io.StringIO()
     bar = executor._Progress(3, "audit", "clip", True, stream=buf, every=0.0)
