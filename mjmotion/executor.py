@@ -41,7 +41,7 @@ RETRIES = 1
 PLAIN_EVERY = 5.0
 #: Seconds between checks of running tasks against the time limit (and of the cluster having workers).
 POLL = 0.5
-#: Seconds a cluster may have no worker at all before the run ends with an error (every worker lost
+#: Seconds a cluster that had workers may have none before the run ends with an error (every worker lost
 #: and none back: the tasks would wait for good). Generous: an adaptive cluster may take a while to start one.
 NO_WORKERS_WAIT = 120.0
 #: Dask settings of a LocalCluster. The workers' statistical profiler (a stack sample every 10 ms, for the
@@ -457,7 +457,10 @@ class Dask(Executor):
         done: set[Any] = set()
         stream = as_completed([f for _, f in futures.values()], loop=self.client.loop)
         polled = time.perf_counter()
-        alone: float | None = None  # since when the cluster has had no worker
+        # Since when the cluster has had no worker, once it had one (an adaptive cluster may start with none
+        # and take minutes to get its first: that wait is not a fault).
+        alone: float | None = None
+        seen = bool(self.client.nthreads())
         lost: list[Any] = []
         try:
             meanwhile()
@@ -499,10 +502,10 @@ class Dask(Executor):
                     if timeout is not None:
                         yield from self._expire(futures, done, timeout)
                     if self.client.nthreads():
-                        alone = None
-                    elif alone is None:
+                        alone, seen = None, True
+                    elif alone is None and seen:
                         alone = polled
-                    elif polled - alone > NO_WORKERS_WAIT:
+                    elif alone is not None and polled - alone > NO_WORKERS_WAIT:
                         raise MjmotionError(
                             f"the Dask cluster at {self.address}: no worker for {NO_WORKERS_WAIT:g} s (every one lost and none back; their logs say why); "
                             f"{sum(k in done for k in futures)} of {len(futures)} tasks finished"

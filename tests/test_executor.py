@@ -143,6 +143,7 @@ def test_meanwhile_runs_once_after_every_task_is_sent(dask2):
 
 def test_local_settings_last_as_long_as_the_cluster():
     import dask
+    import distributed  # noqa: F401  (registers Dask's "distributed." settings: the test alone read a KeyError)
 
     default = dask.config.get("distributed.admin.tick.interval")
     with executor.start(workers=1) as ex:
@@ -227,8 +228,9 @@ def test_a_scheduler_that_does_not_answer_is_one_error():
 
 
 @contextlib.contextmanager
-def _one_worker_cluster(tmp_path: Path, *worker_args: str, pythonpath: tuple[str, ...] = ()):
-    """A real ``dask scheduler`` and one ``dask worker`` (``worker_args`` added) on 127.0.0.1."""
+def _cluster(tmp_path: Path, *worker_args: str, workers: int = 1, pythonpath: tuple[str, ...] = ()):
+    """A real ``dask scheduler`` and ``workers`` ``dask worker`` processes (``worker_args`` added) on
+    127.0.0.1: yields the address and a function that starts one more worker."""
     import subprocess
     import sys
 
@@ -242,15 +244,18 @@ def _one_worker_cluster(tmp_path: Path, *worker_args: str, pythonpath: tuple[str
     log = open(tmp_path / "dask.log", "w")
     dask = [sys.executable, "-m", "dask"]
     procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"], stdout=log, stderr=log, env=env)]
+
+    def add_worker() -> None:
+        worker = [*dask, "worker", address, "--nthreads", "1", "--host", "127.0.0.1", "--no-dashboard", *worker_args]
+        procs.append(subprocess.Popen(worker, stdout=log, stderr=log, env=env))
+
     try:
-        procs.append(
-            subprocess.Popen(
-                [*dask, "worker", address, "--nthreads", "1", "--host", "127.0.0.1", "--no-dashboard", *worker_args], stdout=log, stderr=log, env=env
-            )
-        )
-        with Client(address, timeout=60) as c:
-            c.wait_for_workers(1, timeout=120)
-        yield address
+        for _ in range(workers):
+            add_worker()
+        with Client(address, timeout=60) as c:  # (the scheduler answers)
+            if workers:
+                c.wait_for_workers(workers, timeout=120)
+        yield address, add_worker
     finally:
         for p in procs:
             p.send_signal(signal.SIGINT)
@@ -274,7 +279,7 @@ def test_a_cluster_whose_workers_cannot_import_mjmotion_is_refused(tmp_path):
         "            raise ImportError(f'No module named {name!r}')\n"
         "sys.meta_path.insert(0, Block())\n"
     )
-    with _one_worker_cluster(tmp_path, "--preload", "no_mjmotion", pythonpath=(str(tmp_path),)) as address:
+    with _cluster(tmp_path, "--preload", "no_mjmotion", pythonpath=(str(tmp_path),)) as (address, _):
         with pytest.raises(
             MjmotionError,
             match=rf"--scheduler {address}: its worker tcp://127.0.0.1:\d+ cannot import mjmotion \(No module named 'mjmotion'\); install mjmotion",
@@ -286,13 +291,31 @@ def test_a_cluster_left_without_workers_ends_the_run(tmp_path, monkeypatch):
     """Its only worker (no nanny to bring it back) killed by a task: the run ends with an error naming the
     scheduler once it has had no worker for NO_WORKERS_WAIT, instead of waiting for good."""
     monkeypatch.setattr(executor, "NO_WORKERS_WAIT", 1.0)
-    with _one_worker_cluster(tmp_path, "--no-nanny") as address:
+    with _cluster(tmp_path, "--no-nanny") as (address, _):
         ex = executor.start(scheduler=address)
         try:
             start = time.perf_counter()
             with pytest.raises(MjmotionError, match=rf"the Dask cluster at {address}: no worker for 1 s .* 0 of 2 tasks finished"):
                 list(ex.run(os._exit, [(0, (3,)), (1, (3,))], progress=False))
             assert time.perf_counter() - start < 30
+        finally:
+            ex.close()
+
+
+def test_a_cluster_that_has_not_had_a_worker_yet_is_waited_for(tmp_path, monkeypatch):
+    """An adaptive cluster may start with no worker and take a while to get one: that is no fault (its
+    first worker comes 3 s in, beyond NO_WORKERS_WAIT, and the run finishes)."""
+    import threading
+
+    monkeypatch.setattr(executor, "NO_WORKERS_WAIT", 1.0)
+    with _cluster(tmp_path, workers=0) as (address, add_worker):
+        ex = executor.start(scheduler=address)
+        try:
+            later = threading.Timer(3.0, add_worker)
+            later.start()
+            outs = list(ex.run(square, [(i, (i,)) for i in range(3)], progress=False))
+            later.join()
+            assert sorted(o.unwrap() for o in outs) == [0, 1, 4]
         finally:
             ex.close()
 
