@@ -16,6 +16,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
 import json
@@ -24,7 +25,7 @@ import os
 import socket
 import time
 from collections import Counter
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -609,6 +610,30 @@ def load_drawing(warm: bool = False) -> None:
 def warm_drawing() -> None:
     """:func:`load_drawing` with a first drawing (the preload of the audit's side process)."""
     load_drawing(warm=True)
+
+
+@contextlib.contextmanager
+def holding(out_dir: Path) -> Iterator[None]:
+    """``out_dir`` for this audit alone while it runs: a second audit into the same folder at once (a
+    ``--resume`` started in another terminal) would append its rows to the same ``audit.csv`` and
+    rewrite the same Parquet file; it is refused instead. An advisory lock on the folder itself
+    (``flock``, released when the process and the workers it forked end; none where there is no ``fcntl``)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover (not POSIX)
+        yield
+        return
+    fd = os.open(out_dir, os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise MjmotionError(f"-o {out_dir}: another audit is writing there now; wait for it to end, or choose another folder") from None
+        except OSError:
+            pass  # a file system that keeps no locks: the audit runs unguarded, as it always did
+        yield
+    finally:
+        os.close(fd)
 
 
 def run(

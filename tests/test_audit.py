@@ -754,3 +754,22 @@ def test_ctrl_c_at_a_terminal_is_one_line_and_leaves_a_table_to_resume(tmp_path)
             os.killpg(proc.pid, 0)
             time.sleep(0.1)
         pytest.fail("processes of the interrupted audit are still running")
+
+
+def test_a_second_audit_into_the_same_folder_at_once_is_refused(tmp_path, capsys):
+    """A --resume started while the first audit still writes would append to the same audit.csv: refused
+    while the folder is held, accepted once it is released; a refused start leaves no folder behind."""
+    root = tmp_path / "clips"
+    root.mkdir()
+    bvh.write(synth.walk(seconds=0.8).motion, root / "walk.bvh")
+    out = tmp_path / "out"
+    out.mkdir()
+    with audit.holding(out):
+        _refused(["audit", str(root), "-o", str(out), "--resume", "--workers", "1"], capsys, f"-o {out}: another audit is writing there now")
+        assert not any(out.iterdir())
+    assert cli.main(["audit", str(root), "-o", str(out), "--resume", "--workers", "1"]) == 0
+    assert len(_rows(out)) == 1
+    # A start refused after the folder was made (a source map that does not parse) leaves none.
+    (tmp_path / "map.json").write_text("{")
+    _refused(["audit", str(root), "-o", str(tmp_path / "new"), "--source-map", str(tmp_path / "map.json")], capsys, "not JSON")
+    assert not (tmp_path / "new").exists()

@@ -114,14 +114,9 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
 
 
 def run(args: argparse.Namespace) -> int:
-    import atexit
-    import gc
-    from concurrent.futures import ThreadPoolExecutor
-
     from .. import audit
     from ..errors import require_number
-    from ..executor import CONNECT_TIMEOUT, Aside, Executor, check_options, cores, start
-    from ..inputs import find_bvh
+    from ..executor import check_options
     from ._common import units_scale
 
     if args.timeout is not None:
@@ -137,6 +132,25 @@ def run(args: argparse.Namespace) -> int:
             f"--dashboard with --scheduler {args.scheduler}: the cluster's scheduler runs its own dashboard (if any); --dashboard is for --workers"
         )
     root, out = check_paths(args)
+    made = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        with audit.holding(out):
+            return _audit(args, root, out)
+    finally:
+        if made and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()  # a start refused before anything was written leaves no folder behind
+
+
+def _audit(args: argparse.Namespace, root: Path, out: Path) -> int:
+    import atexit
+    import gc
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .. import audit
+    from ..executor import CONNECT_TIMEOUT, Aside, Executor, cores, start
+    from ..inputs import find_bvh
+
     opts = audit.judge_options(units=args.units, up=args.up, keep_start=args.keep_start)
     source_map = None
     if args.source_map:
