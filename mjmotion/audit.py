@@ -612,12 +612,29 @@ def warm_drawing() -> None:
     load_drawing(warm=True)
 
 
+#: Folder locks this process holds (:func:`holding`): closed in every process it forks, so a side process
+#: or worker left behind by a killed audit does not keep the folder locked.
+_HELD: set[int] = set()
+
+
+def _close_held() -> None:
+    for fd in _HELD:
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _HELD.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_close_held)
+
+
 @contextlib.contextmanager
 def holding(out_dir: Path) -> Iterator[None]:
     """``out_dir`` for this audit alone while it runs: a second audit into the same folder at once (a
     ``--resume`` started in another terminal) would append its rows to the same ``audit.csv`` and
     rewrite the same Parquet file; it is refused instead. An advisory lock on the folder itself
-    (``flock``, released when the process and the workers it forked end; none where there is no ``fcntl``)."""
+    (``flock``), held by this process only (closed in the processes it forks) and released when it
+    ends, however it ends; none where there is no ``fcntl``, or where the file system keeps no locks."""
     try:
         import fcntl
     except ImportError:  # pragma: no cover (not POSIX)
@@ -631,8 +648,10 @@ def holding(out_dir: Path) -> Iterator[None]:
             raise MjmotionError(f"-o {out_dir}: another audit is writing there now; wait for it to end, or choose another folder") from None
         except OSError:
             pass  # a file system that keeps no locks: the audit runs unguarded, as it always did
+        _HELD.add(fd)
         yield
     finally:
+        _HELD.discard(fd)
         os.close(fd)
 
 

@@ -44,6 +44,8 @@ POLL = 0.5
 #: Seconds a cluster that had workers may have none before the run ends with an error (every worker lost
 #: and none back: the tasks would wait for good). Generous: an adaptive cluster may take a while to start one.
 NO_WORKERS_WAIT = 120.0
+#: Seconds without a worker before a run says it is waiting for one.
+WAIT_NOTE = 10.0
 #: Dask settings of a LocalCluster. The workers' statistical profiler (a stack sample every 10 ms, for the
 #: dashboard) cost a quarter of the CPU time of evaluating the shared clips. The event-loop ticks (every
 #: 20 ms in the scheduler, each nanny and each worker, only to notice a blocked loop), the nannies' memory
@@ -95,6 +97,27 @@ class Outcome:
 
 def one_line(text: str) -> str:
     return " ".join(str(text).split()) or "(no message)"
+
+
+def _within(seconds: float, fn: Callable[[], Any]) -> Any:
+    """``fn()`` run in a thread, its value if it returns within ``seconds`` (its exception raised here), else
+    None: for calls into Dask that have no deadline of their own (a stopped worker never answers)."""
+    import threading
+
+    box: dict[str, Any] = {}
+
+    def call() -> None:
+        try:
+            box["value"] = fn()
+        except BaseException as e:
+            box["error"] = e
+
+    thread = threading.Thread(target=call, name="mjmotion-dask-call", daemon=True)
+    thread.start()
+    thread.join(seconds)
+    if "error" in box:
+        raise box["error"]
+    return box.get("value")
 
 
 def _connect(client_class: Any, scheduler: str, timeout: float) -> Any:
@@ -372,6 +395,7 @@ class Dask(Executor):
         if scheduler is not None:
             check_address(scheduler)
             self.client = _connect(Client, scheduler, connect_timeout)
+            self._deadline = connect_timeout
             try:
                 self._check_workers(scheduler)
             except BaseException:
@@ -410,15 +434,22 @@ class Dask(Executor):
         )
         self.dashboard = self.client.dashboard_link if running else None
 
-    def _check_workers(self, scheduler: str) -> None:
+    def _check_workers(self, scheduler: str, workers: set[str] | None = None) -> None:
         """Refuse a cluster whose workers cannot run our tasks: a worker without mjmotion died unpickling the
         first one (Dask closes it) and the audit waited for good with no worker left and no word; one with
         another version would judge with another judge. Asked with ``eval`` of constant text (a function of
         ours is sent by reference, and is what such a worker cannot load)."""
         from . import __version__
 
-        found = self.client.run(eval, "__import__('mjmotion').__version__", on_error="return")
+        found = _within(
+            self._deadline,
+            lambda: self.client.run(eval, "__import__('mjmotion').__version__", workers=sorted(workers) if workers else None, on_error="return"),
+        )
+        if found is None:
+            raise MjmotionError(f"--scheduler {scheduler}: its workers did not all answer within {self._deadline:g} s (a worker stopped or stuck?)")
         for address, version in sorted(found.items()):
+            if isinstance(version, BaseException) and not isinstance(version, ImportError):
+                continue  # (gone or unreachable since it was listed: not a worker that runs tasks)
             if isinstance(version, BaseException):
                 raise MjmotionError(
                     f"--scheduler {scheduler}: its worker {address} cannot import mjmotion ({one_line(str(version))}); "
@@ -460,7 +491,9 @@ class Dask(Executor):
         # Since when the cluster has had no worker, once it had one (an adaptive cluster may start with none
         # and take minutes to get its first: that wait is not a fault).
         alone: float | None = None
-        seen = bool(self.client.nthreads())
+        present = self.client.nthreads()
+        seen, checked = bool(present), set(present)
+        begun, waited = time.perf_counter(), False
         lost: list[Any] = []
         try:
             meanwhile()
@@ -501,10 +534,17 @@ class Dask(Executor):
                     polled = time.perf_counter()
                     if timeout is not None:
                         yield from self._expire(futures, done, timeout)
-                    if self.client.nthreads():
+                    present = self.client.nthreads()
+                    if present:
                         alone, seen = None, True
+                        if self.cluster is None and set(present) - checked:
+                            self._check_workers(self.address or "", set(present) - checked)  # joined since: the same check
+                            checked |= set(present)
                     elif alone is None and seen:
                         alone = polled
+                    if not present and not waited and polled - begun > WAIT_NOTE:
+                        waited = True
+                        sys.stderr.write(f"note: the Dask cluster at {self.address} has no worker; waiting for one (Ctrl-C stops)\n")
                     elif alone is not None and polled - alone > NO_WORKERS_WAIT:
                         raise MjmotionError(
                             f"the Dask cluster at {self.address}: no worker for {NO_WORKERS_WAIT:g} s (every one lost and none back; their logs say why); "
@@ -584,7 +624,23 @@ def _aside_start(preload: Sequence[str | Callable[[], object]]) -> None:
     """The side process's first task: it ignores Ctrl-C (the process that made it handles the interrupt and
     ends it; otherwise it printed a traceback of its wait for work), then loads ``preload``."""
     _ignore_interrupt()
+    _end_with_parent()
     load(preload)
+
+
+def _end_with_parent() -> None:
+    """Linux: this forked process gets SIGTERM when the process that made it dies (a ``kill -9`` of the
+    audit left its side process waiting for work for good, holding what it inherited)."""
+    import ctypes
+    import os
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() == 1:  # (the parent died before the call)
+        os._exit(0)
 
 
 class Aside:

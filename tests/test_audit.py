@@ -769,7 +769,39 @@ def test_a_second_audit_into_the_same_folder_at_once_is_refused(tmp_path, capsys
         assert not any(out.iterdir())
     assert cli.main(["audit", str(root), "-o", str(out), "--resume", "--workers", "1"]) == 0
     assert len(_rows(out)) == 1
-    # A start refused after the folder was made (a source map that does not parse) leaves none.
+    # A start refused after the folder was made (a source map that does not parse) leaves none, nor the
+    # folders made above it; a start refused the lock removes nothing (the holder's folder stays).
     (tmp_path / "map.json").write_text("{")
-    _refused(["audit", str(root), "-o", str(tmp_path / "new"), "--source-map", str(tmp_path / "map.json")], capsys, "not JSON")
+    _refused(["audit", str(root), "-o", str(tmp_path / "new" / "a" / "b"), "--source-map", str(tmp_path / "map.json")], capsys, "not JSON")
     assert not (tmp_path / "new").exists()
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with audit.holding(empty):
+        _refused(["audit", str(root), "-o", str(empty), "--workers", "1"], capsys, "another audit is writing there now")
+        assert empty.is_dir()
+
+
+def test_the_folder_lock_is_not_inherited_by_forked_processes(tmp_path):
+    """A side process or worker forked while an audit holds its folder, left behind by a killed audit,
+    kept the folder locked for good: the lock is closed in every forked child."""
+    import multiprocessing
+
+    out = tmp_path / "out"
+    out.mkdir()
+    ctx = multiprocessing.get_context("fork")
+    with audit.holding(out):
+        ready, stop = ctx.Event(), ctx.Event()
+        child = ctx.Process(target=_hold_until, args=(ready, stop))
+        child.start()
+        assert ready.wait(30)
+    try:
+        with audit.holding(out):  # the parent let go; the child still runs and holds nothing
+            assert child.is_alive()
+    finally:
+        stop.set()
+        child.join(30)
+
+
+def _hold_until(ready, stop) -> None:
+    ready.set()
+    stop.wait(60)

@@ -245,9 +245,10 @@ def _cluster(tmp_path: Path, *worker_args: str, workers: int = 1, pythonpath: tu
     dask = [sys.executable, "-m", "dask"]
     procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"], stdout=log, stderr=log, env=env)]
 
-    def add_worker() -> None:
+    def add_worker() -> subprocess.Popen:
         worker = [*dask, "worker", address, "--nthreads", "1", "--host", "127.0.0.1", "--no-dashboard", *worker_args]
         procs.append(subprocess.Popen(worker, stdout=log, stderr=log, env=env))
+        return procs[-1]
 
     try:
         for _ in range(workers):
@@ -308,16 +309,39 @@ def test_a_cluster_that_has_not_had_a_worker_yet_is_waited_for(tmp_path, monkeyp
     import threading
 
     monkeypatch.setattr(executor, "NO_WORKERS_WAIT", 1.0)
+    monkeypatch.setattr(executor, "WAIT_NOTE", 1.0)
     with _cluster(tmp_path, workers=0) as (address, add_worker):
         ex = executor.start(scheduler=address)
         try:
             later = threading.Timer(3.0, add_worker)
             later.start()
-            outs = list(ex.run(square, [(i, (i,)) for i in range(3)], progress=False))
+            err = io.StringIO()
+            with contextlib.redirect_stderr(err):
+                outs = list(ex.run(square, [(i, (i,)) for i in range(3)], progress=False))
             later.join()
             assert sorted(o.unwrap() for o in outs) == [0, 1, 4]
+            assert f"note: the Dask cluster at {address} has no worker; waiting for one (Ctrl-C stops)" in err.getvalue()
         finally:
             ex.close()
+
+
+def test_a_stopped_worker_cannot_hold_the_start(tmp_path):
+    """The check of the workers' mjmotion has the connection's deadline: a worker stopped (SIGSTOP) never
+    answers, and the start waited for good."""
+    from distributed import Client
+
+    with _cluster(tmp_path, "--no-nanny", workers=0) as (address, add_worker):
+        proc = add_worker()
+        with Client(address, timeout=60) as c:
+            c.wait_for_workers(1, timeout=120)
+        proc.send_signal(signal.SIGSTOP)
+        try:
+            start = time.perf_counter()
+            with pytest.raises(MjmotionError, match=rf"--scheduler {address}: its workers did not all answer within 2 s"):
+                executor.start(scheduler=address, connect_timeout=2.0)
+            assert time.perf_counter() - start < 20
+        finally:
+            proc.send_signal(signal.SIGCONT)
 
 
 def test_plain_progress_lines_when_not_a_terminal():

@@ -112,3 +112,5 @@ def test_every_verb_that_loads_a_clip_notes_the_wrong_up(walk, tmp_path, capsys)
     assert "read it with --up z" in capsys.readouterr().err
     assert main(["cleanup", str(path), "-o", str(tmp_path / "out_z.bvh"), "--up", "z"]) == 0
     assert "--up" not in capsys.readouterr().err
+    assert main(["compile", str(path), "-o", str(tmp_path / "out.xml")]) == 0  # (reads frames its own way)
+    assert "read it with --up z" in capsys.readouterr().err

@@ -94,16 +94,22 @@ def load_first(
     """
     m = read_motion(path, args)
     if note:
-        from ..upright import up_note
-
-        for line in up_note(m, path):
-            sys.stderr.write(line + "\n")
+        note_up(m, path)
     if frames:
         sl = parse_frames(frames, m.n_frames, frames_option)
         return m[sl], sl.indices(m.n_frames)[0]
     if not trim:
         return m, 0
     return trim_start(m, path, args, note)
+
+
+def note_up(m: Motion, path: str) -> None:
+    """The ``note:`` line on stderr for a clip whose body stands along another file axis than ``--up``
+    reads (:func:`mjmotion.upright.up_note`), if it does."""
+    from ..upright import up_note
+
+    for line in up_note(m, path):
+        sys.stderr.write(line + "\n")
 
 
 def trim_start(m: Motion, path: str, args: argparse.Namespace, note: bool = True) -> tuple[Motion, int]:

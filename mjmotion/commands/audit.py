@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
@@ -27,12 +28,15 @@ same) and write to OUT_DIR:
 
 Work runs on a Dask LocalCluster on this machine (--workers N, bound to 127.0.0.1) or on an existing
 Dask cluster (--scheduler tcp://HOST:8786, started with 'dask scheduler' and 'dask worker'; its
-workers need mjmotion installed and DIR at the same path). A bad file is a row with status=error
-and its message; a worker that dies is replaced and its clips rerun by Dask; a clip running longer
-than --timeout is an error row, and so is a file that cannot be read (a folder that cannot be
-listed, and a name ending in .bvh that is no file -- a dangling link, a pipe -- is named in a
-note). Nothing in DIR is written. The exit status is 0 when every file has its row, error rows
-included.
+workers need mjmotion installed, the same version as here, and DIR at the same path: a worker that
+cannot import it, or runs another version, is refused before any clip is sent). A bad file is a
+row with status=error and its message; a worker that dies is replaced by its nanny and its clips
+rerun by Dask (a cluster left with no worker for 120 s ends the audit with an error; one that has
+had none yet is waited for, with a note); a clip running longer than --timeout is an error row, and
+so is a file that cannot be read (a folder that cannot be listed, and a name ending in .bvh that is
+no file -- a dangling link, a pipe -- is named in a note). Nothing in DIR is written; OUT_DIR is
+locked while the audit runs (a second audit into it at once is refused). The exit status is 0 when
+every file has its row, error rows included.
 
 With --resume, rows whose file (SHA-256), judge options, sources, judge revision and mjmotion
 version are unchanged are kept and not recomputed (errors that might go away -- a time limit, a
@@ -132,14 +136,17 @@ def run(args: argparse.Namespace) -> int:
             f"--dashboard with --scheduler {args.scheduler}: the cluster's scheduler runs its own dashboard (if any); --dashboard is for --workers"
         )
     root, out = check_paths(args)
-    made = not out.exists()
+    made = [d for d in (out, *out.parents) if not d.exists()]  # (deepest first)
     out.mkdir(parents=True, exist_ok=True)
-    try:
-        with audit.holding(out):
+    with audit.holding(out):
+        try:
             return _audit(args, root, out)
-    finally:
-        if made and out.is_dir() and not any(out.iterdir()):
-            out.rmdir()  # a start refused before anything was written leaves no folder behind
+        finally:
+            # A start refused before anything was written leaves no folder behind (removed while this
+            # audit still holds it: another one refused the lock removes nothing).
+            for d in made:
+                with contextlib.suppress(OSError):
+                    d.rmdir()  # (only when empty)
 
 
 def _audit(args: argparse.Namespace, root: Path, out: Path) -> int:
