@@ -390,6 +390,11 @@ class Dask(Executor):
 
         # Task errors and worker deaths come back as outcomes; Dask's own log lines would bury the one-line errors.
         logging.getLogger("distributed").setLevel(logging.CRITICAL)
+        # (Dask's logging settings give some of its loggers their own level: the client's printed a traceback
+        # of every reconnection try once a scheduler went away.)
+        for name in [n for n in logging.root.manager.loggerDict if n.startswith("distributed.")]:
+            if logging.getLogger(name).level != logging.NOTSET:
+                logging.getLogger(name).setLevel(logging.CRITICAL)
         self.cluster = None
         self.address = scheduler
         if scheduler is not None:
@@ -527,6 +532,13 @@ class Dask(Executor):
                         yield Outcome(key, error="its worker died every time it ran it (killed or out of memory)", kind="worker")
                     elif e is not None:
                         yield _internal(key, e)
+                    elif self.client.status != "running":
+                        # The scheduler went away: every task still out is cancelled at once, which is no outcome
+                        # of the clips (it made them all "worker" rows, exit 0).
+                        raise MjmotionError(
+                            f"the Dask scheduler at {self.address} went away (connection lost); "
+                            f"{sum(k in done for k in futures) - 1} of {len(futures)} tasks had finished"
+                        )
                     else:
                         yield Outcome(key, error=f"cancelled by the cluster ({f.status})", kind="worker")
                     continue

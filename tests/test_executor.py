@@ -256,6 +256,7 @@ def _cluster(tmp_path: Path, *worker_args: str, workers: int = 1, pythonpath: tu
         with Client(address, timeout=60) as c:  # (the scheduler answers)
             if workers:
                 c.wait_for_workers(workers, timeout=120)
+        add_worker.scheduler = procs[0]  # type: ignore[attr-defined]  (a test may stop it)
         yield address, add_worker
     finally:
         for p in procs:
@@ -323,6 +324,25 @@ def test_a_cluster_that_has_not_had_a_worker_yet_is_waited_for(tmp_path, monkeyp
             assert f"note: the Dask cluster at {address} has no worker; waiting for one (Ctrl-C stops)" in err.getvalue()
         finally:
             ex.close()
+
+
+def test_a_scheduler_that_goes_away_ends_the_run_with_one_error(tmp_path, capsys):
+    """Its scheduler killed mid-run: the tasks still out were cancelled at once and came back as outcomes
+    ("cancelled by the cluster", every one), and Dask's client printed a traceback per reconnection try."""
+    import threading
+
+    with _cluster(tmp_path) as (address, add_worker):
+        ex = executor.start(scheduler=address)
+        try:
+            outs = []
+            threading.Timer(1.5, add_worker.scheduler.kill).start()
+            with pytest.raises(MjmotionError, match=rf"the Dask scheduler at {address} went away \(connection lost\); \d+ of 40 tasks had finished"):
+                for o in ex.run(time.sleep, [(i, (0.1,)) for i in range(40)], progress=False):
+                    outs.append(o)
+            assert outs and all(o.kind is None for o in outs)
+        finally:
+            ex.close()
+    assert "Traceback" not in capsys.readouterr().err
 
 
 def test_a_stopped_worker_cannot_hold_the_start(tmp_path):

@@ -31,8 +31,9 @@ Dask cluster (--scheduler tcp://HOST:8786, started with 'dask scheduler' and 'da
 workers need mjmotion installed, the same version as here, and DIR at the same path: a worker that
 cannot import it, or runs another version, is refused before any clip is sent). A bad file is a
 row with status=error and its message; a worker that dies is replaced by its nanny and its clips
-rerun by Dask (a cluster left with no worker for 120 s ends the audit with an error; one that has
-had none yet is waited for, with a note); a clip running longer than --timeout is an error row, and
+rerun by Dask (a cluster left with no worker for 120 s, or a scheduler that goes away, ends the
+audit with an error, the rows so far kept; a cluster that has had no worker yet is waited for, with
+a note); a clip running longer than --timeout is an error row, and
 so is a file that cannot be read (a folder that cannot be listed, and a name ending in .bvh that is
 no file -- a dangling link, a pipe -- is named in a note). Nothing in DIR is written; OUT_DIR is
 locked while the audit runs (a second audit into it at once is refused). The exit status is 0 when
