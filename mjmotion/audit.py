@@ -747,9 +747,9 @@ def _md_code(path: str) -> str:
     return f"{fence} {text} {fence}" if fence == "``" else f"`{text}`"
 
 
-def _misread(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """The summary's lines on clips whose body stands along another file axis than the ``--up`` they were
-    read with (their ``standing_axis`` column; nothing when there are none)."""
+def misread(rows: Sequence[Mapping[str, Any]]) -> list[tuple[str, str, str]]:
+    """``(path, standing axis, up axis read)`` of the rows whose body stands along another file axis than
+    the ``--up`` they were read with (their ``standing_axis`` column against their options)."""
     odd = []
     for r in rows:
         axis = r.get("standing_axis")
@@ -759,6 +759,12 @@ def _misread(rows: Sequence[Mapping[str, Any]]) -> list[str]:
             up = "y"
         if isinstance(axis, str) and axis != f"+{up}":
             odd.append((r["path"], axis, up))
+    return odd
+
+
+def _misread(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The summary's lines on the :func:`misread` clips (nothing when there are none)."""
+    odd = misread(rows)
     if not odd:
         return []
     shown = "; ".join(f"{_md_code(p)} {a.upper()}" for p, a, _ in odd[:WORST]) + (f"; and {len(odd) - WORST} more" if len(odd) > WORST else "")

@@ -123,25 +123,16 @@ def _within(seconds: float, fn: Callable[[], Any]) -> Any:
 def _connect(client_class: Any, scheduler: str, timeout: float) -> Any:
     """A Dask client of the scheduler at ``scheduler``, or one ``MjmotionError`` naming it after ``timeout``
     seconds. Dask's own ``timeout`` bounds the TCP connect only: a port that accepts and never speaks
-    Dask (another server) held ``audit`` for good, so the whole start runs in a thread with a deadline."""
-    import threading
-
-    box: dict[str, Any] = {}
-
-    def start() -> None:
-        try:
-            box["client"] = client_class(scheduler, timeout=timeout, set_as_default=False)
-        except Exception as e:  # OSError, TimeoutError, ValueError for a malformed address
-            box["error"] = e
-
-    thread = threading.Thread(target=start, name="mjmotion-dask-connect", daemon=True)
-    thread.start()
-    thread.join(timeout + 2.0)
-    if "client" in box:
-        return box["client"]
+    Dask (another server) held ``audit`` for good, so the whole start runs with a deadline (:func:`_within`)."""
+    try:
+        client = _within(timeout + 2.0, lambda: client_class(scheduler, timeout=timeout, set_as_default=False))
+        why = "no Dask handshake"
+    except Exception as e:  # OSError, TimeoutError, ValueError for a malformed address
+        client, why = None, type(e).__name__
+    if client is not None:
+        return client
     # The half-made client is abandoned; its clean-up at exit would only print a traceback.
     sys.unraisablehook = lambda _: None
-    why = type(box["error"]).__name__ if "error" in box else "no Dask handshake"
     raise MjmotionError(f"--scheduler {scheduler}: no Dask scheduler answered within {timeout:g} s ({why})")
 
 

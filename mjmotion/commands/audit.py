@@ -197,7 +197,7 @@ def _audit(args: argparse.Namespace, root: Path, out: Path) -> int:
     rate = f" ({res.computed / res.seconds:.2f} clips/s)" if res.computed and res.seconds > 0 else ""
     print(f"{len(res.rows)} clips: {len(res.rows) - n_err} ok, {n_err} error; {res.computed} evaluated in {res.seconds:.1f} s{rate}")
     print("wrote " + ", ".join(res.files) + (f"; unchanged: {', '.join(res.unchanged)}" if res.unchanged else ""))
-    odd = sum(r.get("standing_axis") not in (None, f"+{args.up}") for r in res.rows)
+    odd = len(audit.misread(res.rows))
     if odd:
         print(f"note: {odd} clip{'s' * (odd != 1)} stand{'s' * (odd == 1)} along another file axis than --up {args.up} reads (summary.md)")
     # At exit the interpreter's last garbage collection walks every object Dask, Matplotlib, Arrow and the
