@@ -22,6 +22,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import socket
 import time
 from collections import Counter
@@ -508,11 +509,12 @@ def rel_text(path: Path, base: Path) -> str:
     return os.fsencode(path.relative_to(base).as_posix()).decode("utf-8", "backslashreplace")
 
 
-def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = None) -> list[Clip]:
-    """The clips under ``root`` with sizes and hashes (and their sources' hashes)."""
+def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = None, files: Sequence[Path] | None = None) -> list[Clip]:
+    """The clips under ``root`` with sizes and hashes (and their sources' hashes); ``files``: the folder's
+    :func:`listing` if the caller has it already (a database on a network file system is walked once)."""
     out = []
     base = root.resolve()
-    for p in find_bvh(base):
+    for p in listing(root) if files is None else files:
         rel = rel_text(p, base)
         src = tuple(source_map.get(rel, ())) if source_map else ()
         try:
@@ -522,6 +524,12 @@ def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = No
             continue
         out.append(Clip(rel, str(p), listed.stat[2], sha, src, tuple(sha256_file(s) for s in src), listed))
     return out
+
+
+def listing(root: Path, unreadable: list[str] | None = None, skipped: list[str] | None = None) -> list[Path]:
+    """The ``.bvh`` files under ``root`` (:func:`mjmotion.inputs.find_bvh`, which notes the folders it cannot
+    list and the names it skips), under its resolved path: the paths the workers open, wherever they run."""
+    return [root.resolve() / p.relative_to(root) for p in find_bvh(root, unreadable, skipped)]
 
 
 def options_text(opts: Mapping[str, Any], clip: Clip) -> str:
@@ -559,13 +567,20 @@ class Plan:
 
 
 def plan(
-    root: Path, out_dir: Path, *, resume: bool = False, source_map: Mapping[str, tuple[str, ...]] | None = None, opts: dict[str, Any] | None = None
+    root: Path,
+    out_dir: Path,
+    *,
+    resume: bool = False,
+    source_map: Mapping[str, tuple[str, ...]] | None = None,
+    opts: dict[str, Any] | None = None,
+    files: Sequence[Path] | None = None,
 ) -> Plan:
-    """List and hash the clips under ``root`` and, with ``resume``, read ``out_dir/audit.csv`` to keep the
-    rows that still answer. Reads only (so it can run while the workers start)."""
+    """List (unless given the :func:`listing` as ``files``) and hash the clips under ``root`` and, with
+    ``resume``, read ``out_dir/audit.csv`` to keep the rows that still answer. Reads only (so it can run
+    while the workers start)."""
     started = time.perf_counter()
     opts = opts if opts is not None else judge_options()
-    clips = list_clips(root, source_map)
+    clips = list_clips(root, source_map, files)
     previous = {r["path"]: r for r in Table.read(out_dir / "audit.csv")} if resume and (out_dir / "audit.csv").is_file() else {}
     options = {c.rel: options_text(opts, c) for c in clips}
     kept = [previous[c.rel] for c in clips if c.rel in previous and reusable(previous[c.rel], c, options[c.rel])]
@@ -740,6 +755,17 @@ def _md_cell(text: str) -> str:
     return " ".join(text.split("\n")).replace("|", "\\|")
 
 
+def _message_in_row(message: str, path: Path) -> str:
+    """An error message without the file's path in front (the table's clip cell names it): ``P:12: x`` reads
+    ``line 12: x``, ``P: x`` reads ``x``; a message naming another file (a source) is kept whole."""
+    head = f"{path}:"
+    if not message.startswith(head):
+        return message
+    rest = message[len(head) :]
+    line = re.match(r"(\d+): ", rest)
+    return f"line {line.group(1)}: {rest[line.end() :]}" if line else rest.strip()
+
+
 def _md_code(path: str) -> str:
     """A path as inline code in a table cell, whatever it holds (backticks, pipes, line breaks)."""
     text = _md_cell(path)
@@ -863,7 +889,9 @@ def write_summary(
     errors = [r for r in rows if r.get("status") != "ok"]
     if errors:
         lines += ["", "## Errors", "", "| clip | kind | message |", "|---|---|---|"]
-        lines += [f"| {_md_code(r['path'])} | {r.get('error_kind')} | {_md_cell(str(r.get('error')))} |" for r in errors]
+        lines += [
+            f"| {_md_code(r['path'])} | {r.get('error_kind')} | {_md_cell(_message_in_row(str(r.get('error')), root / r['path']))} |" for r in errors
+        ]
     params = next((r["params"] for r in ok if r.get("params")), None)
     opts = next((r["options"] for r in rows if r.get("options")), None)
     lines += [
@@ -873,7 +901,7 @@ def write_summary(
         f"- mjmotion {__version__}; per-clip time limit: {f'{timeout:g} s' if timeout else 'none'}",
         f"- judge options (`mjmotion evaluate`'s defaults unless given): `{opts}`",
         f"- report thresholds: `{params}`",
-        "- metric definitions: the report fields of mjmotion/evaluate.py (see `mjmotion evaluate --help`)",
+        "- metric definitions: docs/METRICS.md in mjmotion's repository (`mjmotion evaluate --help` names each option)",
     ]
     drawn()  # the picture first: summary.md shows it
     write_text_atomic(out_dir / "summary.md", "\n".join(lines) + "\n")

@@ -14,6 +14,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import shutil
 import signal
 import socket
@@ -150,6 +151,19 @@ def test_audit_on_a_local_cluster_matches_evaluate(corpus, tmp_path, capsys):
     summary = (out / "summary.md").read_text()
     assert "| cmu-asf | 1 | 1 | 0 |" in summary and f"| unreadable | {len(HOSTILE) - 2} | 0 | {len(HOSTILE) - 2} |" in summary
     assert "`hostile/empty.bvh`" in summary and "planted_skate_mm_per_s" in summary and (out / "histograms.png").stat().st_size > 0
+    # The errors table names each file once, in its clip cell (the message said the full path again).
+    errors = summary.split("## Errors")[1].split("## Parameters")[0]
+    assert str(corpus) not in errors and errors.count("`hostile/") == len([r for r in rows if r.startswith("hostile/")])
+    assert any(re.search(r"\| line \d+: ", line) for line in errors.splitlines()), errors
+
+
+def test_error_cells_drop_the_path_the_clip_cell_names():
+    clip = Path("/data/run/a.bvh")
+    assert audit._message_in_row("/data/run/a.bvh:12: expected a number", clip) == "line 12: expected a number"
+    assert audit._message_in_row("/data/run/a.bvh: too few frames (3)", clip) == "too few frames (3)"
+    # A message about another file (its source, or a file whose name extends this one's) stays whole.
+    for other in ("/data/run/src.bvh:4: bad", "/data/run/a.bvh.bak:4: bad"):
+        assert audit._message_in_row(other, clip) == other
 
 
 def test_a_worker_trusts_a_file_only_while_it_is_unchanged(tmp_path):
@@ -395,6 +409,29 @@ def test_source_map_adds_source_measures_and_reruns_on_a_source_change(tmp_path,
     bvh.write(m[: m.n_frames - 5], src / "walk.bvh")  # the source changed: the mapped clip is judged again
     again = audit.run(root, out, dask2, resume=True, source_map=audit.read_source_map(smap, _listed(root)), progress=False)
     assert again.computed == 1
+
+
+def test_the_cli_walks_the_folder_once(tmp_path, monkeypatch):
+    """DIR was walked three times with --source-map (the check for .bvh files, the map's keys, the plan): a
+    database on a network file system paid each walk. The rows name the files under DIR as given."""
+    root, src = tmp_path / "results", tmp_path / "sources"
+    (root / "deep").mkdir(parents=True)
+    src.mkdir()
+    walk = synth.walk(seconds=0.8).motion
+    bvh.write(walk, src / "walk.bvh")
+    bvh.write(walk.replace(root_positions=walk.root_positions * [1.0, 1.0, 1.02]), root / "deep" / "lifted.bvh")
+    bvh.write(walk, root / "plain.bvh")
+    (tmp_path / "map.json").write_text(json.dumps({"deep/lifted.bvh": "sources/walk.bvh"}))
+    walks = []
+    counted = lambda *a, **k: walks.append(a[0]) or find_bvh(*a, **k)
+    monkeypatch.setattr(audit, "find_bvh", counted)
+    monkeypatch.setattr("mjmotion.inputs.find_bvh", counted)
+    monkeypatch.chdir(tmp_path)  # DIR given relative: the workers still get whole paths
+    assert cli.main(["audit", "results", "-o", "out", "--workers", "1", "--source-map", "map.json"]) == 0
+    assert len(walks) == 1
+    rows = _rows(tmp_path / "out")
+    assert sorted(rows) == ["deep/lifted.bvh", "plain.bvh"] and all(r["status"] == "ok" for r in rows.values())
+    assert rows["deep/lifted.bvh"].get("vs_source.root_jump_m") is not None and rows["plain.bvh"].get("vs_source.root_jump_m") is None
 
 
 def _free_port() -> int:

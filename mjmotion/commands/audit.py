@@ -87,9 +87,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_input_options(p)
 
 
-def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
-    """DIR and OUT_DIR, checked before any work (each error names the path)."""
-    from ..inputs import find_bvh
+def check_paths(args: argparse.Namespace) -> tuple[Path, Path, list[Path]]:
+    """DIR, OUT_DIR and DIR's :func:`~mjmotion.audit.listing`, checked before any work (each error names
+    the path)."""
+    from ..audit import listing
 
     root = Path(args.dir)
     if not root.is_dir():
@@ -109,13 +110,14 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path]:
         raise MjmotionError(f"-o {out}: holds no audit.csv to resume; give an audit's folder, a new one, or --force to start an audit here")
     unreadable: list[str] = []
     skipped: list[str] = []
-    if not find_bvh(root, unreadable, skipped):
+    files = listing(root, unreadable, skipped)
+    if not files:
         raise MjmotionError(f"{root}: no .bvh files found (searched recursively)" + (f"; cannot list {unreadable[0]}" if unreadable else ""))
     for folder in unreadable:
         sys.stderr.write(f"note: {folder}; the .bvh files in it are not audited\n")
     for name in skipped:
         sys.stderr.write(f"note: {name}; not audited\n")
-    return root, out
+    return root, out, files
 
 
 def run(args: argparse.Namespace) -> int:
@@ -136,12 +138,12 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError(
             f"--dashboard with --scheduler {args.scheduler}: the cluster's scheduler runs its own dashboard (if any); --dashboard is for --workers"
         )
-    root, out = check_paths(args)
+    root, out, files = check_paths(args)
     made = [d for d in (out, *out.parents) if not d.exists()]  # (deepest first)
     out.mkdir(parents=True, exist_ok=True)
     with audit.holding(out):
         try:
-            return _audit(args, root, out)
+            return _audit(args, root, out, files)
         finally:
             # A start refused before anything was written leaves no folder behind (removed while this
             # audit still holds it: another one refused the lock removes nothing).
@@ -150,21 +152,19 @@ def run(args: argparse.Namespace) -> int:
                     d.rmdir()  # (only when empty)
 
 
-def _audit(args: argparse.Namespace, root: Path, out: Path) -> int:
+def _audit(args: argparse.Namespace, root: Path, out: Path, files: list[Path]) -> int:
     import atexit
     import gc
     from concurrent.futures import ThreadPoolExecutor
 
     from .. import audit
     from ..executor import CONNECT_TIMEOUT, Aside, Executor, cores, start
-    from ..inputs import find_bvh
 
     opts = audit.judge_options(units=args.units, up=args.up, keep_start=args.keep_start)
     source_map = None
     if args.source_map:
         base = root.resolve()
-        rels = [audit.rel_text(p, base) for p in find_bvh(base)]
-        source_map = audit.read_source_map(args.source_map, rels, base)
+        source_map = audit.read_source_map(args.source_map, [audit.rel_text(p, base) for p in files], base)
     workers = args.workers if args.workers is not None or args.scheduler is not None else cores()
     # Forked before Dask loads: the histograms' Matplotlib loads there meanwhile, off the workers' cores.
     # A resume may have nothing to draw (and should exit at once), so it draws in this process.
@@ -173,7 +173,7 @@ def _audit(args: argparse.Namespace, root: Path, out: Path) -> int:
     # hashing and reading release the interpreter's lock, the start-up is mostly imports and forks.
     try:
         with ThreadPoolExecutor(1, thread_name_prefix="audit-plan") as pool:
-            planned = pool.submit(audit.plan, root, out, resume=args.resume, source_map=source_map, opts=opts)
+            planned = pool.submit(audit.plan, root, out, resume=args.resume, source_map=source_map, opts=opts, files=files)
             # A resume first learns whether anything is left to evaluate: an unchanged folder starts no workers
             # (and contacts no scheduler), so it costs a fraction of the first run.
             idle = args.resume and not planned.result().todo
