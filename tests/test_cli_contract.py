@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 
-from mjmotion import cli
+from mjmotion import bvh, cli
 
 BAD = Path(__file__).resolve().parent / "data" / "bad"
 REPO = Path(__file__).resolve().parents[1]
@@ -361,6 +361,19 @@ def test_negative_numbers_in_any_spelling_are_values_not_options(tmp_path, human
     assert json.loads(rep.read_text())[0]["report"]["floor_m"] == pytest.approx(-0.001)
     for word in ("-inf", "-NaN", "-1e400"):
         refused(*run(["evaluate", str(walk), "--floor", word], capsys)[::2], f"--floor {word}: expected a floor height in metres")
+
+
+def test_frame_ranges_counted_from_the_end_are_values_not_options(tmp_path, human, capsys):
+    """``--frames -100:`` read as an option ("expected one argument"), though negatives are documented."""
+    walk = _human(human)
+    n = bvh.read(walk).n_frames
+    for text, frames in (("-20:", 20), ("-20:-5", 15)):
+        rep = tmp_path / f"{text}.json"
+        rc, _, err = run(["evaluate", str(walk), "--frames", text, "--json", str(rep)], capsys)
+        assert rc == 0, err
+        got = json.loads(rep.read_text())[0]
+        assert got["report"]["n_frames"] == frames and got["skipped_frames"] == n - 20
+    refused(*run(["evaluate", str(walk), "--frames", f"-{n + 5}:-{n + 1}"], capsys)[::2], "selects no frames")
 
 
 def test_error_is_one_line_even_for_names_with_line_breaks(tmp_path, capsys):
