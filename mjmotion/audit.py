@@ -890,7 +890,8 @@ def write_summary(
     if errors:
         lines += ["", "## Errors", "", "| clip | kind | message |", "|---|---|---|"]
         lines += [
-            f"| {_md_code(r['path'])} | {r.get('error_kind')} | {_md_cell(_message_in_row(str(r.get('error')), root / r['path']))} |" for r in errors
+            f"| {_md_code(r['path'])} | {r.get('error_kind')} | {_md_cell(_message_in_row(str(r.get('error')), root.resolve() / r['path']))} |"
+            for r in errors
         ]
     params = next((r["params"] for r in ok if r.get("params")), None)
     opts = next((r["options"] for r in rows if r.get("options")), None)

@@ -421,6 +421,7 @@ def test_the_cli_walks_the_folder_once(tmp_path, monkeypatch):
     bvh.write(walk, src / "walk.bvh")
     bvh.write(walk.replace(root_positions=walk.root_positions * [1.0, 1.0, 1.02]), root / "deep" / "lifted.bvh")
     bvh.write(walk, root / "plain.bvh")
+    (root / "deep" / "broken.bvh").write_text("garbage\n")
     (tmp_path / "map.json").write_text(json.dumps({"deep/lifted.bvh": "sources/walk.bvh"}))
     walks = []
     counted = lambda *a, **k: walks.append(a[0]) or find_bvh(*a, **k)
@@ -430,7 +431,11 @@ def test_the_cli_walks_the_folder_once(tmp_path, monkeypatch):
     assert cli.main(["audit", "results", "-o", "out", "--workers", "1", "--source-map", "map.json"]) == 0
     assert len(walks) == 1
     rows = _rows(tmp_path / "out")
-    assert sorted(rows) == ["deep/lifted.bvh", "plain.bvh"] and all(r["status"] == "ok" for r in rows.values())
+    assert sorted(rows) == ["deep/broken.bvh", "deep/lifted.bvh", "plain.bvh"]
+    assert rows["deep/broken.bvh"]["status"] == "error" and rows["plain.bvh"]["status"] == rows["deep/lifted.bvh"]["status"] == "ok"
+    # summary.md names the broken file once (its message, with the whole path, had it again)
+    errors = (tmp_path / "out" / "summary.md").read_text().split("## Errors")[1].split("## Parameters")[0]
+    assert "| `deep/broken.bvh` | input | line 1: expected 'HIERARCHY'" in errors and str(tmp_path) not in errors, errors
     assert rows["deep/lifted.bvh"].get("vs_source.root_jump_m") is not None and rows["plain.bvh"].get("vs_source.root_jump_m") is None
 
 
