@@ -32,9 +32,10 @@ from pathlib import Path
 from typing import Any
 
 from . import __version__
+from .caps import MAX_JSON_BYTES
 from .errors import MjmotionError
 from .executor import Aside, one_line
-from .inputs import find_bvh
+from .inputs import InputError, find_bvh, read_text
 from .outputs import write_text_atomic, write_with
 from .thresholds import JUDGE_REVISION
 
@@ -465,15 +466,16 @@ def read_source_map(path: str | os.PathLike[str], clips: Iterable[str], root: Pa
         return out
 
     try:
-        data = json.loads(p.read_text(encoding="utf-8"), object_pairs_hook=once)
-    except FileNotFoundError:
-        raise MjmotionError(f"--source-map {p}: no such file") from None
-    except IsADirectoryError:
-        raise MjmotionError(f"--source-map {p}: is a folder; expected a JSON file") from None
-    except OSError as e:
-        raise MjmotionError(f"--source-map {p}: cannot be read ({e.strerror or e})") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        # A regular file of at most caps.MAX_JSON_BYTES: a FIFO or /dev/zero was read without end.
+        text = read_text(p, MAX_JSON_BYTES, "a JSON source map")
+    except InputError as e:
+        raise MjmotionError(f"--source-map {e}") from None
+    try:
+        data = json.loads(text, object_pairs_hook=once)
+    except json.JSONDecodeError as e:
         raise MjmotionError(f"--source-map {p}: not JSON ({e})") from None
+    except RecursionError:
+        raise MjmotionError(f"--source-map {p}: JSON nested too deeply; expected one object of clip -> source(s)") from None
     if not isinstance(data, dict):
         raise MjmotionError(f'--source-map {p}: expected a JSON object {{"clip.bvh": "source.bvh" or [sources]}}')
     known = set(clips)
@@ -486,7 +488,11 @@ def read_source_map(path: str | os.PathLike[str], clips: Iterable[str], root: Pa
             raise MjmotionError(f"--source-map {p}: {key!r}: expected a source path or a non-empty list of them")
         resolved = []
         for n in names:
+            if not n.strip():
+                raise MjmotionError(f"--source-map {p}: {key!r}: an empty source path; expected the path of a .bvh file")
             s = Path(n) if Path(n).is_absolute() else p.parent / n
+            if s.is_dir():
+                raise MjmotionError(f"--source-map {p}: {key!r}: source {n} is a folder (looked at {s}); expected a .bvh file")
             if not s.is_file():
                 raise MjmotionError(f"--source-map {p}: {key!r}: source {n} not found (looked for {s})")
             if root is not None and _same_file(s, root / key):

@@ -566,8 +566,33 @@ def test_bad_input_is_one_error_line(corpus, tmp_path, capsys):
     bad_map.write_text('{"bundled/WALK.BVH": "walk_src.bvh", "bundled/WALK.BVH": "run_src.bvh"}')
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(bad_map)], capsys, "'bundled/WALK.BVH' is given more than once")
     _refused(
-        ["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(tmp_path)], capsys, "--source-map", "is a folder; expected a JSON file"
+        ["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(tmp_path)],
+        capsys,
+        "--source-map",
+        "is a directory; expected a JSON source map",
     )
+    # Read as every small input is (a review): a pipe was waited on for good, /dev/zero read until memory
+    # ran out, a file over the JSON limit read whole, JSON nested 100,000 deep an internal error.
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(fifo)], capsys, f"--source-map {fifo}: is a named pipe")
+    _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", "/dev/zero"], capsys, "--source-map /dev/zero: is a character device")
+    bad_map.write_text(" " * (2**20 + 1))
+    _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(bad_map)], capsys, "larger than the limit of 1048576 bytes")
+    bad_map.write_text("[" * 100_000)
+    _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(bad_map)], capsys, "JSON nested too deeply")
+    for source, why in (("", "an empty source path"), (".", "is a folder")):
+        bad_map.write_text(json.dumps({"bundled/WALK.BVH": source}))
+        _refused(["audit", str(corpus), "-o", str(tmp_path / "o5"), "--source-map", str(bad_map)], capsys, why)
+    # A map kept in the output folder under an output's name was replaced by that output (with --force).
+    (tmp_path / "o7").mkdir()
+    (tmp_path / "o7" / "summary.md").write_text("{}")
+    _refused(
+        ["audit", str(corpus), "-o", str(tmp_path / "o7"), "--force", "--source-map", str(tmp_path / "o7" / "summary.md")],
+        capsys,
+        "is the audit's own summary.md",
+    )
+    assert (tmp_path / "o7" / "summary.md").read_text() == "{}"
     assert _snapshot(corpus) == before
     assert not any((tmp_path / f"o{i}").exists() for i in range(1, 6))
 

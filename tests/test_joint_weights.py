@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 
 import numpy as np
 import pytest
@@ -77,18 +78,40 @@ def test_bad_weight_files_are_refused_naming_the_file(clips, tmp_path, capsys, t
 def test_weight_file_reader_refuses_fifos_big_and_binary_files(tmp_path):
     fifo = tmp_path / "pipe.json"
     os.mkfifo(fifo)  # nobody writes: opening it must not block
-    with pytest.raises(MjmotionError, match="not a regular file"):
+    with pytest.raises(MjmotionError, match="is a named pipe"):
         jw.read_small_text(str(fifo), "a joint-weight table")
     big = tmp_path / "big.json"
     big.write_bytes(b" " * (jw.MAX_BYTES + 1))
-    with pytest.raises(MjmotionError, match="over the 1,048,576-byte limit"):
+    with pytest.raises(MjmotionError, match="larger than the limit of 1048576 bytes"):
         jw.read_small_text(str(big), "a joint-weight table")
+    # A folder: the message named a file descriptor ("3: Is a directory").
+    with pytest.raises(MjmotionError, match=f"^{re.escape(str(tmp_path))}: is a directory; expected a joint-weight table"):
+        jw.read_small_text(str(tmp_path), "a joint-weight table")
     binary = tmp_path / "bin.json"
     binary.write_bytes(bytes(range(256)))
     with pytest.raises(MjmotionError, match=r"invalid UTF-8 at byte 128"):
         jw.read_small_text(str(binary), "a joint-weight table")
     with pytest.raises(MjmotionError, match="no such file"):
         jw.read_small_text(str(tmp_path / "missing.json"), "a joint-weight table")
+
+
+def test_no_output_replaces_the_weight_file(clips, tmp_path, capsys):
+    """blend -o W --force with --joint-weights W wrote the blend over the user's weight table."""
+    path_a, path_b, walk, _ = clips
+    table = tmp_path / "w.json"
+    text = json.dumps(_legs_only(walk.skeleton))
+    table.write_text(text)
+    argv = ["--joint-weights", str(table), "--force"]
+    for verb in (
+        ["blend", str(path_a), str(path_b), "--weights", "0.5,0.5", "-o", str(table)],
+        ["register", str(path_a), str(path_b), "--json", str(table)],
+        ["register", str(path_a), str(path_b), "--json", str(tmp_path / "r.json"), "--plot", str(table)],
+        ["stream", str(tmp_path / "script.json"), "-o", str(table)],
+        ["stream", str(tmp_path / "script.json"), "-o", str(tmp_path / "s.bvh"), "--json", str(table)],
+    ):
+        assert main(verb + argv) == 2, verb
+        assert "is an input of this command" in capsys.readouterr().err
+        assert table.read_text() == text
 
 
 def test_blend_and_stream_use_the_weights(clips, tmp_path, capsys):

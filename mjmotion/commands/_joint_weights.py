@@ -12,8 +12,6 @@ import argparse
 import importlib
 import json
 import math
-import os
-import stat
 from pathlib import Path
 
 from ..errors import MjmotionError
@@ -35,28 +33,16 @@ def add_option(p: argparse.ArgumentParser) -> None:
 
 
 def read_small_text(path: str, what: str, max_bytes: int = MAX_BYTES) -> str:
-    """The UTF-8 text of a small regular file; a FIFO, device or folder, a file over ``max_bytes``
-    or bytes that are not UTF-8 are refused naming the file. (Issue 17's input layer will replace
-    this; it is the one place the weight file is opened.)"""
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))  # a FIFO must not block the open
-    except FileNotFoundError:
-        raise MjmotionError(f"{path}: no such file; expected {what}") from None
-    except OSError as e:
-        raise MjmotionError(f"{path}: cannot be read ({e.strerror}); expected {what}") from None
-    with os.fdopen(fd, "rb") as f:
-        st = os.fstat(f.fileno())
-        if not stat.S_ISREG(st.st_mode):
-            raise MjmotionError(f"{path}: not a regular file; expected {what}")
-        if st.st_size > max_bytes:
-            raise MjmotionError(f"{path}: {st.st_size:,} bytes, over the {max_bytes:,}-byte limit for {what}")
-        data = f.read(max_bytes + 1)
-    if len(data) > max_bytes:
-        raise MjmotionError(f"{path}: over the {max_bytes:,}-byte limit for {what}")
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        raise MjmotionError(f"{path}: not a text file (invalid UTF-8 at byte {e.start}); expected {what}") from None
+    """The UTF-8 text of a small regular file (:func:`mjmotion.inputs.read_text`): a FIFO, device or
+    folder, a file over ``max_bytes`` or bytes that are not UTF-8 are refused naming the file."""
+    from ..inputs import read_text
+
+    return read_text(path, max_bytes, what)
+
+
+def inputs(args: argparse.Namespace) -> tuple[str, ...]:
+    """The weight file as one of the verb's inputs, which no output may replace (``--force`` or not)."""
+    return (args.joint_weights,) if getattr(args, "joint_weights", None) else ()
 
 
 def parse(text: str, path: str) -> dict[str, float]:

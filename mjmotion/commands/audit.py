@@ -139,6 +139,13 @@ def run(args: argparse.Namespace) -> int:
             f"--dashboard with --scheduler {args.scheduler}: the cluster's scheduler runs its own dashboard (if any); --dashboard is for --workers"
         )
     root, out, files = check_paths(args)
+    if args.source_map:
+        from ._common import check_same_file
+
+        # (--force removes the outputs, a run writes them: a map kept there under their name was replaced)
+        taken = next((name for name in audit.OUTPUTS if check_same_file(args.source_map, out / name)), None)
+        if taken:
+            raise MjmotionError(f"--source-map {args.source_map}: is the audit's own {taken} in -o {out}; keep the map outside the output folder")
     made = [d for d in (out, *out.parents) if not d.exists()]  # (deepest first)
     out.mkdir(parents=True, exist_ok=True)
     with audit.holding(out):

@@ -112,8 +112,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from .. import registration
 
-    out = check_output(args.json, args.force, (args.a, args.b))
-    plot = check_output(args.plot, args.force, (args.a, args.b, args.json)) if args.plot else None  # (not the JSON's path either)
+    out = check_output(args.json, args.force, (args.a, args.b, *joint_weights.inputs(args)))
+    plot = (
+        check_output(args.plot, args.force, (args.a, args.b, args.json, *joint_weights.inputs(args))) if args.plot else None
+    )  # (not the JSON's path either)
     if plot is not None and plot.suffix.lower() != ".png":
         raise MjmotionError(f"--plot {args.plot}: plots are written as PNG; expected a .png path")
     if args.window < 1 or args.window % 2 == 0:

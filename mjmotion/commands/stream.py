@@ -54,12 +54,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from .. import bvh, stream
 
-    out = output_path(args, args.script)
+    out = output_path(args, args.script, *joint_weights.inputs(args))
 
     def load_clip(path: str, frames: str | None, field: str):
         return load(path, args, frames, frames_option=field)
 
-    report = check_output(args.json, args.force, (args.script,)) if args.json else None
+    report = check_output(args.json, args.force, (args.script, *joint_weights.inputs(args))) if args.json else None
     if report is not None and report == out:
         raise MjmotionError("--json and -o name the same file")
     with steps("stream", ("read", "register", "stream", "write")) as step:
