@@ -420,3 +420,16 @@ def test_a_preview_solves_few_frames_reaches_the_ball_and_stays_near_the_full_so
 
     with pytest.raises(KeyboardInterrupt):
         hitpoint.solve(problem, "dls", on_frame=stop)
+
+
+def test_a_hit_at_the_clips_first_or_last_frame_is_refused_before_solving():
+    """The edit keeps a clip's first and last frames (end_taper): a hit there moved nothing and was then
+    reported "unreachable, stopped 0.000 m short"."""
+    from mjmotion import synth
+
+    drive = synth.drive()
+    m = drive.motion
+    for frame in (0, m.n_frames - 1):
+        with pytest.raises(MjmotionError, match=rf"^frame {frame} is not inside the clip's frames 1\.\.{m.n_frames - 2}"):
+            hitpoint.setup(m, offset=np.array([0.0, 0.0, 0.01]), frame=frame, prop=drive.prop)
+    assert hitpoint.setup(m, offset=np.array([0.0, 0.0, 0.01]), frame=1, prop=drive.prop).hit == 1

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import require_data
 
 from mjmotion import bvh, trim
 from mjmotion.cli import main
@@ -109,3 +110,35 @@ def test_frame_options_stay_file_frames():
     assert clip_frame(-1, 4, "--rest-frame") == -1
     with pytest.raises(MjmotionError, match=r"--frame 2: inside the skipped .*frames 0-3.*--keep-start"):
         clip_frame(2, 4, "--frame")
+
+
+def test_frame_options_out_of_range_are_refused_in_the_files_numbers():
+    """hit --frame 317 of a daz clip (frames 4..316 read) said "--frame 313: the clip has frames 0..312", and
+    vary --abort-at 400 "got 396": numbers the user never gave."""
+    assert clip_frame(316, 4, "--rest-frame", 313) == 312 and clip_frame(-313, 4, "--rest-frame", 313) == -313
+    with pytest.raises(MjmotionError, match=r"^--frame 317: outside the clip's frames 4\.\.316$"):
+        clip_frame(317, 4, "--frame", 313)
+    with pytest.raises(MjmotionError, match=r"^--rest-frame -314: outside the clip's frames 4\.\.316 \(or -313\.\.-1 from the end\)"):
+        clip_frame(-314, 4, "--rest-frame", 313)
+    # inner: the first and last frames of the clip as read are refused too, and the reason given
+    assert clip_frame(5, 4, "--abort-at", 313, inner=True) == 1 and clip_frame(315, 4, "--abort-at", 313, inner=True) == 311
+    for frame in (4, 316):
+        with pytest.raises(MjmotionError, match=rf"^--abort-at {frame}: outside the clip's inner frames 5\.\.315; why$"):
+            clip_frame(frame, 4, "--abort-at", 313, inner=True, why="; why")
+    with pytest.raises(MjmotionError, match=r"^--frame 1: a clip of 2 frames has no frame inside it"):
+        clip_frame(1, 0, "--frame", 2, inner=True)
+
+
+def test_hit_and_vary_refuse_the_clips_end_frames_and_speak_in_file_frames(tmp_path, capsys):
+    """A hit at the first or last frame ran the solver, moved nothing (the edit keeps those frames) and
+    said "target unreachable … stopped 0.000 m short"; vary's report counted from the trimmed clip."""
+    clip = require_data() / "cmu_cgspeed_daz" / "09_06.bvh"
+    n = bvh.read(clip).n_frames
+    for frame in (4, n - 1):
+        out = tmp_path / f"h{frame}.bvh"
+        assert main(["hit", str(clip), "--frame", str(frame), "--offset", "0", "0", "0.01", "-o", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert f"--frame {frame}: outside the clip's inner frames 5..{n - 2}" in err and not out.exists(), err
+    out = tmp_path / "v.bvh"
+    assert main(["vary", str(clip), "--abort-at", "5", "--abort-frames", "10", "-o", str(out)]) == 0
+    assert "abort at 5," in capsys.readouterr().out and bvh.read(out).n_frames == 2 + 10

@@ -136,14 +136,24 @@ def load(
     return load_first(path, args, frames, trim=trim, note=note, frames_option=frames_option)[0]
 
 
-def clip_frame(frame: int, first: int, option: str) -> int:
+def clip_frame(frame: int, first: int, option: str, n_frames: int | None = None, *, inner: bool = False, why: str = "") -> int:
     """A file frame number given in ``option`` as a frame of the clip :func:`load_first` read
-    starting at file frame ``first`` (negative numbers count from the end, unchanged)."""
-    if frame < 0 or not first:
-        return frame
-    if frame < first:
+    starting at file frame ``first`` (negative numbers count from the end, unchanged).
+
+    With ``n_frames`` (the clip's, as read) a frame outside it is refused in the file's numbers, as
+    the user gave it; ``inner``: the clip's first and last frames are refused too (``why`` says why)."""
+    if frame >= 0 and first and frame < first:
         raise MjmotionError(f"{option} {frame}: inside the skipped leading T-pose/transition (frames 0-{first - 1}); add --keep-start")
-    return frame - first
+    k = frame - first if frame >= 0 else frame
+    if n_frames is not None:
+        lo, hi = (1, n_frames - 2) if inner else (0, n_frames - 1)
+        at = k + n_frames if k < 0 else k
+        if hi < lo:
+            raise MjmotionError(f"{option} {frame}: a clip of {n_frames} frames has no frame {'inside it' if inner else ''}{why}".rstrip())
+        if not lo <= at <= hi:
+            shown = f"{first + lo}..{first + hi}" + (f" (or {lo - n_frames}..{hi - n_frames} from the end)" if frame < 0 else "")
+            raise MjmotionError(f"{option} {frame}: outside the clip's {'inner ' if inner else ''}frames {shown}{why}")
+    return k
 
 
 def check_same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:

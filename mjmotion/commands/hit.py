@@ -13,6 +13,8 @@ from ._options import COORD, FRAME, VELOCITY, number
 from ._progress import steps
 
 NAME = "hit"
+#: Why a hit frame must be inside the clip (hitpoint.end_taper: the edit keeps the first and last frames).
+HIT_INSIDE = "; the edit fades in and out around the hit and keeps the clip's first and last frames as captured"
 HELP = "move a swing's hit point (IK with importance-based blending, keeping the style)"
 #: This verb renders nothing: the CLI imports MuJoCo without its import-time OpenGL backend.
 MUJOCO_WITHOUT_GL = True
@@ -130,7 +132,8 @@ def run(args: argparse.Namespace) -> int:
     with steps("hit", names) as step:
         step("read")
         m, first = load_first(args.file, args)
-        frame = None if args.frame is None else clip_frame(args.frame, first, "--frame")
+        # (the edit fades in and out around its hit frame and keeps the clip's first and last frames)
+        frame = None if args.frame is None else clip_frame(args.frame, first, "--frame", m.n_frames, inner=True, why=HIT_INSIDE)
         prop = hitpoint.fit_club(m, args.prop) if args.effector == "club" else None
         source_ball = None if args.source_ball is None else np.array(args.source_ball)
         target = None if args.target is None else np.array(args.target)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import json
 from pathlib import Path
@@ -183,12 +184,16 @@ def run(args: argparse.Namespace) -> int:
                 check_motion_size(n_out, source.skeleton.n_joints, f"--abort-at {args.abort_at} --abort-frames {args.abort_frames}")
                 path = variations.aborted_path(
                     base,
-                    clip_frame(args.abort_at, first, "--abort-at"),
+                    clip_frame(
+                        args.abort_at, first, "--abort-at", source.n_frames, inner=True, why="; the shot is followed up to it, then heads for rest"
+                    ),
                     args.abort_frames,
-                    -1 if args.rest_frame is None else clip_frame(args.rest_frame, first, "--rest-frame"),
+                    -1 if args.rest_frame is None else clip_frame(args.rest_frame, first, "--rest-frame", source.n_frames),
                     source.fps,
                     space=space,
                 )
+                if first:  # its label counts from the clip as read; the user's frame is the file's
+                    path = dataclasses.replace(path, label=f"abort at {args.abort_at}")
         k = path.k
 
         step("synthesise")
