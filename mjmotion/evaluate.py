@@ -100,7 +100,8 @@ def planted_skate_mm_per_s(track: FootTrack | Motion, h_c: float = H_C, v_c: flo
 
 def skate_weights(heights: np.ndarray, h_c: float = H_C) -> np.ndarray:
     """Height weights ``w = 2 − 2^(h/h_c)`` clipped to [0, 1]: 1 on (or below) the floor, 0 at ``h_c``."""
-    return np.clip(2.0 - np.power(2.0, heights / h_c), 0.0, 1.0)
+    # (the exponent capped at 1, where the weight is already 0: a tiny h_c overflowed 2^x with a warning)
+    return np.clip(2.0 - np.power(2.0, np.minimum(heights / h_c, 1.0)), 0.0, 1.0)
 
 
 def skate_mm_per_s(track: FootTrack | Motion, h_c: float = H_C) -> float:

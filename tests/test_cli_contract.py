@@ -376,6 +376,21 @@ def test_frame_ranges_counted_from_the_end_are_values_not_options(tmp_path, huma
     refused(*run(["evaluate", str(walk), "--frames", f"-{n + 5}:-{n + 1}"], capsys)[::2], "selects no frames")
 
 
+def test_an_option_that_would_do_nothing_is_refused(tmp_path, human, capsys):
+    """evaluate --ball-velocity without --ball exited 0 and the velocity went nowhere (a review)."""
+    walk = str(_human(human))
+    refused(*run(["evaluate", walk, "--ball-velocity", "1", "1", "1"], capsys)[::2], "--ball-velocity is the velocity of --ball")
+    refused(
+        *run(["evaluate", walk, "--ball", "0", "0", "1", "--frame", "10", "--delivery", "fast", "--ball-velocity", "1", "1", "1"], capsys)[::2],
+        "--ball-velocity with a delivered ball",
+    )
+    # Its default given explicitly without a ball is refused alike (the option was given), and a ball takes it.
+    refused(*run(["evaluate", walk, "--ball-velocity", "0", "0", "0"], capsys)[::2], "--ball-velocity")
+    rep = tmp_path / "r.json"
+    rc, _, err = run(["evaluate", walk, "--ball", "0", "0", "1", "--frame", "10", "--ball-velocity", "1", "1", "1", "--json", str(rep)], capsys)
+    assert rc == 0, err
+
+
 def test_error_is_one_line_even_for_names_with_line_breaks(tmp_path, capsys):
     odd = tmp_path / "two\nlines\r.bvh"
     line = refused(*run(["convert", str(odd), str(tmp_path / "out.bvh")], capsys)[::2], "no such file")

@@ -666,3 +666,14 @@ def test_a_stature_no_person_has_is_noted_with_the_units_option(capsys):
                      "(mjmotion info shows the stature each --units gives)"]  # fmt: skip
     assert main(["evaluate", clip]) == 0
     assert "stature" not in capsys.readouterr().out
+
+
+def test_skate_weights_of_a_tiny_contact_height_raise_no_overflow_warning():
+    """--h-c 1e-10 printed numpy's "overflow encountered in power" (2^(h/h_c)) under the report."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        w = ev.skate_weights(np.array([-0.01, 0.0, 0.02, 1.0]), 1e-10)
+    assert w.tolist() == [1.0, 1.0, 0.0, 0.0]
+    assert ev.skate_weights(np.array([0.025]), 0.05)[0] == pytest.approx(2 - 2**0.5)

@@ -100,8 +100,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         nargs=3,
         type=VELOCITY,
         default=(0.0, 0.0, 0.0),
+        action=_Given,
         metavar=("VX", "VY", "VZ"),
-        help="incoming ball velocity at impact, m/s (each within ±1000)",
+        help="incoming ball velocity at impact, m/s (each within ±1000), for --ball or --hit-grid (default 0 0 0)",
     )
     p.add_argument("--frame", type=FRAME, metavar="H", help="hit frame (0-based, of the file) for --ball")
     p.add_argument(
@@ -324,6 +325,16 @@ def _finite(value: float, option: str, what: str, strict: bool = True) -> None:
     require_number(option, value, strict=strict, what=what)
 
 
+class _Given(argparse.Action):
+    """Store the value and note that it was given (``_DEST_given``): a default that is also a valid value
+    cannot tell an option given without effect from one left alone. (The note starts with ``_``: not a
+    judge option, so audit rows and their resume keys are the same.)"""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any, option_string: str | None = None) -> None:
+        setattr(namespace, self.dest, values)
+        setattr(namespace, f"_{self.dest}_given", True)
+
+
 def check_options(args: argparse.Namespace) -> None:
     """Every numeric option checked before any clip is read (each error names its option)."""
     _finite(args.h_c, "--h-c", "a contact height in metres")
@@ -339,6 +350,11 @@ def check_options(args: argparse.Namespace) -> None:
         raise MjmotionError("a delivered ball (--ball-release or --delivery) needs --ball X Y Z, where it meets the bat")
     if args.ball_release is not None and args.delivery is not None:
         raise MjmotionError("give --ball-release or --delivery, not both")
+    if getattr(args, "_ball_velocity_given", False):
+        if args.ball is None and args.hit_grid is None:
+            raise MjmotionError("--ball-velocity is the velocity of --ball (or of --hit-grid's launches); give --ball X Y Z, where the ball is met")
+        if args.ball_release is not None or args.delivery is not None:
+            raise MjmotionError("--ball-velocity with a delivered ball: its velocity is where the delivery meets --ball; give one or the other")
     if args.jobs < 1:
         raise MjmotionError(f"--jobs {args.jobs}: expected a number of processes ≥ 1")
     if args.hit_grid is not None and args.hit_grid < 2:
