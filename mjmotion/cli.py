@@ -39,9 +39,14 @@ VERB_ORDER = (
 
 #: What reads as a negative number, not an option: argparse's own pattern takes ``-0.001`` but not ``-1e-3``,
 #: ``-inf`` or ``-nan`` ("--floor -1e-3: expected one argument"); these reach the option's own check now.
-#: So does a frame range counted from the end, ``--frames -100:`` or ``-100:-50`` (its help says negatives
-#: are allowed, and argparse read them as an option).
-NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$|^-\d+:-?\d*$", re.IGNORECASE)
+#: So do a frame range counted from the end, ``--frames -100:`` or ``-100:-50`` (its help says negatives
+#: are allowed, and argparse read them as an option), and a list of numbers led by a negative one
+#: (``--weights -0.2,1.2``: refused by the option's own check, not as "expected one argument").
+_NUMBER = r"(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?"
+NEGATIVE_NUMBER = re.compile(
+    rf"^-{_NUMBER}$|^-(inf|infinity|nan)$|^-\d+:-?\d*$|^-{_NUMBER}(,\s*-?{_NUMBER})+$",
+    re.IGNORECASE,
+)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -600,8 +600,12 @@ def check_address(address: str) -> None:
         scheme, loc = parse_address(address)
         if scheme not in backends:
             raise ValueError(f"unknown scheme {scheme!r}; Dask knows {', '.join(sorted(backends))}")
+        if scheme == "inproc":
+            raise ValueError("an in-process scheduler lives inside one Python process; this audit runs in its own")
         if scheme in ("tcp", "tls", "ws", "wss"):
-            parse_host_port(loc)
+            _, port = parse_host_port(loc)
+            if not 0 < int(port) < 65536:  # (Dask takes any integer: 99999 waited out the connect timeout)
+                raise ValueError(f"port {port} is not a TCP port, 1 to 65535")
     except ValueError as e:
         raise MjmotionError(f"--scheduler {address}: not a Dask scheduler address ({one_line(str(e))}); expected e.g. tcp://HOST:8786") from None
 

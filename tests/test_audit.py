@@ -532,7 +532,13 @@ def test_bad_input_is_one_error_line(corpus, tmp_path, capsys):
         f"--scheduler tcp://127.0.0.1:{port}: no Dask scheduler answered within 1 s",
     )
     assert (taken / "audit.csv").read_text() == "precious"  # --force replaces only once the workers answer
-    for address, why in (("notanaddress", "missing port"), ("http://127.0.0.1:1", "unknown scheme 'http'")):
+    for address, why in (
+        ("notanaddress", "missing port"),
+        ("http://127.0.0.1:1", "unknown scheme 'http'"),
+        ("tcp://127.0.0.1:99999", "port 99999 is not a TCP port"),  # (waited out the connect timeout)
+        ("tcp://127.0.0.1:-1", "port -1 is not a TCP port"),
+        ("inproc://x", "an in-process scheduler"),
+    ):
         t0 = time.perf_counter()  # refused as written, not after waiting out a connection (twice, with a traceback)
         _refused(["audit", str(corpus), "-o", str(taken), "--force", "--scheduler", address], capsys, "not a Dask scheduler address", why)
         assert time.perf_counter() - t0 < 5.0

@@ -374,6 +374,8 @@ def test_frame_ranges_counted_from_the_end_are_values_not_options(tmp_path, huma
         got = json.loads(rep.read_text())[0]
         assert got["report"]["n_frames"] == frames and got["skipped_frames"] == n - 20
     refused(*run(["evaluate", str(walk), "--frames", f"-{n + 5}:-{n + 1}"], capsys)[::2], "selects no frames")
+    # A list led by a negative number reaches its option's own check (was "expected one argument").
+    refused(*run(["blend", str(walk), str(walk), "--weights", "-0.2,1.2", "-o", str(tmp_path / "b.bvh")], capsys)[::2], "--weights", "non-negative")
 
 
 def test_an_option_that_would_do_nothing_is_refused(tmp_path, human, capsys):

@@ -405,6 +405,12 @@ def test_vary_cli_report_and_errors(tmp_path, capsys):
     assert main(["vary", str(src_file), "--scale", "1.1", "--segment", "100:50", "-o", str(tmp_path / "s.bvh")]) == 2
     assert capsys.readouterr().err.startswith("error: --segment 100:50: selects no frames")  # (it said --frames)
     assert "Traceback" not in err
+    # More components than the clip's pose space has: named by option or file (was "number of components must be 1…99")
+    assert main(["vary", str(src_file), "--scale", "1.1", "--pcs", "1000", "-o", str(tmp_path / "p.bvh")]) == 2
+    assert capsys.readouterr().err.startswith("error: --pcs 1000: this clip's pose space has ")
+    np.save(tmp_path / "wide.npy", np.zeros((10, 1000)))
+    assert main(["vary", str(src_file), "--scores", str(tmp_path / "wide.npy"), "-o", str(tmp_path / "p.bvh")]) == 2
+    assert capsys.readouterr().err.startswith(f"error: {tmp_path / 'wide.npy'}: 1000 columns of scores; this clip's pose space has ")
 
 
 # --- the bundled shots (mjmotion.synth) --------------------------------------------------------

@@ -165,8 +165,15 @@ def run(args: argparse.Namespace) -> int:
         space = PoseSpace.fit(source, translations=True)
         if args.scores:
             scores = variations.read_scores(args.scores)
+            cols = scores.shape[1] if scores.ndim == 2 else 1
+            if cols > space.n_components:
+                raise MjmotionError(f"{args.scores}: {cols} columns of scores; this clip's pose space has {space.n_components} components")
             path = variations.explicit_path(space, scores, detail=not args.no_detail)
         else:
+            if args.pcs is not None and args.pcs > space.n_components:
+                raise MjmotionError(
+                    f"--pcs {args.pcs}: this clip's pose space has {space.n_components} components; expected 1 to {space.n_components}"
+                )
             k = args.pcs if args.pcs is not None else space.components_for(args.variance)
             base = variations.source_path(space, k, detail=not args.no_detail)
             if args.scale is not None:
