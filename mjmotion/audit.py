@@ -33,7 +33,7 @@ from typing import Any
 
 from . import __version__
 from .caps import MAX_JSON_BYTES
-from .errors import MjmotionError
+from .errors import MjmotionError, printable
 from .executor import Aside, one_line
 from .inputs import InputError, find_bvh, read_text
 from .outputs import write_text_atomic, write_with
@@ -757,8 +757,9 @@ def histograms_digest(headline: Mapping[str, Sequence[float]], title: str) -> st
 
 
 def _md_cell(text: str) -> str:
-    """``text`` safe in a Markdown table cell: one line, its pipes escaped."""
-    return " ".join(text.split("\n")).replace("|", "\\|")
+    """``text`` safe in a Markdown table cell: one printable line (line breaks and terminal escapes of a
+    file's name written as ``\\n``, ``\\x1b``: :func:`mjmotion.errors.printable`), its pipes escaped."""
+    return printable(text).replace("|", "\\|")
 
 
 def _message_in_row(message: str, path: Path) -> str:

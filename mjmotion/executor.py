@@ -31,7 +31,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, TextIO
 
-from .errors import MjmotionError
+from .errors import MjmotionError, printable
 
 #: Seconds to wait for ``--scheduler`` to answer.
 CONNECT_TIMEOUT = 10.0
@@ -96,7 +96,9 @@ class Outcome:
 
 
 def one_line(text: str) -> str:
-    return " ".join(str(text).split()) or "(no message)"
+    """``text`` on one printable line: whitespace runs as one space, other control characters (a file
+    name's terminal escapes) escaped as Python writes them, as the CLI prints its errors."""
+    return printable(" ".join(str(text).split())) or "(no message)"
 
 
 def _within(seconds: float, fn: Callable[[], Any]) -> Any:

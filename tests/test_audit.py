@@ -795,7 +795,10 @@ def test_summary_cells_hold_any_path():
     """summary.md's tables broke on paths holding a pipe, a backtick or a line break (found by a review)."""
     assert audit._md_code("a|b.bvh") == "`a\\|b.bvh`"
     assert audit._md_code("tick`x.bvh") == "`` tick`x.bvh ``"
-    assert audit._md_code("new\nline.bvh") == "`new line.bvh`" and audit._md_cell("bad | x\ny") == "bad \\| x y"
+    assert audit._md_code("new\nline.bvh") == "`new\\nline.bvh`" and audit._md_cell("bad | x\ny") == "bad \\| x\\ny"
+    # A name's terminal escape is written, not sent to the terminal that shows summary.md (a review)
+    assert audit._md_code("\x1b[31mred.bvh") == "`\\x1b[31mred.bvh`"
+    assert executor.one_line("x.bvh\x1b[2J: bad\n value") == "x.bvh\\x1b[2J: bad value"
 
 
 def test_ctrl_c_at_a_terminal_is_one_line_and_leaves_a_table_to_resume(tmp_path):
