@@ -407,7 +407,7 @@ def _trail_points(model: mujoco.MjModel, q: np.ndarray, prefix: str, name: str, 
     bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, prefix + name)
     if sid < 0 and bid < 0:
         raise MjmotionError(
-            f"trail: no site or joint named {name!r}; sites are {', '.join(c.site_names[:8])}…, joints {', '.join(c.skeleton.names[:8])}…"
+            f"--trail {name}: no site or joint named {name!r}; sites are {', '.join(c.site_names[:8])}…, joints {', '.join(c.skeleton.names[:8])}…"
         )
     d = mujoco.MjData(model)
     out = np.empty((q.shape[0], 3))

@@ -393,6 +393,23 @@ def test_an_option_that_would_do_nothing_is_refused(tmp_path, human, capsys):
     assert rc == 0, err
 
 
+def test_errors_name_the_option_they_are_about(tmp_path, human, capsys):
+    """Library messages reached the user without the option they concern ("no joint named 'x'",
+    "trail: no site…", "segment 0:1 must select…"); --bowler 0 0 was refused only after the clip was read."""
+    walk = str(_human(human))
+    out = str(tmp_path / "o.bvh")
+    cases = (
+        (["hit", walk, "--offset", "0", "0", "0.1", "--lock", "nosuch", "-o", out], "--lock nosuch: no joint"),
+        (["evaluate", walk, "--prop", "club:nosuch"], "--prop club:nosuch: no joint named 'nosuch'"),
+        (["evaluate", "missing.bvh", "--bowler", "0", "0"], "--bowler 0 0: expected a horizontal direction"),
+        (["hit", "missing.bvh", "--offset", "0", "0", "0.1", "--bowler", "0", "0", "-o", out], "--bowler 0 0"),
+        (["vary", walk, "--scale", "1.2", "--segment", "0:1", "-o", out], "--segment 0:1: selects 1 frame(s); expected at least 3"),
+        (["render", walk, "--trail", "nosuch", "-o", str(tmp_path / "r.gif")], "--trail nosuch: no site or joint"),
+    )
+    for argv, phrase in cases:
+        refused(*run(argv, capsys)[::2], phrase)
+
+
 def test_error_is_one_line_even_for_names_with_line_breaks(tmp_path, capsys):
     odd = tmp_path / "two\nlines\r.bvh"
     line = refused(*run(["convert", str(odd), str(tmp_path / "out.bvh")], capsys)[::2], "no such file")

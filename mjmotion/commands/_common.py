@@ -7,6 +7,7 @@ NumPy and the readers load when a verb runs (see :mod:`mjmotion.cli`).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from pathlib import Path
@@ -156,6 +157,13 @@ def clip_frame(frame: int, first: int, option: str, n_frames: int | None = None,
     return k
 
 
+def check_bowler(args: argparse.Namespace) -> None:
+    """``--bowler DX DY`` (a delivery's direction) is not 0 0: refused before any clip is read."""
+    dx, dy = args.bowler
+    if not math.hypot(dx, dy) > 0:
+        raise MjmotionError(f"--bowler {dx:g} {dy:g}: expected a horizontal direction to the bowler, not 0 0")
+
+
 def check_same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
     """Whether two paths name the same file (through links too)."""
     try:
@@ -197,7 +205,10 @@ def prop_option(motion: Motion, text: str) -> Prop:
 
     kind, sep, _ = text.partition(":")
     if sep or kind not in mjcf.PROP_PRESETS:
-        return mjcf.parse_prop_option(motion.skeleton, text)
+        try:
+            return mjcf.parse_prop_option(motion.skeleton, text)
+        except MjmotionError as e:
+            raise MjmotionError(str(e) if str(e).startswith("--prop") else f"--prop {text}: {e}") from None
     from ..hitpoint import fit_club
 
     return fit_club(motion, kind)

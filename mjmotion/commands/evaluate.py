@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import MjmotionError, printable, require_number
 from ..inputs import find_bvh
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, check_same_file, load, load_first, named, naming, prop_option
+from ._common import add_input_options, check_bowler, check_same_file, load, load_first, named, naming, prop_option
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, UniqueProps, integer, number
 
 if TYPE_CHECKING:
@@ -366,6 +366,7 @@ def check_options(args: argparse.Namespace) -> None:
     if args.frame is not None and args.ball is None and args.hit_grid is None:
         raise MjmotionError(f"--frame {args.frame}: the hit frame of --ball (or --hit-grid); give --ball X Y Z, where the ball is met")
     check_floor(args)
+    check_bowler(args)
     if args.source and os.path.isdir(args.path):
         raise MjmotionError("--source applies to one result clip; give a file, not a folder")
 

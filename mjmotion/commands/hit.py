@@ -8,7 +8,7 @@ import sys
 
 from ..errors import MjmotionError
 from ..outputs import write_text_atomic
-from ._common import add_input_options, clip_frame, load_first, output_path
+from ._common import add_input_options, check_bowler, clip_frame, load_first, output_path
 from ._options import COORD, FRAME, VELOCITY, number
 from ._progress import steps
 
@@ -116,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
 
     from .. import bvh, hitpoint
 
+    check_bowler(args)
     out = output_path(args, args.file)
     report_path = None
     if args.json:
@@ -132,6 +133,9 @@ def run(args: argparse.Namespace) -> int:
     with steps("hit", names) as step:
         step("read")
         m, first = load_first(args.file, args)
+        for name in args.lock:
+            if name not in m.skeleton.names:
+                raise MjmotionError(f"--lock {name}: no joint of that name in {args.file}")
         # (the edit fades in and out around its hit frame and keeps the clip's first and last frames)
         frame = None if args.frame is None else clip_frame(args.frame, first, "--frame", m.n_frames, inner=True, why=HIT_INSIDE)
         prop = hitpoint.fit_club(m, args.prop) if args.effector == "club" else None

@@ -185,6 +185,8 @@ def run(args: argparse.Namespace) -> int:
                         raise MjmotionError(
                             f"--segment {args.segment}: inside the skipped leading T-pose/transition (frames 0-{first - 1}); add --keep-start"
                         )
+                    if seg[1] - seg[0] < 3:  # (scaled_path's own check counts from the clip as read)
+                        raise MjmotionError(f"--segment {args.segment}: selects {seg[1] - seg[0]} frame(s); expected at least 3")
                 path = variations.scaled_path(base, args.scale, seg)
             else:
                 n_out = args.abort_at + 1 + (args.abort_frames or 0)
