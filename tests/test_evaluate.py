@@ -540,6 +540,9 @@ def test_cli_evaluate_refuses_a_bad_floor_or_source(case, tmp_path, capsys):
     assert main(["evaluate", target, *extra]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"error: {extra[0]} ") and err.count("\n") == 1 and "Traceback" not in err, err
+    # A copy is named as a copy (it said "is the result itself" of another file).
+    if case in ("itself", "a copy of itself"):
+        assert ("is the result itself" in err) == (case == "itself") and ("a copy" in err) == (case != "itself"), err
 
 
 def test_the_judge_reuses_a_compiled_model_only_for_an_equal_skeleton_and_props(tmp_path):
