@@ -38,7 +38,7 @@ The floor every ground metric measures from is, in order: --floor METRES; the so
 result (--source, repeatable: the clips it was made from, same skeleton and frame rate); otherwise
 the clip's own stance floor (a note is printed when it is more than 1 cm from z = 0). Unless
 --floor is given, a stance floor that tilts 0.5-2 degrees (CMU subjects 07 and 08: ~1.1) is
-levelled first and every metric measures the levelled clip (floor_tilt). A result lifted or sunk
+levelled first and every metric measures the levelled clip (the floor_tilt column; floor_tilt_deg in --json). A result lifted or sunk
 against its source reads as floating or penetrating only with --source. Sources
 also calibrate the feet and give the per-joint speed and pop references (worst_joint_speed_ratio).
 
