@@ -535,7 +535,8 @@ def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = No
 def listing(root: Path, unreadable: list[str] | None = None, skipped: list[str] | None = None) -> list[Path]:
     """The ``.bvh`` files under ``root`` (:func:`mjmotion.inputs.find_bvh`, which notes the folders it cannot
     list and the names it skips), under its resolved path: the paths the workers open, wherever they run."""
-    return [root.resolve() / p.relative_to(root) for p in find_bvh(root, unreadable, skipped)]
+    base = root.resolve()  # (once: a realpath per file walked the path's links again for each)
+    return [base / p.relative_to(root) for p in find_bvh(root, unreadable, skipped)]
 
 
 def options_text(opts: Mapping[str, Any], clip: Clip) -> str:
@@ -895,10 +896,10 @@ def write_summary(
                 lines.append(f"| {k} | " + " | ".join("; ".join(f"{_md_code(p)} {v:.4g}" for v, p in end) for end in ends) + " |")
     errors = [r for r in rows if r.get("status") != "ok"]
     if errors:
+        base = root.resolve()  # (the workers' messages name the resolved path)
         lines += ["", "## Errors", "", "| clip | kind | message |", "|---|---|---|"]
         lines += [
-            f"| {_md_code(r['path'])} | {r.get('error_kind')} | {_md_cell(_message_in_row(str(r.get('error')), root.resolve() / r['path']))} |"
-            for r in errors
+            f"| {_md_code(r['path'])} | {r.get('error_kind')} | {_md_cell(_message_in_row(str(r.get('error')), base / r['path']))} |" for r in errors
         ]
     params = next((r["params"] for r in ok if r.get("params")), None)
     opts = next((r["options"] for r in rows if r.get("options")), None)

@@ -11,9 +11,10 @@ import pytest
 
 from mjmotion import bvh
 from mjmotion import registration as R
+from mjmotion.caps import MAX_JSON_BYTES
 from mjmotion.cli import main
-from mjmotion.commands import _joint_weights as jw
 from mjmotion.errors import MjmotionError
+from mjmotion.inputs import read_text
 
 DAZ = "cmu_cgspeed_daz"
 LEGS = ("lThigh", "lShin", "lFoot", "rThigh", "rShin", "rFoot")
@@ -79,20 +80,20 @@ def test_weight_file_reader_refuses_fifos_big_and_binary_files(tmp_path):
     fifo = tmp_path / "pipe.json"
     os.mkfifo(fifo)  # nobody writes: opening it must not block
     with pytest.raises(MjmotionError, match="is a named pipe"):
-        jw.read_small_text(str(fifo), "a joint-weight table")
+        read_text(str(fifo), MAX_JSON_BYTES, "a joint-weight table")
     big = tmp_path / "big.json"
-    big.write_bytes(b" " * (jw.MAX_BYTES + 1))
+    big.write_bytes(b" " * (MAX_JSON_BYTES + 1))
     with pytest.raises(MjmotionError, match="larger than the limit of 1048576 bytes"):
-        jw.read_small_text(str(big), "a joint-weight table")
+        read_text(str(big), MAX_JSON_BYTES, "a joint-weight table")
     # A folder: the message named a file descriptor ("3: Is a directory").
     with pytest.raises(MjmotionError, match=f"^{re.escape(str(tmp_path))}: is a directory; expected a joint-weight table"):
-        jw.read_small_text(str(tmp_path), "a joint-weight table")
+        read_text(str(tmp_path), MAX_JSON_BYTES, "a joint-weight table")
     binary = tmp_path / "bin.json"
     binary.write_bytes(bytes(range(256)))
     with pytest.raises(MjmotionError, match=r"invalid UTF-8 at byte 128"):
-        jw.read_small_text(str(binary), "a joint-weight table")
+        read_text(str(binary), MAX_JSON_BYTES, "a joint-weight table")
     with pytest.raises(MjmotionError, match="no such file"):
-        jw.read_small_text(str(tmp_path / "missing.json"), "a joint-weight table")
+        read_text(str(tmp_path / "missing.json"), MAX_JSON_BYTES, "a joint-weight table")
 
 
 def test_no_output_replaces_the_weight_file(clips, tmp_path, capsys):

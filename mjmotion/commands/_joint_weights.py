@@ -14,11 +14,11 @@ import json
 import math
 from pathlib import Path
 
+from ..caps import MAX_JSON_BYTES
 from ..errors import MjmotionError
+from ..inputs import read_text
 from ..skeleton import Skeleton
 
-#: A weight table is small; a bigger file is refused before it is read.
-MAX_BYTES = 1 << 20
 #: Weights are relative; a larger one would overflow the squared distances (1e308 read "mean cost 0").
 MAX_WEIGHT = 1e6
 
@@ -30,14 +30,6 @@ def add_option(p: argparse.ArgumentParser) -> None:
         help="JSON or TOML table of joint name -> weight from 0 to 1e6 in the frame distance (Macleod 2006, §3.1); "
         "joints not named keep 1 (fingers, thumbs, eyes 0)",
     )
-
-
-def read_small_text(path: str, what: str, max_bytes: int = MAX_BYTES) -> str:
-    """The UTF-8 text of a small regular file (:func:`mjmotion.inputs.read_text`): a FIFO, device or
-    folder, a file over ``max_bytes`` or bytes that are not UTF-8 are refused naming the file."""
-    from ..inputs import read_text
-
-    return read_text(path, max_bytes, what)
 
 
 def inputs(args: argparse.Namespace) -> tuple[str, ...]:
@@ -81,7 +73,8 @@ def load(args: argparse.Namespace, skeleton: Skeleton) -> dict[str, float] | Non
         return None
     from ..registration import joint_weights
 
-    weights = parse(read_small_text(path, "a joint-weight table (JSON or TOML)"), path)
+    # (read as every small input: a regular file of at most caps.MAX_JSON_BYTES, UTF-8)
+    weights = parse(read_text(path, MAX_JSON_BYTES, "a joint-weight table (JSON or TOML)"), path)
     try:
         joint_weights(skeleton, weights)
     except MjmotionError as e:

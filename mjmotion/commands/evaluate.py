@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import filecmp
 import io
 import json
 import math
@@ -180,12 +181,8 @@ def load_sources(args: argparse.Namespace, result_path: str, result, what: str =
             raise MjmotionError(f"--source {src}: " + ("not a file (a .bvh clip is expected)" if os.path.exists(src) else "no such file"))
         if check_same_file(src, result_path):
             raise MjmotionError(f"--source {src}: is {what} itself ({result_path}); give the clip(s) {what} was made from")
-        if os.path.getsize(src) == os.path.getsize(result_path):
-            with open(src, "rb") as a, open(result_path, "rb") as b:
-                if a.read() == b.read():  # (judged against itself, every source-relative measure reads "no change")
-                    raise MjmotionError(
-                        f"--source {src}: holds the same bytes as {what} ({result_path}), a copy; give the clip(s) {what} was made from"
-                    )
+        if filecmp.cmp(src, result_path, shallow=False):  # (judged against itself, every source-relative measure reads "no change")
+            raise MjmotionError(f"--source {src}: holds the same bytes as {what} ({result_path}), a copy; give the clip(s) {what} was made from")
         try:
             m = load(src, args, note=False)  # its leading transient skipped like the result's
         except MjmotionError as e:  # named as the option it came from (it read as an error of the judged clip)
