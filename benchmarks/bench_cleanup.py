@@ -30,7 +30,7 @@ from mjmotion import cleanup as cl
 from mjmotion.trim import leading_transient
 
 
-def sparse_pinned_paths(plants, exact, ankles_xy, reach, fps, window, stiffness, blend_s):
+def sparse_pinned_paths(plants, exact, ankles_xy, reach, fps, window, stiffness, blend_s, fades=None):
     """The objective of :func:`mjmotion.cleanup.pinned_paths`, one sparse row per term, solved by
     ``spsolve`` on the normal equations each Huber pass (the baseline)."""
     import scipy.sparse as sp
@@ -39,13 +39,8 @@ def sparse_pinned_paths(plants, exact, ankles_xy, reach, fps, window, stiffness,
     t_count = len(ankles_xy)
     out = ankles_xy.copy()
     half = max(5, int(round(window * fps)) | 1) // 2
-    n = max(1, round(blend_s * fps))
     k = np.argmin(reach[..., 2], axis=1)
-    planted = np.zeros(t_count, dtype=bool)
-    near = np.zeros(t_count, dtype=bool)
-    for p in plants:
-        planted[p.start : p.stop] = True
-        near[max(0, p.start - n) : min(t_count, p.stop + n)] = True
+    planted, near, anchor_w = cl.stretches(plants, t_count, fps, blend_s, fades)
     run_lo, run_hi = np.zeros(t_count, dtype=int), np.zeros(t_count, dtype=int)
     for a, b in cl._runs(planted):
         run_lo[a:b], run_hi[a:b] = a, b
@@ -75,8 +70,9 @@ def sparse_pinned_paths(plants, exact, ankles_xy, reach, fps, window, stiffness,
         held = sp.diags(planted[ext[1:-1]].astype(float))
         a_u, a_k = ankles_xy[lo_s:hi_s], ankles_xy[ext[~unknown]]
         anchor = np.where(planted[lo_s:hi_s, None], exact[lo_s:hi_s], a_u)
-        base = d2u.T @ d2u + d2u.T @ held @ d2u + sp.identity(m)
-        base_rhs = d2u.T @ (d2u @ a_u) - d2u.T @ (held @ (d2k @ a_k)) + anchor
+        aw = anchor_w[lo_s:hi_s]
+        base = d2u.T @ d2u + d2u.T @ held @ d2u + sp.diags(aw)
+        base_rhs = d2u.T @ (d2u @ a_u) - d2u.T @ (held @ (d2k @ a_k)) + aw[:, None] * anchor
         weight = np.ones(len(target))
         x = anchor
         for _ in range(cl.HUBER_PASSES):

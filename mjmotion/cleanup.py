@@ -20,7 +20,8 @@ planned and §4 left undone. Feet, floor and contacts are the judge's (:mod:`mjm
    back to the capture along the smoothest path: the pinned foot's velocity is continuous at
    the plant's edges, so it leaves a held plant from rest and catches the captured swing up over
    the whole window (it used to catch up in 6 frames: the hip and knee spun up to 1.45x their
-   captured peak at toe-off). With ``stiffness=0`` the plant is held exactly and its offset
+   captured peak at toe-off). A plant whose foot is held far from the capture at its edge fades
+   longer (:func:`fade_frames`: at most :data:`RELEASE_SPEED` on average, up to :data:`MAX_FADE`). With ``stiffness=0`` the plant is held exactly and its offset
    faded along a velocity-matched cubic Hermite (:func:`pin_offsets`).
 4. **Floor**: no sole below the floor: a foot in it is lifted out, smoothly (max filter and Hann
    window over ``lift_ramp`` seconds). Swing lifting (:func:`swing_lift`, ``clearance`` > 0) is an
@@ -203,6 +204,7 @@ def pin_offsets(
     fps: float,
     blend: float,
     paths: np.ndarray | None = None,
+    fades: Sequence[tuple[int, int]] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """How strongly and where to pin one foot.
 
@@ -226,8 +228,8 @@ def pin_offsets(
     rest = np.zeros(off.shape[1:])
     w = np.zeros(t_count)
     owner = np.full(t_count, -1)
-    n = max(1, round(blend * fps))
     plants = sorted(plants, key=lambda p: p.start)
+    fades = _fades(plants, fps, blend, fades)
     frames = np.arange(t_count)
     for i, p in enumerate(plants):
         goal = np.asarray(p.position) if paths is None else paths[p.start : p.stop]
@@ -238,7 +240,8 @@ def pin_offsets(
     for i, p in enumerate(plants):
         # Ramp in: from the previous plant's offset when it is close, else from zero.
         prev = plants[i - 1] if i > 0 else None
-        if prev is not None and p.start - prev.stop <= 2 * n:
+        n = fades[i][0]
+        if prev is not None and p.start - prev.stop <= fades[i - 1][1] + n:
             a, b = prev.stop, p.start
             if b > a:
                 x = frames[a:b] - (a - 1)
@@ -256,7 +259,8 @@ def pin_offsets(
         owner[lo : p.start] = i
     for i, p in enumerate(plants):
         nxt = plants[i + 1] if i + 1 < len(plants) else None
-        if nxt is not None and nxt.start - p.stop <= 2 * n:
+        n = fades[i][1]
+        if nxt is not None and nxt.start - p.stop <= n + fades[i + 1][0]:
             continue
         hi = min(t_count, p.stop + n)
         x = frames[p.stop : hi] - (p.stop - 1)  # 0 at the plant's last frame
@@ -264,6 +268,47 @@ def pin_offsets(
         w[p.stop : hi] = _smoothstep((p.stop + n - frames[p.stop : hi]) / (n + 1))
         owner[p.stop : hi] = i
     return off, w, owner
+
+
+def _fades(plants: list[Plant], fps: float, blend: float, fades: Sequence[tuple[int, int]] | None) -> list[tuple[int, int]]:
+    """Frames of each plant's fade in and out (``plants`` sorted by start): ``fades`` when given, else ``blend`` seconds."""
+    if fades is None:
+        n = max(1, round(blend * fps))
+        return [(n, n)] * len(plants)
+    if len(fades) != len(plants):
+        raise MjmotionError(f"fades: {len(fades)} (in, out) pairs for {len(plants)} plants")
+    return [(max(1, int(a)), max(1, int(b))) for a, b in fades]
+
+
+#: A plant fades in (out) over ``blend`` seconds, or longer where its foot must travel further to
+#: rejoin the capture: its offset there over this speed (m/s), up to :data:`MAX_FADE` seconds. Released
+#: in the default 0.2 s, a trail foot held 4 cm from where the golfer pivoted it spun the knee to
+#: 1.6x its captured peak after impact (64_03).
+RELEASE_SPEED = 0.1
+MAX_FADE = 1.0
+
+
+def fade_frames(plants: list[Plant], exact: np.ndarray, ankles_xy: np.ndarray, fps: float, blend: float) -> list[tuple[int, int]]:
+    """Frames ``(in, out)`` of each plant's fade (``plants`` of one foot, sorted by start): ``blend``
+    seconds, longer where the held path ``exact: (T, 2)`` is far from the captured ankle
+    ``ankles_xy: (T, 2)`` at the plant's edge (:data:`RELEASE_SPEED`, :data:`MAX_FADE`) and the
+    longer fade is free: it ends ``blend`` before the foot's next (after its previous) plant
+    — between steps the offset is joined from one plant's to the next's within the swing, as
+    before — and 2 frames inside the clip, where the capture it meets is."""
+    t_count = len(ankles_xy)
+    n = max(1, round(blend * fps))
+    top = max(n, round(MAX_FADE * fps))
+    plants = sorted(plants, key=lambda p: p.start)
+    out = []
+    for i, p in enumerate(plants):
+        room_in = p.start - plants[i - 1].stop - n if i > 0 else p.start - 2
+        room_out = plants[i + 1].start - p.stop - n if i + 1 < len(plants) else t_count - p.stop - 2
+        fade = []
+        for t, room in ((p.start, room_in), (p.stop - 1, room_out)):
+            want = min(top, math.ceil(float(np.linalg.norm(exact[t] - ankles_xy[t])) / RELEASE_SPEED * fps))
+            fade.append(want if n < want <= room else n)
+        out.append((fade[0], fade[1]))
+    return out
 
 
 #: The offset's rate of change at a plant's edge is the slope of a least-squares line through
@@ -441,20 +486,60 @@ HUBER_SPEED = 0.2
 #: a held foot cannot follow a one-frame jerk of the captured pelvis, and the knee would take it as a pop.
 LEG_CUTOFF_HZ = 10.0
 HUBER_PASSES = 3
+#: The sole points are held in the ankle's frame low-passed at this cutoff (Hz): a rigid foot's are
+#: constant; a toe joint's flex is marker noise above it. Held as captured, a toe snapping 15° straight
+#: in two frames at toe-off (ASF 16_16) pushed the ankle 1 cm per frame and spun the hip to 1.5x its peak.
+TOE_CUTOFF_HZ = 10.0
+
+
+def stretches(
+    plants: list[Plant], t_count: int, fps: float, blend: float, fades: Sequence[tuple[int, int]] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where :func:`pinned_paths` solves one foot: ``(T,)`` its plant frames, the frames within a
+    plant's fade (``fades``, :func:`fade_frames`; None: ``blend`` seconds), and each frame's
+    anchor weight ``a_t`` (1 in plants and in fades of ``blend``, ``(blend / fade)⁴`` in longer ones)."""
+    plants = sorted(plants, key=lambda p: p.start)
+    n = max(1, round(blend * fps))
+    planted = np.zeros(t_count, dtype=bool)
+    near = np.zeros(t_count, dtype=bool)
+    anchor_w = np.zeros(t_count)
+    for p, (n_in, n_out) in zip(plants, _fades(plants, fps, blend, fades)):
+        planted[p.start : p.stop] = True
+        lo, hi = max(0, p.start - n_in), min(t_count, p.stop + n_out)
+        near[lo:hi] = True
+        # A fade k times the blend is anchored k⁴ times less, so the stiffness lets it last as long
+        # (anchor and acceleration terms balance over ~(stiffness² fps⁴ / anchor)^(1/4) frames).
+        anchor_w[lo : p.start] = np.maximum(anchor_w[lo : p.start], (n / max(n, n_in)) ** 4)
+        anchor_w[p.stop : hi] = np.maximum(anchor_w[p.stop : hi], (n / max(n, n_out)) ** 4)
+    anchor_w[planted] = 1.0
+    return planted, near, anchor_w
 
 
 def pinned_paths(
-    plants: list[Plant], exact: np.ndarray, ankles_xy: np.ndarray, reach: np.ndarray, fps: float, window: float, stiffness: float, blend: float
+    plants: list[Plant],
+    exact: np.ndarray,
+    ankles_xy: np.ndarray,
+    reach: np.ndarray,
+    fps: float,
+    window: float,
+    stiffness: float,
+    blend: float,
+    fades: Sequence[tuple[int, int]] | None = None,
 ) -> np.ndarray:
     """Ankle floor-plane paths of one foot that hold its touching points still through its plants
-    *as the judge measures them*, and return to the capture smoothly within ``blend`` seconds.
+    *as the judge measures them*, and return to the capture smoothly within each plant's fade.
 
     ``exact: (T, 2)`` the ankle paths of :func:`contact_paths` (the lowest point held frame by
-    frame), ``ankles_xy: (T, 2)`` the captured ankle ``A``, ``reach: (T, P, 3)`` as there. Over
-    each stretch of frames within ``blend`` seconds of a plant (the capture outside them), the
-    path ``X`` minimises
+    frame), ``ankles_xy: (T, 2)`` the captured ankle ``A``, ``reach: (T, P, 3)`` as there;
+    ``fades``: frames ``(in, out)`` of each plant's fade (:func:`fade_frames`; None: ``blend``
+    seconds each). Over each stretch of frames within a fade of a plant (the capture outside
+    them), the path ``X`` minimises
 
-        Σ_{t in plants} mean_{s∈W_t} |Δp_s|² + stiffness² (Σ_{t in plants} |X''_t|² + Σ_t |X''_t − A''_t|²) + |X − exact|² (1 s⁻¹)²
+        Σ_{t in plants} mean_{s∈W_t} |Δp_s|² + stiffness² (Σ_{t in plants} |X''_t|² + Σ_t |X''_t − A''_t|²) + Σ_t a_t |X_t − E_t|² (1 s⁻¹)²
+
+    ``E`` being ``exact`` in plants and ``A`` outside, ``a_t`` 1 in plants and ``(blend / fade)⁴``
+    in a fade longer than ``blend`` (:func:`stretches`): stiffness and anchor balance over about
+    ``blend``, so a longer fade lasts its length.
 
     ``W_t`` the judge's speed window around t (``window`` seconds within the plant,
     :func:`mjmotion.feet.planted_speeds`), ``Δp_s`` the velocity (m/s) between frames s and s+1
@@ -475,13 +560,9 @@ def pinned_paths(
     t_count = len(ankles_xy)
     out = ankles_xy.copy()
     half = max(5, int(round(window * fps)) | 1) // 2
-    n = max(1, round(blend * fps))
+    plants = sorted(plants, key=lambda p: p.start)
     k = np.argmin(reach[..., 2], axis=1)  # (T,) the lowest point, what the judge measures
-    planted = np.zeros(t_count, dtype=bool)
-    near = np.zeros(t_count, dtype=bool)
-    for p in plants:
-        planted[p.start : p.stop] = True
-        near[max(0, p.start - n) : min(t_count, p.stop + n)] = True
+    planted, near, anchor_w = stretches(plants, t_count, fps, blend, fades)
     run_lo, run_hi = np.zeros(t_count, dtype=int), np.zeros(t_count, dtype=int)
     for a, b in _runs(planted):
         run_lo[a:b], run_hi[a:b] = a, b
@@ -522,9 +603,9 @@ def pinned_paths(
                 uj = cols[:, j] - lo_s
                 both = okay_i & ~known[:, j]
                 np.add.at(band[2 - (j - i)], uj[both], scale * count[both] * coef[i] * coef[j])
-        band[2] += 1.0  # the anchor
+        band[2] += anchor_w[lo_s:hi_s]  # the anchor
         anchor = np.where(planted[lo_s:hi_s, None], exact[lo_s:hi_s], ankles_xy[lo_s:hi_s])
-        rhs += anchor
+        rhs += anchor_w[lo_s:hi_s, None] * anchor
         weight = np.ones(len(t_row))
         x = anchor
         for _ in range(HUBER_PASSES):
@@ -613,6 +694,8 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
     # Every sole point in its ankle's frame (T, F, P, 3): constant for a rigid foot, moving with a toe joint.
     a_rot = pose.joint_rotations[:, [a for _, _, a in legs]]
     local = rot.rotate(rot.conjugate(a_rot)[:, :, None, :].repeat(track.points.shape[2], axis=2), track.points - ankles[:, :, None, :])
+    # A toe joint's flex is low-passed (TOE_CUTOFF_HZ) for holding: its marker jitter is not chased by the leg.
+    local = lowpass(local, motion.fps, TOE_CUTOFF_HZ)
     plants = find_plants(track, ankles, motion.fps, params)
     gap = round(params.max_gap * motion.fps)
     ground = _Ground(fl.height, soles)
@@ -694,9 +777,6 @@ def _pin(
     raised = 0
     for f, side in enumerate(sides):
         mine = sorted((p for p in plants if p.side == side), key=lambda p: p.start)
-        _, w, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend)
-        support[:, f] = w > 0
-        held_w[:, f] = w
         # The foot holds one orientation through a plant (that of its middle frame), blended in/out.
         if params.hold_orientation:
             held, w_rot = hold_orientations(mine, foot_rot[:, f], motion.fps, params.blend)
@@ -704,11 +784,15 @@ def _pin(
         # The point that touches the floor stays put (not the ankle): roll about it.
         reach = rot.rotate(foot_rot[:, f, None, :].repeat(local.shape[2], axis=1), local[:, f])
         exact = contact_paths(mine, ankles[:, f, :2], reach)
+        fades = fade_frames(mine, exact, ankles[:, f, :2], motion.fps, params.blend)
+        _, w, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend, fades=fades)
+        support[:, f] = w > 0
+        held_w[:, f] = w
         if params.stiffness > 0:
-            pinned = pinned_paths(mine, exact, ankles[:, f, :2], reach, motion.fps, SPEED_WINDOW, params.stiffness, params.blend)
+            pinned = pinned_paths(mine, exact, ankles[:, f, :2], reach, motion.fps, SPEED_WINDOW, params.stiffness, params.blend, fades)
             off = pinned - ankles[:, f, :2]
         else:
-            off, _, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend, exact)
+            off, _, _ = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend, exact, fades)
         targets[:, f, :2] += off
         # A plant that stands under the floor (its lowest sole point's median over the plant) is raised
         # onto it frame by frame, each frame by its own depth, the raise faded in and out with the

@@ -34,19 +34,24 @@ def test_head_sway_reads_a_known_sideways_shake():
     assert pa.head_sway(shaken) == pytest.approx(np.hypot(base, expected), rel=0.05)
 
 
-def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path):
-    """The audit's cleanup line counts the clips within 1.3x their own joint peaks and names the
-    rest: a clean ASF walk passes, 16_16 does not (its hip at the first toe-off, 1.54x), and a
-    file cleanup cannot read is named as failed, not dropped."""
+def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path, monkeypatch):
+    """The audit's cleanup line counts the clips within 1.3x their own joint peaks, gives the
+    largest, and names the rest: two clean ASF walks pass (16_16's hip reached 1.54x at its first
+    toe-off before the toe was low-passed; it reads 1.25), one read as 1.6x does not, and a file
+    cleanup cannot read is named as failed, not dropped."""
     from conftest import require_data
 
     d = require_data() / "cmu_asfamc_converted"
     bad = tmp_path / "broken.bvh"
     bad.write_text("HIERARCHY\nROOT x\n")
-    (line,) = pa.cleanup_of_clips_line([str(d / "16_15.bvh"), str(d / "16_16.bvh"), str(bad)], jobs=1)
-    assert "(2 clips," in line and "≤ 1.3 on 1 of 2" in line, line
-    assert "asfamc_converted 16_16 1.5" in line and "16_15 1." not in line, line
-    assert "; failed: " in line and "broken: " in line, line
+    walks = [str(d / "16_15.bvh"), str(d / "16_16.bvh")]
+    (line,) = pa.cleanup_of_clips_line([*walks, str(bad)], jobs=1)
+    assert "(2 clips," in line and "≤ 1.3 on 2 of 2 (largest 1.2" in line and "16_16 lfemur)" in line, line
+    assert "above it" not in line and "; failed: " in line and "broken: " in line, line
+    real = pa.cleanup_of_clip
+    monkeypatch.setattr(pa, "cleanup_of_clip", lambda p: {**real(p), "worst_joint_speed_ratio": 1.6} if p.endswith("16_16.bvh") else real(p))
+    (line,) = pa.cleanup_of_clips_line(walks, jobs=1)
+    assert "≤ 1.3 on 1 of 2 (largest 1.60, asfamc_converted 16_16 lfemur), above it: asfamc_converted 16_16 1.60 (lfemur)" in line, line
 
 
 def test_the_tolerance_scan_loosens_monotonically_and_sees_a_walk_played_fast(tmp_path):

@@ -46,7 +46,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--h-c", type=CONTACT_HEIGHT, default=0.05, metavar="M", help="contact height, at most 1 m (default 0.05 m)")
     p.add_argument("--v-c", type=CONTACT_SPEED, default=0.5, metavar="M/S", help="contact speed, at most 100 m/s (default 0.5 m/s)")
     p.add_argument(
-        "--blend", type=number(0, 10, what="a time in seconds"), default=0.2, metavar="S", help="blend-in/out time, at most 10 s (default 0.2 s)"
+        "--blend",
+        type=number(0, 10, what="a time in seconds"),
+        default=0.2,
+        metavar="S",
+        help="blend-in/out time, at most 10 s (default 0.2 s); a plant held far from the capture fades longer (0.1 m/s, up to 1 s)",
     )
     p.add_argument(
         "--clearance",

@@ -304,11 +304,12 @@ def cleanup_of_clips_line(files: list[str], executor: Executor | None = None, jo
     fast = [f"{n} {r['worst_joint_speed_ratio']:.2f} ({r['worst_joint']})" for n, r in rows.items() if r["worst_joint_speed_ratio"] > 1.3]
     popped = [f"{n} {r['pop_frames_before']} → {r['pop_frames_after']}" for n, r in rows.items() if r["pop_frames_after"] > r["pop_frames_before"]]
     rise, risen = max((r["float_mm_after"] - r["float_mm_before"], n) for n, r in rows.items())
+    top, topped = max((r["worst_joint_speed_ratio"], n) for n, r in rows.items())
     return [
         f"cleanup of each captured clip against itself ({len(rows)} clip{'s' * (len(rows) != 1)}, experiments.physics_audit.cleanup_of_clip): planted skate "
         f"median {med('planted_skate_mm_per_s_before'):.0f} → {med('planted_skate_mm_per_s_after'):.0f} mm/s, penetrate_mm at most "
         f"{max(r['penetrate_mm_after'] for r in rows.values()):.2f} after, float_mm up by at most {rise:.1f} mm ({risen}); worst_joint_speed_ratio "
-        f"≤ 1.3 on {len(rows) - len(fast)} of {len(rows)}"
+        f"≤ 1.3 on {len(rows) - len(fast)} of {len(rows)} (largest {top:.2f}, {topped} {rows[topped]['worst_joint']})"
         + (f", above it: {', '.join(fast)}" if fast else "")
         + (f"; new pop frames: {', '.join(popped)}" if popped else "; no new pop frames")
         + (f"; failed: {'; '.join(failed)}" if failed else "")
