@@ -21,8 +21,9 @@ planned and §4 left undone. Feet, floor and contacts are the judge's (:mod:`mjm
    the plant's edges, so it leaves a held plant from rest and catches the captured swing up over
    the whole window (it used to catch up in 6 frames: the hip and knee spun up to 1.45x their
    captured peak at toe-off). A plant whose foot is held far from the capture at its edge fades
-   longer (:func:`fade_frames`: at most :data:`RELEASE_SPEED` on average, up to :data:`MAX_FADE`). With ``stiffness=0`` the plant is held exactly and its offset
-   faded along a velocity-matched cubic Hermite (:func:`pin_offsets`).
+   longer (:func:`fade_frames`: at most :data:`RELEASE_SPEED` on average, up to :data:`MAX_FADE`).
+   With ``stiffness=0`` the plant is held exactly and its offset faded along a velocity-matched
+   cubic Hermite (:func:`pin_offsets`).
 4. **Floor**: no sole below the floor: a foot in it is lifted out, smoothly (max filter and Hann
    window over ``lift_ramp`` seconds). Swing lifting (:func:`swing_lift`, ``clearance`` > 0) is an
    option, off by default: it raises a foot that moves within ``clearance`` of the floor outside
@@ -270,10 +271,15 @@ def pin_offsets(
     return off, w, owner
 
 
+def _blend_frames(blend: float, fps: float) -> int:
+    """``blend`` seconds in frames, at least one."""
+    return max(1, round(blend * fps))
+
+
 def _fades(plants: list[Plant], fps: float, blend: float, fades: Sequence[tuple[int, int]] | None) -> list[tuple[int, int]]:
     """Frames of each plant's fade in and out (``plants`` sorted by start): ``fades`` when given, else ``blend`` seconds."""
     if fades is None:
-        n = max(1, round(blend * fps))
+        n = _blend_frames(blend, fps)
         return [(n, n)] * len(plants)
     if len(fades) != len(plants):
         raise MjmotionError(f"fades: {len(fades)} (in, out) pairs for {len(plants)} plants")
@@ -296,7 +302,7 @@ def fade_frames(plants: list[Plant], exact: np.ndarray, ankles_xy: np.ndarray, f
     — between steps the offset is joined from one plant's to the next's within the swing, as
     before — and 2 frames inside the clip, where the capture it meets is."""
     t_count = len(ankles_xy)
-    n = max(1, round(blend * fps))
+    n = _blend_frames(blend, fps)
     top = max(n, round(MAX_FADE * fps))
     plants = sorted(plants, key=lambda p: p.start)
     out = []
@@ -346,7 +352,7 @@ def hold_orientations(plants: list[Plant], rotations: np.ndarray, fps: float, bl
     towards the captured swing and back. Returns held rotations ``(T, 4)`` and weights ``(T,)``.
     """
     t_count = len(rotations)
-    n = max(1, round(blend * fps))
+    n = _blend_frames(blend, fps)
     frames = np.arange(t_count)
     held = rotations.copy()
     w = np.zeros(t_count)
@@ -499,7 +505,7 @@ def stretches(
     plant's fade (``fades``, :func:`fade_frames`; None: ``blend`` seconds), and each frame's
     anchor weight ``a_t`` (1 in plants and in fades of ``blend``, ``(blend / fade)⁴`` in longer ones)."""
     plants = sorted(plants, key=lambda p: p.start)
-    n = max(1, round(blend * fps))
+    n = _blend_frames(blend, fps)
     planted = np.zeros(t_count, dtype=bool)
     near = np.zeros(t_count, dtype=bool)
     anchor_w = np.zeros(t_count)
@@ -560,7 +566,6 @@ def pinned_paths(
     t_count = len(ankles_xy)
     out = ankles_xy.copy()
     half = max(5, int(round(window * fps)) | 1) // 2
-    plants = sorted(plants, key=lambda p: p.start)
     k = np.argmin(reach[..., 2], axis=1)  # (T,) the lowest point, what the judge measures
     planted, near, anchor_w = stretches(plants, t_count, fps, blend, fades)
     run_lo, run_hi = np.zeros(t_count, dtype=int), np.zeros(t_count, dtype=int)
