@@ -652,3 +652,16 @@ def test_despiking_scales_only_sharp_spikes_of_corrected_frames():
     small = captured.copy()
     small[40] = rot.multiply(captured[40], turn(0.001))  # a spike gentler than the captured motion: kept
     assert np.array_equal(cl._despiked(captured, small, fps), small)
+
+
+def test_the_cleanup_help_states_the_release_constants_the_code_uses():
+    # The help is built without importing the cleanup module (start-up time), so its numbers are text.
+    import argparse
+
+    from mjmotion import cli
+
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    text = " ".join(sub.choices["cleanup"].format_help().split())
+    assert f"default {cl.CleanupParams().blend:g} s" in text
+    assert f"fades longer ({cl.RELEASE_SPEED:g} m/s, up to {cl.MAX_FADE:g} s)" in text
