@@ -365,10 +365,11 @@ def compile(
             f"skeleton has {skeleton.n_joints} joints; MuJoCo models are limited to {MAX_MODEL_JOINTS} joints here "
             "(compile time grows faster than the joint count) — is this a character skeleton?"
         )
-    reserved = {FLOOR, BALL} | {p.name for p in props}
+    # "world": MuJoCo's own body 0, which every model has.
+    reserved = {"world", FLOOR, BALL} | {p.name for p in props}
     clash = reserved.intersection(skeleton.names)
     if clash:
-        raise MjmotionError(f"joint name(s) {sorted(clash)} clash with names mjmotion adds; rename the joint")
+        raise MjmotionError(f"joint name(s) {sorted(clash)} clash with names the MuJoCo model uses (MuJoCo's world body, mjmotion's floor, ball and props); rename the joint")
     height = float(np.clip(skeleton.stature(), 0.3, 3.0))
     mass = total_mass if total_mass is not None else BODY_MASS_INDEX * height**2
     spec = mujoco.MjSpec()

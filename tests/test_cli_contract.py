@@ -537,9 +537,12 @@ def test_input_is_never_the_output(name, tmp_path, clip, capsys):
     link.symlink_to(inp)
     refused(*run([name, *spec.argv(str(inp), str(link)), "--force"], capsys)[::2], "input")
     assert inp.read_bytes() == data
-    if spec.script:  # a clip the script reads is an input too
+    if spec.script:  # a clip the script reads is an input too, for the report as for -o
         refused(*run([name, *spec.argv(str(inp), str(clip_copy)), "--force"], capsys)[::2], "input")
         assert clip_copy.read_bytes() == clip.read_bytes()
+        main_out = tmp_path / f"out{spec.ext}"
+        refused(*run([name, *spec.argv(str(inp), str(main_out)), "--json", str(clip_copy), "--force"], capsys)[::2], "input")
+        assert clip_copy.read_bytes() == clip.read_bytes() and not main_out.exists()
 
 
 def test_blend_refuses_incompatible_skeletons(tmp_path, clip, human, capsys):

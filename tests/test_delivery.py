@@ -77,6 +77,12 @@ def test_hit_meets_a_delivered_ball_and_reports_its_launch(tmp_path, capsys):
     assert r2["reachable"] and r2["delivery"]["miss_m"] < 2e-3
     assert main([*args, "-o", str(tmp_path / "x.bvh")]) == 2  # neither a target nor a ball
     assert "error:" in capsys.readouterr().err
+    # a ball thrown straight up never pitches before the hit: reported as such (its None crashed the line)
+    up = ["--ball-release", "0.3", "18", "2.1", "--release-velocity", "0", "0", "100"]
+    assert main([*args, *up, "-o", str(out), "--json", str(rep), "--force"]) in (0, 2)
+    printed = capsys.readouterr()
+    assert "internal error" not in printed.err and "no bounce before the hit" in printed.out
+    assert json.loads(rep.read_text())["delivery"]["pitched_m_before"] is None
 
 
 def test_evaluate_takes_a_delivered_ball(tmp_path, capsys):

@@ -82,9 +82,11 @@ def test_foot_boxes_sit_on_the_sole_in_the_rest_pose(mocap):
     assert world[:, 2].max() <= skel.rest_positions()[ankle][2] + lift + 0.01
 
 
-def test_name_clash_with_added_elements_is_refused():
-    skel = Skeleton(("root", "ball"), np.array([-1, 0]), np.zeros((2, 3)), (("Xrotation",), ("Xrotation",)))
-    with pytest.raises(MjmotionError, match="clash"):
+@pytest.mark.parametrize(("names", "clash"), [(("root", "ball"), "ball"), (("world", "hip"), "world")])
+def test_name_clash_with_added_elements_is_refused(names, clash):
+    # "world" is MuJoCo's body 0: a BVH root of that name failed inside MuJoCo ("repeated name").
+    skel = Skeleton(names, np.array([-1, 0]), np.zeros((2, 3)), (("Xrotation",), ("Xrotation",)))
+    with pytest.raises(MjmotionError, match=rf"\['{clash}'\] clash"):
         mjcf.compile(skel)
 
 

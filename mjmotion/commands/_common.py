@@ -71,14 +71,15 @@ def units_scale(text: str) -> float | None:
 def read_motion(path: str, args: argparse.Namespace) -> Motion:
     """Read a BVH clip as the file holds it, with the verb's ``--units``/``--up``.
 
-    Refuses a clip that is the verb's ``-o`` output: inputs named inside another input (a
-    stream script's clips) escape the check ``output_path`` makes before the work starts.
+    Refuses a clip that is one of the verb's outputs (``-o``, ``--json``, ``--plot``): inputs named
+    inside another input (a stream script's clips) escape the checks made before the work starts.
     """
     from .. import bvh
 
-    out = getattr(args, "output", None)
-    if out and check_same_file(out, path):
-        raise OutputExistsError(f"{out}: is an input of this command ({path}); choose another output path")
+    for option in ("output", "json", "plot"):
+        out = getattr(args, option, None)
+        if isinstance(out, str) and out and check_same_file(out, path):
+            raise OutputExistsError(f"{out}: is an input of this command ({path}); choose another output path")
     return bvh.read(path, scale=units_scale(getattr(args, "units", "auto")), up=getattr(args, "up", "y"))
 
 

@@ -191,8 +191,9 @@ def run(args: argparse.Namespace) -> int:
     )
     if "delivery" in r:
         dl, ln = r["delivery"], r["delivery"]["launch"]
+        pitched = "no bounce before the hit" if dl["pitched_m_before"] is None else f"pitched {dl['pitched_m_before']:.2f} m before the hit"
         print(
-            f"delivered ball: pitched {dl['pitched_m_before']:.2f} m before the hit, met at {np.linalg.norm(dl['incoming_velocity']):.1f} m/s "
+            f"delivered ball: {pitched}, met at {np.linalg.norm(dl['incoming_velocity']):.1f} m/s "
             f"({dl['miss_m'] * 1000:.1f} mm from the effector); launched at {ln['speed']:.1f} m/s, azimuth {ln['azimuth_deg']:.1f}°, "
             f"elevation {ln['elevation_deg']:.1f}°" + ("" if ln["contacted"] else " (no contact)")
         )

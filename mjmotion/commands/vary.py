@@ -42,7 +42,7 @@ examples:
   mjmotion vary 64_01.bvh --scale 1.3 -o big.bvh --plot big.png --json big.json
   mjmotion vary 64_01.bvh --scale 0.7 --segment 160:440 -o small.bvh
   mjmotion vary 64_01.bvh --abort-at 280 --abort-frames 90 -o abort.bvh
-  mjmotion vary 64_01.bvh --scores path.npy --pcs 2 --no-cleanup -o mine.bvh
+  mjmotion vary 64_01.bvh --scores path.npy --no-cleanup -o mine.bvh
 """
 
 
