@@ -369,7 +369,9 @@ def compile(
     reserved = {"world", FLOOR, BALL} | {p.name for p in props}
     clash = reserved.intersection(skeleton.names)
     if clash:
-        raise MjmotionError(f"joint name(s) {sorted(clash)} clash with names the MuJoCo model uses (MuJoCo's world body, mjmotion's floor, ball and props); rename the joint")
+        raise MjmotionError(
+            f"joint name(s) {sorted(clash)} clash with names the MuJoCo model uses (MuJoCo's world body, mjmotion's floor, ball and props); rename the joint"
+        )
     height = float(np.clip(skeleton.stature(), 0.3, 3.0))
     mass = total_mass if total_mass is not None else BODY_MASS_INDEX * height**2
     spec = mujoco.MjSpec()
