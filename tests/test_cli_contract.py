@@ -120,13 +120,29 @@ VERBS: dict[str, Verb] = {
     "blend": Verb(
         lambda i, o: [i, i, "--weights", "0.5,0.5", "-o", o],
         ".bvh",
-        bad=(("--weights", "0.5"), ("--weights", "0.7,0.7"), ("--weights=-1,2",), ("--weights", "a,b"), ("--frames", "500:600"), ("--fps", "0")),
+        bad=(
+            ("--weights", "0.5"),
+            ("--weights", "0.7,0.7"),
+            ("--weights=-1,2",),
+            ("--weights", "a,b"),
+            ("--frames", "500:600"),
+            ("--frames", "0:5,"),
+            ("--fps", "0"),
+        ),
         humanoid=True,
     ),  # fmt: skip
     "register": Verb(
         lambda i, o: [i, i, "--json", o],
         ".json",
-        bad=(("--window", "4"), ("--window", "0"), ("--frames", "500:600"), ("--slope-limit", "-1"), ("--fps", "-1"), ("--time-limit", "0")),
+        bad=(
+            ("--window", "4"),
+            ("--window", "0"),
+            ("--frames", "500:600"),
+            ("--frames", ","),
+            ("--slope-limit", "-1"),
+            ("--fps", "-1"),
+            ("--time-limit", "0"),
+        ),
         humanoid=True,
         extra_outputs=lambda d: ["--plot", str(d / "grid.png")],
     ),
