@@ -103,3 +103,6 @@ def test_evaluate_takes_a_delivered_ball(tmp_path, capsys):
     assert float(got["launch_azimuth_deg"]) == pytest.approx(-90.0, abs=0.5)
     assert main([*base, "--ball-release", "0", "18", "2"]) == 2
     assert "--release-velocity" in capsys.readouterr().err
+    # a release whose ball flies away from the batter never reaches --ball: refused (it read "contact=True")
+    assert main([*base, "--ball-release", "0.3", "18", "2.1", "--release-velocity", "0", "30", "2"]) == 2
+    assert "passes 17." in capsys.readouterr().err

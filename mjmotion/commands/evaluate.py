@@ -113,7 +113,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar=("X", "Y", "Z"),
         help="--ball is a delivered ball released here (m, each within ±1000; Hicks 2010, §2.3.2)",
     )
-    p.add_argument("--release-velocity", nargs=3, type=VELOCITY, metavar=("VX", "VY", "VZ"), help="its release velocity (m/s, each within ±1000)")
+    p.add_argument("--release-velocity", nargs=3, type=VELOCITY, metavar=("VX", "VY", "VZ"), help="its release velocity (m/s, each within ±1000); its path must pass within 0.5 m of --ball")
     p.add_argument("--delivery", choices=("fast", "medium", "slow"), help="--ball is a ball delivered at it at this pace, from --bowler's end")
     p.add_argument(
         "--bowler", nargs=2, type=COORD, default=(0.0, 1.0), metavar=("DX", "DY"), help="horizontal direction to the bowler, not 0 0 (default 0 1)"
@@ -199,6 +199,8 @@ def load_sources(args: argparse.Namespace, result_path: str, result, what: str =
     return out
 
 
+#: A delivered ball (--ball-release) must pass within this many metres of --ball, where it meets the bat.
+DELIVERY_MISS = 0.5
 #: Statures (m) outside this range are no person's: the clip's units were read wrong (a note says so).
 HUMAN_STATURE_M = (0.5, 3.0)
 
@@ -261,7 +263,13 @@ def evaluate_one(path: str, opts: dict[str, Any]) -> tuple[Motion, int, Report]:
             if release is not None
             else delivery.aimed(np.asarray(args.ball), bowler=np.asarray(args.bowler), preset=args.delivery)
         )
-        ball_velocity = tuple(delivery.fly(dv).nearest(np.asarray(args.ball))[2])
+        _, _, velocity, miss = delivery.fly(dv).nearest(np.asarray(args.ball))
+        if miss > DELIVERY_MISS:  # its velocity there would be a ball that never came near the bat (exit 0, "contact")
+            raise MjmotionError(
+                f"--ball-release/--release-velocity: the delivered ball passes {miss:.2f} m from --ball at its nearest; "
+                f"expected a delivery that reaches the ball (within {DELIVERY_MISS:g} m)"
+            )
+        ball_velocity = tuple(velocity)
     m = m.replace(name=Path(path).stem)
     return (
         m,
