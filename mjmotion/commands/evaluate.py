@@ -111,15 +111,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         nargs=3,
         type=COORD,
         metavar=("X", "Y", "Z"),
-        help="--ball is a delivered ball released here (m, each within ±1000; Hicks 2010, §2.3.2)",
+        help="--ball is a delivered ball released here (m, each within ±1000; Hicks 2010, §2.3.2); its path must pass within 0.5 m of --ball",
     )
-    p.add_argument(
-        "--release-velocity",
-        nargs=3,
-        type=VELOCITY,
-        metavar=("VX", "VY", "VZ"),
-        help="its release velocity (m/s, each within ±1000); its path must pass within 0.5 m of --ball",
-    )
+    p.add_argument("--release-velocity", nargs=3, type=VELOCITY, metavar=("VX", "VY", "VZ"), help="its release velocity (m/s, each within ±1000)")
     p.add_argument("--delivery", choices=("fast", "medium", "slow"), help="--ball is a ball delivered at it at this pace, from --bowler's end")
     p.add_argument(
         "--bowler", nargs=2, type=COORD, default=(0.0, 1.0), metavar=("DX", "DY"), help="horizontal direction to the bowler, not 0 0 (default 0 1)"
