@@ -62,7 +62,7 @@ def load_clips(files: list[str], args: argparse.Namespace) -> list:
         ranges = ranges * len(files)
     if len(ranges) != len(files):
         raise MjmotionError(f"--frames: give one range for all clips or one per clip ({len(files)}), got {len(ranges)}")
-    if args.frames and not all(r.strip() for r in ranges):  # ("0:5," read as "all of B"; "," as all of both)
+    if args.frames and not all((r or "").strip() for r in ranges):  # ("0:5," read as "all of B"; "," as all of both)
         raise MjmotionError(f"--frames {args.frames!r}: a range is empty; expected A:B for each clip (':' for a whole clip)")
     clips = []
     for f, r in zip(files, ranges, strict=True):
