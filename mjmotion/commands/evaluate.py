@@ -111,7 +111,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         nargs=3,
         type=COORD,
         metavar=("X", "Y", "Z"),
-        help="--ball is a delivered ball released here (m, each within ±1000; Hicks 2010, §2.3.2); its path must pass within 0.5 m of --ball",
+        help=f"--ball is a delivered ball released here (m, each within ±1000; Hicks 2010, §2.3.2); its path must pass within {DELIVERY_MISS:g} m of --ball",
     )
     p.add_argument("--release-velocity", nargs=3, type=VELOCITY, metavar=("VX", "VY", "VZ"), help="its release velocity (m/s, each within ±1000)")
     p.add_argument("--delivery", choices=("fast", "medium", "slow"), help="--ball is a ball delivered at it at this pace, from --bowler's end")
