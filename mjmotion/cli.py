@@ -235,8 +235,9 @@ def _main(argv: Sequence[str] | None) -> int:
         _refuse_empty(parser, args)
     except SystemExit as e:  # a usage error (exit status 2, already reported) or --help (0)
         return e.code if isinstance(e.code, int) else 2
-    if not getattr(args, "verb", None):
-        parser.print_help()
+    if not getattr(args, "verb", None):  # a usage error like any other: the help, then one error line, on stderr
+        parser.print_help(sys.stderr)
+        sys.stderr.write("error: expected a VERB (listed above)\n")
         return 2
     if args._mujoco_without_gl:
         _import_mujoco_without_gl()

@@ -438,7 +438,12 @@ def setup(
     if not 0 < hit < motion.n_frames - 1:
         # end_taper keeps the clip's first and last frames: a hit there cannot move (it read "unreachable, 0 m short")
         said = f"frame {frame}" if rule == "given" else f"the hit frame found ({rule}), {hit},"
-        raise MjmotionError(f"{said} is not inside the clip's frames 1..{motion.n_frames - 2}; the edit keeps the first and last frames as captured")
+        inner = (
+            f"the clip's frames 1..{motion.n_frames - 2}"
+            if motion.n_frames > 2
+            else f"a clip of {motion.n_frames} frame{'s' if motion.n_frames > 1 else ''}"
+        )
+        raise MjmotionError(f"{said} is not inside {inner}; the edit keeps the first and last frames as captured")
     tgt = _check_target(
         np.asarray(target, dtype=float) if target is not None else e_fk[hit] + _check_target(np.asarray(offset, dtype=float), "offset")
     )

@@ -100,8 +100,20 @@ def check_output(
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
         raise MjmotionError(f"{out}: folder {parent} does not exist")
+    _probe(out)
     _CLAIMS[_key(out)] = bool(force)
     return out
+
+
+def _probe(out: Path) -> None:
+    """Make and remove a temporary beside ``out``, as :func:`atomic_path` will: a folder the user
+    cannot write in (permissions, a read-only mount, ``/sys``) is refused before the work, not after.
+    (``os.access`` is no test: root passes it on a read-only mount.)"""
+    with _beside(out) as parent:
+        fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".probe", dir=parent)
+    os.close(fd)
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(tmp)
 
 
 def _check_replaceable(out: Path, st: os.stat_result) -> None:

@@ -407,6 +407,17 @@ def test_an_option_that_would_do_nothing_is_refused(tmp_path, human, capsys):
     rep = tmp_path / "r.json"
     rc, _, err = run(["evaluate", walk, "--ball", "0", "0", "1", "--frame", "10", "--ball-velocity", "1", "1", "1", "--json", str(rep)], capsys)
     assert rc == 0, err
+    # --bowler without --delivery, --plot-dims without --plot: the same (a hostile-input sweep).
+    for argv in (
+        ["evaluate", walk, "--ball", "0", "0", "1", "--bowler", "1", "0"],
+        ["hit", walk, "--offset", "0", "0", "0.1", "--bowler", "1", "0", "-o", str(tmp_path / "h.bvh")],
+    ):
+        refused(*run(argv, capsys)[::2], "--bowler 1 0: the direction a --delivery comes from")
+    refused(
+        *run(["vary", walk, "--scale", "1.2", "--plot-dims", "3", "-o", str(tmp_path / "v.bvh")], capsys)[::2],
+        "--plot-dims 3: the components --plot draws",
+    )
+    assert not (tmp_path / "h.bvh").exists() and not (tmp_path / "v.bvh").exists()
 
 
 def test_errors_name_the_option_they_are_about(tmp_path, human, capsys):
@@ -434,7 +445,8 @@ def test_error_is_one_line_even_for_names_with_line_breaks(tmp_path, capsys):
 
 
 def test_no_verb_and_unknown_verb(capsys):
-    assert run([], capsys)[0] == 2
+    rc, out, err = run([], capsys)
+    assert rc == 2 and out == "" and "mjmotion VERB --help" in err and err.endswith("error: expected a VERB (listed above)\n")
     refused(*run(["no-such-verb"], capsys)[::2], "no-such-verb")
 
 
@@ -594,6 +606,27 @@ def test_extra_outputs_follow_the_contract(name, tmp_path, clip, human, capsys):
         as_input_args[k] = str(inp)
         refused(*run([name, *spec.argv(str(inp), main_out), *as_input_args, "--force"], capsys)[::2], "input")
         assert inp.read_bytes() == data and not Path(main_out).exists()
+
+
+@pytest.mark.parametrize("name", VERB_NAMES)
+def test_every_output_must_end_in_the_suffix_of_what_is_written(name, tmp_path, clip, human, capsys):
+    """`compile -o model.bvh` wrote XML into a .bvh file and `fk -o pos.bvh` an .npz archive:
+    the next command that reads them fails far from the cause. Refused before any work, for the
+    main output and for every report and plot."""
+    spec = verb(name)
+    if not writes(spec):
+        pytest.skip(f"{name} writes no file")
+    inp = str(_input(spec, clip, human))
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    wrong = ".npz" if spec.ext != ".npz" else ".bvh"
+    refused(*run([name, *spec.argv(inp, str(out_dir / f"out{wrong}"))], capsys)[::2], f"out{wrong}", "expected a")
+    extra = spec.extra_outputs(out_dir)
+    for k in range(1, len(extra), 2):
+        bad = list(extra)
+        bad[k] = str(Path(extra[k]).with_suffix(".bvh"))
+        refused(*run([name, *spec.argv(inp, str(out_dir / f"out{spec.ext}")), *bad], capsys)[::2], extra[k - 1], "expected a")
+    assert os.listdir(out_dir) == []
 
 
 @pytest.mark.parametrize("name", VERB_NAMES)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import imageio.v3 as iio
 import numpy as np
+import pytest
 
 from mjmotion import demo
 from mjmotion.cli import main
@@ -83,3 +84,18 @@ def test_demo_refuses_a_data_folder_without_clips_before_any_work(tmp_path, caps
     err = capsys.readouterr().err
     assert err.startswith(f"error: --data {empty}: no .bvh files") and err.count("\n") == 1, err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("where", [".", "results"])
+def test_demo_never_writes_among_the_users_clips(tmp_path, capsys, where):
+    """`demo --data D -o D --force` wrote its results into the mocap folder and counted the clips as
+    written (a hostile-input sweep); inside it likewise."""
+    data = tmp_path / "mocap"
+    data.mkdir()
+    clip = data / "walk.bvh"
+    clip.write_bytes(b"HIERARCHY\n")
+    out = data / where
+    assert main(["demo", "--data", str(data), "-o", str(out), "--only", "path_search", "--no-video", "--force"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: -o {out}: inside --data {data}") and err.count("\n") == 1, err
+    assert sorted(p.name for p in data.iterdir()) == ["walk.bvh"] and clip.read_bytes() == b"HIERARCHY\n"

@@ -433,3 +433,5 @@ def test_a_hit_at_the_clips_first_or_last_frame_is_refused_before_solving():
         with pytest.raises(MjmotionError, match=rf"^frame {frame} is not inside the clip's frames 1\.\.{m.n_frames - 2}"):
             hitpoint.setup(m, offset=np.array([0.0, 0.0, 0.01]), frame=frame, prop=drive.prop)
     assert hitpoint.setup(m, offset=np.array([0.0, 0.0, 0.01]), frame=1, prop=drive.prop).hit == 1
+    with pytest.raises(MjmotionError, match=r"^frame 1 is not inside a clip of 2 frames;"):  # it read "frames 1..0"
+        hitpoint.setup(m[:2], offset=np.array([0.0, 0.0, 0.01]), frame=1, prop=drive.prop)

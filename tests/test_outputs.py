@@ -219,3 +219,11 @@ def test_a_folder_that_takes_no_files_is_named_with_the_users_path():
     assert str(e.value).startswith("/proc/mjmotion-out.txt: cannot write in /proc (") and ".mjmotion-out.txt." not in str(e.value)
     with pytest.raises(MjmotionError, match=r"^/proc/mjmotion-lib: cannot write in /proc \("), staged_folder("/proc/mjmotion-lib"):
         pass
+
+
+def test_a_folder_that_takes_no_files_is_refused_before_the_work(tmp_path):
+    """`-o /sys/x.bvh` was found only when the result was written, after the work."""
+    with pytest.raises(MjmotionError, match=r"^/proc/mjmotion-out\.bvh: cannot write in /proc \("):
+        check_output("/proc/mjmotion-out.bvh")
+    assert check_output(tmp_path / "out.bvh") == tmp_path / "out.bvh"
+    assert list(tmp_path.iterdir()) == []  # the probe leaves nothing behind

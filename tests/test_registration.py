@@ -410,8 +410,8 @@ def test_short_and_very_different_lengths(mocap):
     reg = R.register(walk, tiny)
     assert np.all(np.diff(reg.curve.samples, axis=0) > 0)
     assert abs(reg.curve.samples[0, 0] - 40) <= 3  # found where the excerpt comes from
-    with pytest.raises(MjmotionError, match="at least 2 frames"):
-        R.register(walk, walk[5:6])
+    with pytest.raises(MjmotionError, match=r"^07_01: 1 frame as read; registration needs clips of at least 2 frames"):
+        R.register(walk, walk[5:6])  # the clip is named (it read "got 113 and 1")
     # 10× different lengths: free end works, the pinned corners cannot be joined at W = 2
     short = walk[100:130].resample(walk.fps)
     reg = R.register(walk[:300], short)
@@ -493,6 +493,15 @@ def test_blendability_tells_walks_and_runs_from_a_walk_and_a_pitch(mocap):
     assert good.blendable and good.score < 0.8 and good.warning("a", "b") is None
     same = R.register(run, transform.floor_transform(run, 1.0, (2.0, 0.5))).blendability
     assert same.score == pytest.approx(0.0, abs=1e-9)  # a clip and itself moved on the floor
+    # a clip that holds one pose has no spread to compare with: said so, not "blendability inf"
+    still = run.replace(
+        rotations=np.repeat(run.rotations[:1], run.n_frames, axis=0), root_positions=np.repeat(run.root_positions[:1], run.n_frames, axis=0)
+    )
+    frozen = R.register(run, still).blendability
+    assert (
+        not frozen.blendable
+        and frozen.warning("09_01", "still") == "still holds one pose throughout: blendability (seed 004 §7.2) cannot be measured"
+    )
     assert bad.to_json()["blendability"] == b.to_json() and b.to_json()["blendable"] is False
 
 

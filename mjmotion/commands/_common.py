@@ -159,10 +159,13 @@ def clip_frame(frame: int, first: int, option: str, n_frames: int | None = None,
 
 
 def check_bowler(args: argparse.Namespace) -> None:
-    """``--bowler DX DY`` (a delivery's direction) is not 0 0: refused before any clip is read."""
+    """``--bowler DX DY`` (a delivery's direction) is not 0 0 and comes with ``--delivery``: refused
+    before any clip is read."""
     dx, dy = args.bowler
     if not math.hypot(dx, dy) > 0:
         raise MjmotionError(f"--bowler {dx:g} {dy:g}: expected a horizontal direction to the bowler, not 0 0")
+    if getattr(args, "_bowler_given", False) and args.delivery is None:
+        raise MjmotionError(f"--bowler {dx:g} {dy:g}: the direction a --delivery comes from; give --delivery PACE too, or leave --bowler out")
 
 
 def check_same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
@@ -175,9 +178,24 @@ def check_same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> boo
     return os.path.realpath(a) == os.path.realpath(b)  # (a symlink loop is not an error here)
 
 
-def output_path(args: argparse.Namespace, *inputs: str) -> Path:
-    """Check ``args.output`` before the work starts (exists → needs --force; never an input)."""
-    return check_output(args.output, force=bool(getattr(args, "force", False)), inputs=inputs)
+#: What each kind of output is written as, by the suffix its path must end in.
+WRITTEN_AS = {".bvh": "a BVH clip", ".xml": "a MuJoCo model (MJCF XML)", ".npz": "a NumPy .npz archive", ".json": "JSON", ".png": "a PNG image"}
+
+
+def check_suffix(path: str | os.PathLike[str], option: str, suffix: str) -> None:
+    """Refuse an output path that does not end in ``suffix`` (any case): a model written to
+    ``out.bvh`` or a clip to ``out.npz`` is a trap for the next command that reads it."""
+    if Path(path).suffix.lower() != suffix:
+        raise MjmotionError(f"{option} {os.fspath(path)}: this is written as {WRITTEN_AS[suffix]}; expected a {suffix} path")
+
+
+def output_path(args: argparse.Namespace, *inputs: str, suffix: str | None = None) -> Path:
+    """Check ``args.output`` before the work starts (exists → needs --force; never an input; ends
+    in ``suffix`` if one is given)."""
+    out = check_output(args.output, force=bool(getattr(args, "force", False)), inputs=inputs)
+    if suffix is not None:
+        check_suffix(out, "-o", suffix)
+    return out
 
 
 def parse_frames(text: str, n_frames: int, option: str = "--frames") -> slice:

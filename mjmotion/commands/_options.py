@@ -116,6 +116,16 @@ def label(max_length: int = 80) -> Callable[[str], str]:
     return parse
 
 
+class Given(argparse.Action):
+    """Store the value and note that it was given (``_DEST_given``): a default that is also a valid value
+    cannot tell an option given without effect from one left alone. (The note starts with ``_``: not a
+    judge option, so audit rows and their resume keys are the same.)"""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any, option_string: str | None = None) -> None:
+        setattr(namespace, self.dest, values)
+        setattr(namespace, f"_{self.dest}_given", True)
+
+
 class UniqueProps(argparse.Action):
     """``--prop KIND[:JOINT]``, repeatable, each kind once (two props of one kind share a name in the model)."""
 

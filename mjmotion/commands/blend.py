@@ -40,7 +40,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from .. import blend, bvh
 
-    out = output_path(args, *args.files, *joint_weights.inputs(args))
+    out = output_path(args, *args.files, *joint_weights.inputs(args), suffix=".bvh")
     if len(args.files) < 2:
         raise MjmotionError("blend needs at least two clips")
     try:

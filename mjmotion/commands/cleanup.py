@@ -8,7 +8,7 @@ import math
 
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, load, naming, output_path
+from ._common import add_input_options, check_suffix, load, naming, output_path
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, number
 from .evaluate import _finite, _nan_to_none, add_judge_options, check_floor, load_sources
 
@@ -93,8 +93,10 @@ def run(args: argparse.Namespace) -> int:
     _finite(args.blend, "--blend", "a blend time in seconds", strict=False)
     _finite(args.clearance, "--clearance", "a height in metres", strict=False)
     check_floor(args)
-    out = output_path(args, args.file, *args.source)
+    out = output_path(args, args.file, *args.source, suffix=".bvh")
     rep_path = check_output(args.json, force=args.force, inputs=(args.file, str(out), *args.source)) if args.json else None
+    if args.json:
+        check_suffix(args.json, "--json", ".json")
     m = load(args.file, args)
     try:
         ev.require_frames(m.n_frames)  # the table judges it before and after

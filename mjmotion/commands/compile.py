@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     from .. import kinematics, mjcf
     from ..errors import MjmotionError
 
-    out = output_path(args, args.file)
+    out = output_path(args, args.file, suffix=".xml")
     names = ("read", "compile", *(("bind pose",) if args.skin or args.actuators else ()), *(("skin",) if args.skin else ()), "write")
     with steps("compile", names) as step:
         step("read")

@@ -47,6 +47,8 @@ def run(args: argparse.Namespace) -> int:
         if not find_bvh(data):  # before any work or folder is made
             raise MjmotionError(f"--data {args.data}: no .bvh files in it; expected the shared CMU clips (its flavour folders)")
     out = Path(args.out)
+    if data is not None and out.resolve().is_relative_to(data.resolve()):  # results never go among the user's clips
+        raise MjmotionError(f"-o {args.out}: inside --data {args.data}; choose an output folder outside the mocap folder")
     if out.exists() and not out.is_dir():
         raise MjmotionError(f"-o {args.out}: exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not args.force:

@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING, Any
 from ..errors import MjmotionError, printable, require_number
 from ..inputs import find_bvh
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, check_bowler, check_same_file, load, load_first, named, naming, prop_option
-from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, UniqueProps, integer, number
+from ._common import add_input_options, check_bowler, check_same_file, check_suffix, load, load_first, named, naming, prop_option
+from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, Given, UniqueProps, integer, number
 
 if TYPE_CHECKING:
     from ..evaluate import Report
@@ -101,7 +101,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         nargs=3,
         type=VELOCITY,
         default=(0.0, 0.0, 0.0),
-        action=_Given,
+        action=Given,
         metavar=("VX", "VY", "VZ"),
         help="incoming ball velocity at impact, m/s (each within ±1000), for --ball or --hit-grid (default 0 0 0)",
     )
@@ -116,7 +116,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--release-velocity", nargs=3, type=VELOCITY, metavar=("VX", "VY", "VZ"), help="its release velocity (m/s, each within ±1000)")
     p.add_argument("--delivery", choices=("fast", "medium", "slow"), help="--ball is a ball delivered at it at this pace, from --bowler's end")
     p.add_argument(
-        "--bowler", nargs=2, type=COORD, default=(0.0, 1.0), metavar=("DX", "DY"), help="horizontal direction to the bowler, not 0 0 (default 0 1)"
+        "--bowler",
+        nargs=2,
+        type=COORD,
+        action=Given,
+        default=(0.0, 1.0),
+        metavar=("DX", "DY"),
+        help="horizontal direction to the bowler, not 0 0 (with --delivery; default 0 1)",
     )
     p.add_argument(
         "--hit-grid",
@@ -332,16 +338,6 @@ def _finite(value: float, option: str, what: str, strict: bool = True) -> None:
     require_number(option, value, strict=strict, what=what)
 
 
-class _Given(argparse.Action):
-    """Store the value and note that it was given (``_DEST_given``): a default that is also a valid value
-    cannot tell an option given without effect from one left alone. (The note starts with ``_``: not a
-    judge option, so audit rows and their resume keys are the same.)"""
-
-    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any, option_string: str | None = None) -> None:
-        setattr(namespace, self.dest, values)
-        setattr(namespace, f"_{self.dest}_given", True)
-
-
 def check_options(args: argparse.Namespace) -> None:
     """Every numeric option checked before any clip is read (each error names its option)."""
     _finite(args.h_c, "--h-c", "a contact height in metres")
@@ -396,6 +392,8 @@ def run(args: argparse.Namespace) -> int:
         files = [args.path]
     # Checked before any work: the report may never replace one of the clips it reads.
     out = check_output(args.json, force=args.force, inputs=[*files, *args.source]) if args.json else None
+    if args.json:
+        check_suffix(args.json, "--json", ".json")
     if os.path.isdir(args.path):
         results = evaluate_files(files, opts, args.jobs)
     else:

@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
 
     from .. import kinematics, mjcf
 
-    out = output_path(args, args.file)
+    out = output_path(args, args.file, suffix=".npz")
     with steps("fk", ("read", "compile", "forward kinematics", "write")) as step:
         step("read")
         m = load(args.file, args)

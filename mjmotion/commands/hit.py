@@ -8,8 +8,8 @@ import sys
 
 from ..errors import MjmotionError
 from ..outputs import write_text_atomic
-from ._common import add_input_options, check_bowler, clip_frame, load_first, output_path
-from ._options import COORD, FRAME, VELOCITY, number
+from ._common import add_input_options, check_bowler, check_suffix, clip_frame, load_first, output_path
+from ._options import COORD, FRAME, VELOCITY, Given, number
 from ._progress import steps
 
 NAME = "hit"
@@ -76,7 +76,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="the delivered ball's release velocity (m/s, each within ±1000)",
     )
     p.add_argument(
-        "--bowler", nargs=2, type=COORD, default=(0.0, 1.0), metavar=("DX", "DY"), help="horizontal direction to the bowler, not 0 0 (default 0 1)"
+        "--bowler",
+        nargs=2,
+        type=COORD,
+        action=Given,
+        default=(0.0, 1.0),
+        metavar=("DX", "DY"),
+        help="horizontal direction to the bowler, not 0 0 (with --delivery; default 0 1)",
     )
     p.add_argument("--prop", default="club", choices=("club", "bat"), help="the prop fitted to both hands for --effector club (default: club)")
     p.add_argument(
@@ -117,12 +123,13 @@ def run(args: argparse.Namespace) -> int:
     from .. import bvh, hitpoint
 
     check_bowler(args)
-    out = output_path(args, args.file)
+    out = output_path(args, args.file, suffix=".bvh")
     report_path = None
     if args.json:
         report_path = output_path(argparse.Namespace(output=args.json, force=args.force), args.file)
         if report_path == out:
             raise MjmotionError("--json and -o name the same file")
+        check_suffix(report_path, "--json", ".json")
     falloff = hitpoint.DEFAULT_FALLOFF if args.falloff is None else args.falloff
     if (args.ball_release is None) != (args.release_velocity is None):
         raise MjmotionError("--ball-release and --release-velocity go together")

@@ -10,7 +10,7 @@ from pathlib import Path
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from . import _joint_weights as joint_weights
-from ._common import add_input_options, load
+from ._common import add_input_options, check_suffix, load
 from ._options import FPS, integer, number, resample
 from ._progress import steps
 
@@ -115,11 +115,12 @@ def run(args: argparse.Namespace) -> int:
     from .. import registration
 
     out = check_output(args.json, args.force, (args.a, args.b, *joint_weights.inputs(args)))
+    check_suffix(args.json, "--json", ".json")
     plot = (
         check_output(args.plot, args.force, (args.a, args.b, args.json, *joint_weights.inputs(args))) if args.plot else None
     )  # (not the JSON's path either)
-    if plot is not None and plot.suffix.lower() != ".png":
-        raise MjmotionError(f"--plot {args.plot}: plots are written as PNG; expected a .png path")
+    if plot is not None:
+        check_suffix(plot, "--plot", ".png")
     if args.window < 1 or args.window % 2 == 0:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
     if not 0 < args.time_limit < float("inf"):

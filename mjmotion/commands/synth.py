@@ -7,7 +7,7 @@ import json
 
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
-from ._common import output_path
+from ._common import check_suffix, output_path
 from ._options import integer, number
 from ._progress import steps
 
@@ -87,8 +87,10 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError(f"synth {args.kind}: unexpected argument {args.directory!r}; write with -o OUT.bvh")
     if not args.output:
         raise MjmotionError(f"synth {args.kind}: give the output file with -o OUT.bvh")
-    out = output_path(args)
+    out = output_path(args, suffix=".bvh")
     truth = check_output(args.truth, force=args.force, inputs=(args.output,)) if args.truth else None
+    if args.truth:
+        check_suffix(args.truth, "--truth", ".json")
     fn, is_gait = synth.GENERATORS[args.kind]
     if is_gait:
         kw = {"turn_deg_per_s": args.turn, "seed": args.seed}

@@ -6,13 +6,12 @@ import argparse
 import dataclasses
 import itertools
 import json
-from pathlib import Path
 
 from ..caps import MAX_COMPONENTS, MAX_FRAMES, check_motion_size
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, clip_frame, load_first, output_path, parse_frames
-from ._options import FRAME, integer, number
+from ._common import add_input_options, check_suffix, clip_frame, load_first, output_path, parse_frames
+from ._options import FRAME, Given, integer, number
 from ._progress import steps
 
 NAME = "vary"
@@ -125,9 +124,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--plot-dims",
         type=int,
+        action=Given,
         choices=(2, 3),
         default=2,
-        help="components in the plot (default 2)",
+        help="components in the plot (with --plot; default 2)",
     )
     p.add_argument("--json", metavar="REPORT.json", help="write the report as JSON")
     p.add_argument("--force", action="store_true", help="replace outputs that exist")
@@ -139,14 +139,18 @@ def run(args: argparse.Namespace) -> int:
     from ..style import PoseSpace, reconstruction_errors
 
     inputs = [args.file] + ([args.scores] if args.scores else [])
-    out = output_path(args, *inputs)
+    out = output_path(args, *inputs, suffix=".bvh")
     extra = [x for x in (args.plot, args.json) if x]
     for x in extra:
         check_output(x, force=args.force, inputs=[*inputs, str(out)])
     if len(set(map(str, [out, *extra]))) != 1 + len(extra):
         raise MjmotionError("-o, --plot and --json must name different files")
-    if args.plot and Path(args.plot).suffix.lower() != ".png":  # before any work: a late refusal would leave -o written
-        raise MjmotionError(f"--plot {args.plot}: plots are written as PNG; expected a .png path")
+    if args.plot:  # before any work: a late refusal would leave -o written
+        check_suffix(args.plot, "--plot", ".png")
+    elif getattr(args, "_plot_dims_given", False):
+        raise MjmotionError(f"--plot-dims {args.plot_dims}: the components --plot draws; give --plot OUT.png too, or leave --plot-dims out")
+    if args.json:
+        check_suffix(args.json, "--json", ".json")
     if args.segment and args.scale is None:
         raise MjmotionError("--segment goes with --scale")
     if args.abort_frames is not None and args.abort_at is None:
