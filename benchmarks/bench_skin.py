@@ -122,15 +122,18 @@ def main() -> None:
     }
     times: dict[str, list[float]] = {k: [] for k in methods}
     results: dict[str, object] = {}
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # mjv_updateSkin is deprecated in favour of mjv_updateActiveSkin (not bound)
+    # MuJoCo 4 warns on every mjv_updateSkin call (deprecated for mjv_updateActiveSkin, not bound in
+    # Python) to stdout and MUJOCO_LOG.TXT: thousands of lines; its handler is swapped out meanwhile.
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda message: None)
+    try:
         for _ in range(args.rounds):
             for name, fn in methods.items():
                 start = time.perf_counter()
                 results[name] = fn()
                 times[name].append(time.perf_counter() - start)
+    finally:
+        mujoco.set_mju_user_warning(previous)
     med = {k: statistics.median(v) for k, v in times.items()}
     n = args.loop_frames
     start = time.perf_counter()
