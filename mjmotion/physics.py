@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import mujoco
@@ -278,12 +278,27 @@ def ballistic_residual(com: np.ndarray, airborne: np.ndarray, fps: float, min_fl
     filter spreads the 2–3 g of a running stance over the 0.1–0.2 s flight beside it (0.3–1.5 g
     read there as missing force), and a higher cutoff amplifies marker noise instead.
     """
-    out = np.full(len(com), np.nan)
+    return _off_free_fall(len(com), ballistic_fits(com, airborne, fps, min_flight))
+
+
+def _off_free_fall(n_frames: int, fits: list[tuple[int, int, np.ndarray]]) -> np.ndarray:
+    """``(T,)`` ``|a − g|/g`` of each fit of :func:`ballistic_fits` over its frames, NaN elsewhere."""
+    out = np.full(n_frames, np.nan)
+    for a, b, acc in fits:
+        out[a:b] = np.linalg.norm(acc - [0.0, 0.0, -GRAVITY]) / GRAVITY
+    return out
+
+
+def ballistic_fits(com: np.ndarray, airborne: np.ndarray, fps: float, min_flight: float = MIN_FLIGHT) -> list[tuple[int, int, np.ndarray]]:
+    """``[(start, stop, acceleration), …]``: each airborne stretch :func:`flights` keeps and the
+    acceleration ``(3,)`` (m/s²) of the least-squares quadratic through ``com: (T, 3)`` over it
+    (free fall: ``(0, 0, −g)``)."""
+    out = []
     for a, b in flights(airborne, fps, min_flight):
         t = (np.arange(a, b) - 0.5 * (a + b - 1)) / fps
         basis = np.stack([np.ones_like(t), t, 0.5 * t * t], axis=1)
         coef = np.linalg.lstsq(basis, com[a:b], rcond=None)[0]  # (3, 3): position, velocity, acceleration
-        out[a:b] = np.linalg.norm(coef[2] - [0.0, 0.0, -GRAVITY]) / GRAVITY
+        out.append((a, b, coef[2]))
     return out
 
 
@@ -421,6 +436,8 @@ class Residuals:
             neighbourhood is all in flight (NaN without such frames).
         physics_violation_ratio: fraction of violating frames.
         mass: kg.
+        flight_accelerations: ``(K, 3)`` m/s², the centre of mass's fitted acceleration over each
+            of the ``K`` airborne stretches judged by their ballistic fit (:func:`ballistic_fits`).
     """
 
     root_force_ratio: np.ndarray
@@ -433,6 +450,7 @@ class Residuals:
     physics_violation_ratio: float
     mass: float
     ballistic: np.ndarray | None = None
+    flight_accelerations: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 #: Heel to toe tip of a foot, × stature: 0.124-0.136 on the shared rigs with toe joints (the
@@ -518,10 +536,8 @@ def residuals(
     )
     # Flights long enough to fit are judged by their ballistic fit, not the filtered wrench.
     # (A walk has no such flight: its centre of mass is not needed.)
-    if flights(airborne, motion.fps):
-        ballistic = ballistic_residual(centre_of_mass(compiled, pose), airborne, motion.fps)
-    else:
-        ballistic = np.full(len(airborne), np.nan)
+    fits = ballistic_fits(centre_of_mass(compiled, pose), airborne, motion.fps) if flights(airborne, motion.fps) else []
+    ballistic = _off_free_fall(len(airborne), fits)
     fitted = ~np.isnan(ballistic)
     residual = np.where(fitted, ballistic, residual)
     penetrating = ground < -params.penetration_tol
@@ -541,6 +557,7 @@ def residuals(
         physics_violation_ratio=float(violation.mean()),
         mass=mass,
         ballistic=fitted,
+        flight_accelerations=np.array([acc for _, _, acc in fits]).reshape(-1, 3),
     )
 
 

@@ -67,3 +67,15 @@ def test_the_tolerance_scan_loosens_monotonically_and_sees_a_walk_played_fast(tm
     faster = pa.tolerance_scan(str(path), sped_up=True)
     assert len(clean) == len(pa.SCAN_TOLS) and np.all(np.diff(clean) <= 0.0)
     assert faster[0] >= 0.25 and np.all(np.diff(np.add(faster, clean)) <= 0.0)
+
+
+def test_flight_falls_reads_g_on_a_captured_jump_and_4g_played_twice_as_fast(mocap):
+    """The ASF jump 16_01's one long flight falls at g as judged; played twice as fast every
+    acceleration is 4x (the daz runs' flights read 1.2-1.8 g: the note this function makes)."""
+    from mjmotion.experiments.corruption import sped_up
+
+    jump = pa._read(mocap / "cmu_asfamc_converted" / "16_01.bvh")
+    (fall,) = pa.flight_falls(jump)
+    assert fall == pytest.approx(-1.0, abs=0.05)
+    fast = pa.flight_falls(sped_up(jump))
+    assert len(fast) == 1 and fast[0] == pytest.approx(4 * fall, rel=0.05)

@@ -226,6 +226,11 @@ def test_ballistic_residual_is_the_distance_from_free_fall():
     short = np.zeros(60, dtype=bool)
     short[20:24] = True
     assert np.isnan(ph.ballistic_residual(arc, short, fps)).all()
+    # the fits themselves: each kept stretch and its acceleration, (0, 0, -g) for the arc, 4 g when twice as fast
+    ((a, b, acc),) = ph.ballistic_fits(arc, air, fps)
+    assert (a, b) == (10, 50) and np.allclose(acc, [0.0, 0.0, -ph.GRAVITY], atol=1e-9)
+    assert ph.ballistic_fits(fast, air, fps)[0][2][2] == pytest.approx(-4.0 * ph.GRAVITY)
+    assert ph.ballistic_fits(arc, short, fps) == []
 
 
 def test_toe_less_feet_push_on_their_unmodelled_toes():
@@ -266,6 +271,10 @@ def test_jump_flight_residual_near_zero():
     # The take-off push: the contact frames just before flight need more than body weight.
     first = int(np.flatnonzero(r.flight)[0])
     assert r.root_force_ratio[first - 20 : first].max() > 1.5
+    # Its one long flight, fitted: the centre of mass of captured ASF data falls at g (the control
+    # for the daz runs' 1.2-1.8 g, experiments.physics_audit.flight_falls).
+    (acc,) = r.flight_accelerations
+    assert acc[2] == pytest.approx(-ph.GRAVITY, rel=0.05) and np.hypot(*acc[:2]) < 0.1 * ph.GRAVITY
 
 
 # ----------------------------------------------------------------- hitting

@@ -221,6 +221,42 @@ def head_sway_lines(data_dir: Path | None) -> list[str]:
     return _note(head, parts, "; ")
 
 
+#: Runs and a jump whose flights :func:`flight_falls` reports: the daz runs, and clips of other flavours with flights.
+FLIGHT_CLIPS = (
+    *(f"cmu_cgspeed_daz/{n}.bvh" for n in ("09_01", "09_02", "09_06", "09_11", "02_03")),
+    "cmu_asfamc_converted/16_01.bvh",
+    "cmu_cgspeed_max/102_01.bvh",
+)
+
+
+def flight_falls(motion: Motion, params: ev.Params = ev.DEFAULTS) -> list[float]:
+    """The vertical acceleration (in g; free fall reads −1) of the centre of mass over each airborne
+    stretch the judge fits a parabola to (:func:`mjmotion.physics.ballistic_fits`), the clip judged
+    as ``evaluate`` judges it: its own floor, levelled, its feet calibrated."""
+    from .. import feet, kinematics, physics
+
+    compiled = ev.judge_model(motion.skeleton)
+    pose = kinematics.forward(compiled, motion)
+    track, _, fl = feet.judged_feet(compiled, motion, pose, [], None, params.speed_window)
+    pose, motion = feet.level_pose(fl.level, pose), feet.level_motion(fl.level, motion)
+    ground = feet.lowest_body_point(compiled, pose, track.heights.min(axis=1) + fl.height) - fl.height
+    res = physics.residuals(compiled, motion, track, params, ground=ground, pose=pose)
+    return [float(a[2] / physics.GRAVITY) for a in res.flight_accelerations]
+
+
+def flight_fall_lines(data_dir: Path | None) -> list[str]:
+    """One note: :func:`flight_falls` of the :data:`FLIGHT_CLIPS` found under ``data_dir``."""
+    parts: list[str] = []
+    for rel in FLIGHT_CLIPS if data_dir is not None else ():
+        assert data_dir is not None
+        if (data_dir / rel).is_file():
+            falls = flight_falls(_read(data_dir / rel))
+            shown = ", ".join(f"{a:.2f}".replace("-", "−") for a in falls) if falls else "none fitted"
+            parts.append(f"{rel.split('/')[0].removeprefix('cmu_')} {Path(rel).stem} {shown}")
+    head = "centre of mass's vertical acceleration over each flight the judge fits, in g (free fall −1; experiments.physics_audit.flight_falls): "
+    return _note(head, parts, "; ")
+
+
 #: The tolerances :func:`tolerance_lines` tries, the runs that fail at the judge's and the walks whose
 #: speed-up it must still catch (docs/METRICS.md, "Physics residual").
 SCAN_TOLS = (0.12, 0.16, 0.20, 0.25)
@@ -372,6 +408,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
     lines, files = cleanup_of_blends(None if data_dir is None or quick else Path(data_dir), out_dir)
     table.notes.extend(mid_stance_lines(None if data_dir is None or quick else Path(data_dir)))
     table.notes.extend(head_sway_lines(None if data_dir is None or quick else Path(data_dir)))
+    table.notes.extend(flight_fall_lines(None if data_dir is None or quick else Path(data_dir)))
     table.notes.extend(tolerance_lines(None if data_dir is None or quick else Path(data_dir), executor, jobs))
     table.notes.extend(lines)
     if data_dir is not None and not quick:
