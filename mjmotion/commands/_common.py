@@ -158,6 +158,21 @@ def clip_frame(frame: int, first: int, option: str, n_frames: int | None = None,
     return k
 
 
+def add_bowler_option(p: argparse.ArgumentParser) -> None:
+    """``--bowler DX DY``: where a ``--delivery`` comes from (checked by :func:`check_bowler`)."""
+    from ._options import COORD, Given
+
+    p.add_argument(
+        "--bowler",
+        nargs=2,
+        type=COORD,
+        action=Given,
+        default=(0.0, 1.0),
+        metavar=("DX", "DY"),
+        help="horizontal direction to the bowler, not 0 0 (with --delivery; default 0 1)",
+    )
+
+
 def check_bowler(args: argparse.Namespace) -> None:
     """``--bowler DX DY`` (a delivery's direction) is not 0 0 and comes with ``--delivery``: refused
     before any clip is read."""

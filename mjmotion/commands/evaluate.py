@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import MjmotionError, printable, require_number
 from ..inputs import find_bvh
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, check_bowler, check_same_file, check_suffix, load, load_first, named, naming, prop_option
+from ._common import add_bowler_option, add_input_options, check_bowler, check_same_file, check_suffix, load, load_first, named, naming, prop_option
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, Given, UniqueProps, integer, number
 
 if TYPE_CHECKING:
@@ -115,15 +115,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--release-velocity", nargs=3, type=VELOCITY, metavar=("VX", "VY", "VZ"), help="its release velocity (m/s, each within ±1000)")
     p.add_argument("--delivery", choices=("fast", "medium", "slow"), help="--ball is a ball delivered at it at this pace, from --bowler's end")
-    p.add_argument(
-        "--bowler",
-        nargs=2,
-        type=COORD,
-        action=Given,
-        default=(0.0, 1.0),
-        metavar=("DX", "DY"),
-        help="horizontal direction to the bowler, not 0 0 (with --delivery; default 0 1)",
-    )
+    add_bowler_option(p)
     p.add_argument(
         "--hit-grid",
         type=integer(2, 9, what="a grid size"),

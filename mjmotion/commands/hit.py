@@ -8,8 +8,8 @@ import sys
 
 from ..errors import MjmotionError
 from ..outputs import write_text_atomic
-from ._common import add_input_options, check_bowler, check_suffix, clip_frame, load_first, output_path
-from ._options import COORD, FRAME, VELOCITY, Given, number
+from ._common import add_bowler_option, add_input_options, check_bowler, check_suffix, clip_frame, load_first, output_path
+from ._options import COORD, FRAME, VELOCITY, number
 from ._progress import steps
 
 NAME = "hit"
@@ -75,15 +75,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar=("VX", "VY", "VZ"),
         help="the delivered ball's release velocity (m/s, each within ±1000)",
     )
-    p.add_argument(
-        "--bowler",
-        nargs=2,
-        type=COORD,
-        action=Given,
-        default=(0.0, 1.0),
-        metavar=("DX", "DY"),
-        help="horizontal direction to the bowler, not 0 0 (with --delivery; default 0 1)",
-    )
+    add_bowler_option(p)
     p.add_argument("--prop", default="club", choices=("club", "bat"), help="the prop fitted to both hands for --effector club (default: club)")
     p.add_argument(
         "--frame",
