@@ -16,6 +16,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from conftest import random_motion, random_skeleton
 
 from mjmotion import bvh, hitpoint, kinematics, mjcf, synth
 from mjmotion import rotations as rot
@@ -101,6 +102,49 @@ def test_the_tabs_first_pair_is_of_one_skeleton(mocap):
     assert partner(lib, "16_15", "run", "turn") == "10_01"  # no run of its skeleton: another of its clips
     assert partner(lib, "16_15", "run", "turn", default="—") == "—"
     assert partner(lib, "02_03", "walk") is None
+
+
+def test_travel_reads_a_known_root_path():
+    """A root moving 1.2 m/s straight reads 1.2 m/s and no turn; one turning a quarter circle, 90°."""
+    from mjmotion.studio.tabs import travel
+
+    rng = np.random.default_rng(0)
+    m = random_motion(rng, random_skeleton(rng, 4), 241)
+    t = np.arange(241) / m.fps
+    straight = m.replace(root_positions=np.column_stack([1.2 * t, 0.3 + 0 * t, 0.9 + 0 * t]))
+    speed, turn = travel(straight)
+    assert speed == pytest.approx(1.2, rel=1e-6) and turn == pytest.approx(0.0, abs=1e-6)
+    a = 0.5 * np.pi * t / t[-1]  # a quarter circle of radius 2 m
+    arc = m.replace(root_positions=np.column_stack([2 * np.sin(a), 2 - 2 * np.cos(a), 0.9 + 0 * t]))
+    speed, turn = travel(arc)
+    assert speed == pytest.approx(np.pi / t[-1], rel=5e-3) and turn == pytest.approx(90.0 - 45.0 / 2, abs=1.0)
+
+
+def test_numbered_clips_open_on_a_straight_walk_and_a_faster_gait(mocap):
+    """CMU trials are numbered, so the Blend and Stream tabs opened on the first two files of a folder (the
+    kicks 10_01 and 10_02 of the ASF folder: a kick as the stream's locomotion). By gait: the straight walk
+    16_15 (not the kick, nor the veering 16_12) and the fastest clip of its skeleton, 16_24."""
+    from types import SimpleNamespace
+
+    from mjmotion.studio.tabs import NONE, faster, walking
+    from mjmotion.studio.tabs.blend import BlendTab
+    from mjmotion.studio.tabs.stream import StreamTab
+
+    asf = mocap / "cmu_asfamc_converted"
+    lib = ClipLibrary.from_paths([str(asf / f"{n}.bvh") for n in ("10_01", "16_12", "16_15", "16_24")])
+    assert walking(lib) == "16_15" and faster(lib, "16_15") == "16_24" and faster(lib, "16_24") is None
+
+    class Widget(SimpleNamespace):
+        def __getattr__(self, name):  # on_update, on_click, on_trigger: callbacks are not run here
+            return lambda *a, **k: None
+
+    def add(*args, initial_value=None, **kw):
+        return Widget(value=initial_value, visible=kw.get("visible", True))
+
+    gui = SimpleNamespace(**{f"add_{w}": add for w in ("dropdown", "slider", "button", "markdown", "image", "command", "checkbox", "number", "text")})
+    session = SimpleNamespace(client=SimpleNamespace(gui=gui), library=lib, on_library=lambda f: None)
+    assert [d.value for d in BlendTab(session).clips] == ["16_15", "16_24", NONE]
+    assert [d.value for d in StreamTab(session).loco] == ["16_15", "16_24", NONE]
 
 
 # --- worker ---------------------------------------------------------------------------------

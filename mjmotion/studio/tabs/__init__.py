@@ -31,6 +31,54 @@ def partner(library: Any, first: str, pattern: str, exclude: str = r"$^", defaul
     return pick(kin, pattern, exclude, default=kin[0] if default is None else default)
 
 
+#: Mean horizontal root speed (m/s) of a walk, and a run's least multiple of it, for clips whose names
+#: say neither (the CMU trials are numbered): the Blend and Stream tabs open on a walk and a faster gait.
+WALK_SPEED = (0.8, 1.8)
+FASTER = 1.3
+#: The largest turn (degrees) between a straight walk's first and last quarters.
+STRAIGHT_DEG = 20.0
+
+
+def travel(motion: Any) -> tuple[float, float]:
+    """A clip's mean horizontal root speed (m/s, its path sampled every 0.25 s, so sway is not counted)
+    and its heading change (degrees) from its first quarter's displacement to its last's."""
+    xy = np.asarray(motion.root_positions)[:, :2]
+    if len(xy) < 8:
+        return 0.0, 180.0
+    every = max(1, round(0.25 * motion.fps))
+    path = xy[::every]
+    speed = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum() / (((len(path) - 1) * every) / motion.fps))
+    q = len(xy) // 4
+    a, b = xy[q] - xy[0], xy[-1] - xy[-1 - q]
+    norms = float(np.linalg.norm(a) * np.linalg.norm(b))
+    turn = math.degrees(math.acos(max(-1.0, min(1.0, float(a @ b) / norms)))) if norms > 0 else 180.0
+    return speed, turn
+
+
+def walking(library: Any) -> str | None:
+    """The first clip that walks straight (:data:`WALK_SPEED`, :data:`STRAIGHT_DEG`), or ``None``."""
+    for n in library.names():
+        speed, turn = travel(library.get(n).motion)
+        if WALK_SPEED[0] <= speed <= WALK_SPEED[1] and turn <= STRAIGHT_DEG:
+            return n
+    return None
+
+
+def faster(library: Any, first: str) -> str | None:
+    """The fastest clip of ``first``'s skeleton topology moving at least :data:`FASTER` times its speed (a
+    run to a walk, a fast walk to a slow one), or ``None``."""
+    motion = library.get(first).motion
+    base = travel(motion)[0]
+    best: tuple[float, str] | None = None
+    for n in library.names():
+        other = library.get(n).motion
+        if n != first and other.skeleton.same_topology(motion.skeleton):
+            speed = travel(other)[0]
+            if base > 0 and speed >= FASTER * base and (best is None or speed > best[0]):
+                best = (speed, n)
+    return best[1] if best else None
+
+
 def refresh(dropdown: Any, names: list[str], optional: bool = False) -> None:
     """New options for a clip menu, keeping its choice when it still exists."""
     options = ([NONE] if optional else []) + list(names)

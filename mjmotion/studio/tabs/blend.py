@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from ..engine import BLEND_METHODS, PATH_METHODS, blend_weights, grid_image, make_blend
-from . import NONE, clamp, partner, pick, refresh, weights_of
+from . import NONE, clamp, faster, partner, pick, refresh, walking, weights_of
 
 N_SLOTS = 3
 
@@ -18,8 +18,8 @@ class BlendTab:
         self.s = session
         gui = session.client.gui
         names = session.library.names()
-        first = pick(names, "walk", "turn|warp")
-        second = partner(session.library, first, "run", "turn") or names[min(1, len(names) - 1)]
+        first = pick(names, "walk", "turn|warp", default=walking(session.library))
+        second = partner(session.library, first, "run", "turn", default=faster(session.library, first)) or names[min(1, len(names) - 1)]
         self.clips = [
             gui.add_dropdown("Clip 1", tuple(names), initial_value=first),
             gui.add_dropdown("Clip 2", tuple(names), initial_value=second),

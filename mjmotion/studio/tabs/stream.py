@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from ..live import LiveStream
-from . import NONE, clamp, partner, pick, refresh, weights_of
+from . import NONE, clamp, faster, partner, pick, refresh, walking, weights_of
 
 N_SLOTS = 3
 
@@ -17,8 +17,8 @@ class StreamTab:
         self.s = session
         gui = session.client.gui
         names = session.library.names()
-        first = pick(names, "walk", "turn|warp|fast")
-        loco = [first, partner(session.library, first, "run", "turn", default=NONE)]
+        first = pick(names, "walk", "turn|warp|fast", default=walking(session.library))
+        loco = [first, partner(session.library, first, "run", "turn", default=faster(session.library, first) or NONE)]
         self.loco = [
             gui.add_dropdown("Locomotion 1", tuple(names), initial_value=loco[0]),
             gui.add_dropdown("Locomotion 2", (NONE, *names), initial_value=loco[1]),
