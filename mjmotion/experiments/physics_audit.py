@@ -85,13 +85,16 @@ def _judged(before, after, sources) -> tuple[ev.Report, ev.Report]:
     return ev.evaluate(before, sources=sources), ev.evaluate(after, sources=sources)
 
 
-def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tuple[list[str], list[str]]:
+def cleanup_of_blends(
+    data_dir: Path | None, out_dir: Path | None = None, cleaned: dict[str, dict[str, Any]] | None = None
+) -> tuple[list[str], list[str]]:
     """What cleanup does, one line each, judged against its inputs (their floor and feet): to
     every :data:`CLEAN_WALKS` clip, and to the linear blend of the bundled walk and run and of
     every :data:`BLEND_PAIRS` pair found under ``data_dir`` (issue 13's bar: ≥ 80 % less planted
     skate, ``penetrate_mm`` ≤ 2, ``worst_joint_speed_ratio`` against the inputs ≤ 1.3). With
     ``out_dir``, foot height and speed before and after cleanup of the last pair are drawn
-    there. Returns the lines and the figure files."""
+    there; ``cleaned``: :func:`cleanup_of_clip` rows by path already made (the clean walks are among
+    them). Returns the lines and the figure files."""
     from .. import blend, cleanup
 
     pairs = [("bundled walk+run", *_bundled_linear_blend())]
@@ -105,14 +108,12 @@ def cleanup_of_blends(data_dir: Path | None, out_dir: Path | None = None) -> tup
     for rel in CLEAN_WALKS if data_dir is not None else ():
         assert data_dir is not None
         if (data_dir / rel).is_file():
-            m = _read(data_dir / rel)
-            done = cleanup.cleanup(m, sources=[m.replace()])
-            r0, r1 = _judged(m, done.motion, [m.replace()])
+            w = (cleaned or {}).get(str(data_dir / rel)) or cleanup_of_clip(str(data_dir / rel))
             lines.append(
-                f"cleanup of the clean walk {rel}: planted skate {r0.planted_skate_mm_per_s:.0f} → {r1.planted_skate_mm_per_s:.0f} mm/s, "
-                f"penetrate_mm {r0.penetrate_mm:.1f} → {r1.penetrate_mm:.1f}, float_mm {r0.float_mm:.1f} → {r1.float_mm:.1f}, "
-                f"worst_joint_speed_ratio {r1.worst_joint_speed_ratio:.2f} "
-                f"({r1.worst_joint}), pop_frames {r0.pop_frames} → {r1.pop_frames}"
+                f"cleanup of the clean walk {rel}: planted skate {w['planted_skate_mm_per_s_before']:.0f} → {w['planted_skate_mm_per_s_after']:.0f} mm/s, "
+                f"penetrate_mm {w['penetrate_mm_before']:.1f} → {w['penetrate_mm_after']:.1f}, float_mm {w['float_mm_before']:.1f} → {w['float_mm_after']:.1f}, "
+                f"worst_joint_speed_ratio {w['worst_joint_speed_ratio']:.2f} "
+                f"({w['worst_joint']}), pop_frames {w['pop_frames_before']} → {w['pop_frames_after']}"
             )
     for label, clips, lin, res in pairs:
         r0, r1 = _judged(lin, res.motion, list(clips))
@@ -322,18 +323,26 @@ def cleanup_of_clip(path: str) -> dict[str, Any]:
     }
 
 
-def cleanup_of_clips_line(files: list[str], executor: Executor | None = None, jobs: int = 2) -> list[str]:
-    """One note: :func:`cleanup_of_clip` over ``files``, summarised, naming every clip that cleanup
-    leaves with a joint over 1.3x its own peak (issue 13's bar for walks) or with new pop frames."""
+def cleanup_of_clips(files: list[str], executor: Executor | None = None, jobs: int = 2) -> tuple[dict[str, dict[str, Any]], dict[str, str]]:
+    """:func:`cleanup_of_clip` over ``files`` on ``executor`` (else ``jobs`` processes): the rows and the
+    errors, each by path."""
     from ..executor import in_order, using
 
     if not files:
-        return []
+        return {}, {}
     with using(executor, jobs) as ex:
         outcomes = in_order(ex.run(cleanup_of_clip, [(f, (f,)) for f in files], desc="cleanup", unit="clip"), files)
+    return {o.key: o.unwrap() for o in outcomes if o.kind is None}, {o.key: str(o.error) for o in outcomes if o.kind is not None}
+
+
+def cleanup_of_clips_line(files: list[str], executor: Executor | None = None, jobs: int = 2, done: tuple | None = None) -> list[str]:
+    """One note: :func:`cleanup_of_clips` of ``files`` (or ``done``, its result already made), summarised,
+    naming every clip that cleanup leaves with a joint over 1.3x its own peak (issue 13's bar for
+    walks) or with new pop frames."""
+    by_path, errors = done if done is not None else cleanup_of_clips(files, executor, jobs)
     name = lambda key: f"{Path(key).parent.name.removeprefix('cmu_')} {Path(key).stem}"
-    rows = {name(o.key): o.unwrap() for o in outcomes if o.kind is None}
-    failed = [f"{name(o.key)}: {o.error}" for o in outcomes if o.kind is not None]
+    rows = {name(k): r for k, r in by_path.items()}
+    failed = [f"{name(k)}: {e}" for k, e in errors.items()]
     if not rows:
         return [f"cleanup failed on every clip: {'; '.join(failed)}"] if failed else []
     med = lambda k: float(np.median([r[k] for r in rows.values()]))
@@ -405,14 +414,17 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
     for name, (motion, props, sources) in synthesized(quick).items():
         rep = ev.evaluate(motion, props, params=params, sources=sources)  # type: ignore[arg-type]
         table.add(*_row("synthesized", name, rep.to_dict()))
-    lines, files = cleanup_of_blends(None if data_dir is None or quick else Path(data_dir), out_dir)
+    full = data_dir is not None and not quick
+    # Each captured clip cleaned once (in workers): the clean walks' lines and the all-clips note share it.
+    cleaned = cleanup_of_clips(sorted(str(p) for p in Path(data_dir).rglob("*.bvh")), executor, jobs) if full and data_dir is not None else None
+    lines, files = cleanup_of_blends(None if data_dir is None or quick else Path(data_dir), out_dir, cleaned[0] if cleaned else None)
     table.notes.extend(mid_stance_lines(None if data_dir is None or quick else Path(data_dir)))
     table.notes.extend(head_sway_lines(None if data_dir is None or quick else Path(data_dir)))
     table.notes.extend(flight_fall_lines(None if data_dir is None or quick else Path(data_dir)))
     table.notes.extend(tolerance_lines(None if data_dir is None or quick else Path(data_dir), executor, jobs))
     table.notes.extend(lines)
-    if data_dir is not None and not quick:
-        table.notes.extend(cleanup_of_clips_line(sorted(str(p) for p in Path(data_dir).rglob("*.bvh")), executor, jobs))
+    if cleaned is not None:
+        table.notes.extend(cleanup_of_clips_line([], done=cleaned))
     table.files.extend(files)
     table.write(out_dir)
     return table
