@@ -52,6 +52,15 @@ def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path, monkeypatch
     monkeypatch.setattr(pa, "cleanup_of_clip", lambda p: {**real(p), "worst_joint_speed_ratio": 1.6} if p.endswith("16_16.bvh") else real(p))
     (line,) = pa.cleanup_of_clips_line(walks, jobs=1)
     assert "≤ 1.3 on 1 of 2 (largest 1.60, asfamc_converted 16_16 lfemur), above it: asfamc_converted 16_16 1.60 (lfemur)" in line, line
+    # The rows made once (run() shares them with the clean walks' lines) give the same note, and the
+    # clean walk's line reads them instead of cleaning the walk again.
+    done = pa.cleanup_of_clips(walks, jobs=1)
+    assert pa.cleanup_of_clips_line([], done=done) == [line]
+    monkeypatch.setattr(pa, "cleanup_of_clip", lambda p: pytest.fail(f"{p} cleaned again"))
+    monkeypatch.setattr(pa, "CLEAN_WALKS", ("cmu_asfamc_converted/16_15.bvh",))
+    monkeypatch.setattr(pa, "BLEND_PAIRS", ())
+    lines, _ = pa.cleanup_of_blends(d.parent, cleaned=done[0])
+    assert any(x.startswith("cleanup of the clean walk cmu_asfamc_converted/16_15.bvh: planted skate") for x in lines), lines
 
 
 def test_the_tolerance_scan_loosens_monotonically_and_sees_a_walk_played_fast(tmp_path):
