@@ -608,17 +608,22 @@ def test_extra_outputs_follow_the_contract(name, tmp_path, clip, human, capsys):
         assert inp.read_bytes() == data and not Path(main_out).exists()
 
 
+def _writer(name: str, tmp_path: Path, clip: Path, human: Path | None) -> tuple[Verb, str, Path]:
+    """A verb that writes a file (else the test is skipped), its input, and an empty output folder."""
+    spec = verb(name)
+    if not writes(spec):
+        pytest.skip(f"{name} writes no file")
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    return spec, str(_input(spec, clip, human)), out_dir
+
+
 @pytest.mark.parametrize("name", VERB_NAMES)
 def test_every_output_must_end_in_the_suffix_of_what_is_written(name, tmp_path, clip, human, capsys):
     """`compile -o model.bvh` wrote XML into a .bvh file and `fk -o pos.bvh` an .npz archive:
     the next command that reads them fails far from the cause. Refused before any work, for the
     main output and for every report and plot."""
-    spec = verb(name)
-    if not writes(spec):
-        pytest.skip(f"{name} writes no file")
-    inp = str(_input(spec, clip, human))
-    out_dir = tmp_path / "out"
-    out_dir.mkdir()
+    spec, inp, out_dir = _writer(name, tmp_path, clip, human)
     wrong = ".npz" if spec.ext != ".npz" else ".bvh"
     refused(*run([name, *spec.argv(inp, str(out_dir / f"out{wrong}"))], capsys)[::2], f"out{wrong}", "expected a")
     extra = spec.extra_outputs(out_dir)
@@ -951,12 +956,7 @@ def test_one_two_and_three_frame_clips(name, tmp_path, human, capsys):
 @pytest.mark.parametrize("name", VERB_NAMES)
 def test_hostile_output_paths(name, tmp_path, clip, human, capsys):
     """A dangling symlink exists; 'out.bvh/' names a folder; a FIFO or /dev/null is never replaced, --force or not."""
-    spec = verb(name)
-    if not writes(spec):
-        pytest.skip(f"{name} writes no file")
-    inp = str(_input(spec, clip, human))
-    out_dir = tmp_path / "out"
-    out_dir.mkdir()
+    spec, inp, out_dir = _writer(name, tmp_path, clip, human)
     dangling = out_dir / f"out{spec.ext}"
     dangling.symlink_to(out_dir / "nowhere")
     refused(*run([name, *spec.argv(inp, str(dangling))], capsys)[::2], "already exists (a symbolic link)", "--force")
