@@ -110,7 +110,7 @@ def _probe(out: Path) -> None:
     cannot write in (permissions, a read-only mount, ``/sys``) is refused before the work, not after.
     (``os.access`` is no test: root passes it on a read-only mount.)"""
     with _beside(out) as parent:
-        fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".probe", dir=parent)
+        fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=out.suffix or ".tmp", dir=parent)  # named as atomic_path's
     os.close(fd)
     with contextlib.suppress(FileNotFoundError):
         os.unlink(tmp)

@@ -413,6 +413,11 @@ def test_an_option_that_would_do_nothing_is_refused(tmp_path, human, capsys):
         ["hit", walk, "--offset", "0", "0", "0.1", "--bowler", "1", "0", "-o", str(tmp_path / "h.bvh")],
     ):
         refused(*run(argv, capsys)[::2], "--bowler 1 0: the direction a --delivery comes from")
+    released = ["--ball-release", "0", "18", "2", "--release-velocity", "0", "-30", "0", "--bowler", "1", "0"]
+    refused(
+        *run(["hit", walk, "--offset", "0", "0", "0.1", *released, "-o", str(tmp_path / "h.bvh")], capsys)[::2],
+        "--bowler 1 0: only a --delivery uses it",
+    )
     refused(
         *run(["vary", walk, "--scale", "1.2", "--plot-dims", "3", "-o", str(tmp_path / "v.bvh")], capsys)[::2],
         "--plot-dims 3: the components --plot draws",
@@ -625,7 +630,11 @@ def test_every_output_must_end_in_the_suffix_of_what_is_written(name, tmp_path, 
     main output and for every report and plot."""
     spec, inp, out_dir = _writer(name, tmp_path, clip, human)
     wrong = ".npz" if spec.ext != ".npz" else ".bvh"
-    refused(*run([name, *spec.argv(inp, str(out_dir / f"out{wrong}"))], capsys)[::2], f"out{wrong}", "expected a")
+    argv = spec.argv(inp, str(out_dir / f"out{wrong}"))
+    err = refused(*run([name, *argv], capsys)[::2], f"out{wrong}", "expected a")
+    before = argv[argv.index(str(out_dir / f"out{wrong}")) - 1]  # the option that names it, if any
+    named_as = f"{before} " if before.startswith("-") else ""
+    assert err.startswith(f"error: {named_as}{out_dir / f'out{wrong}'}:"), err  # (convert's output is positional: no "-o")
     extra = spec.extra_outputs(out_dir)
     for k in range(1, len(extra), 2):
         bad = list(extra)

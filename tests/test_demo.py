@@ -99,3 +99,20 @@ def test_demo_never_writes_among_the_users_clips(tmp_path, capsys, where):
     err = capsys.readouterr().err
     assert err.startswith(f"error: -o {out}: inside --data {data}") and err.count("\n") == 1, err
     assert sorted(p.name for p in data.iterdir()) == ["walk.bvh"] and clip.read_bytes() == b"HIERARCHY\n"
+
+
+def test_demo_never_counts_the_users_clips_as_written(tmp_path, capsys):
+    """`-o` holding `--data` wrote beside the clips and counted them (and the user's notes) as written;
+    an `-o` that is a link loop ended in an internal error (Path.resolve raises on a loop)."""
+    data = tmp_path / "mocap"
+    data.mkdir()
+    (data / "walk.bvh").write_bytes(b"HIERARCHY\n")
+    assert main(["demo", "--data", str(data), "-o", str(tmp_path), "--only", "path_search", "--no-video", "--force"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: -o {tmp_path}: holds --data {data}") and err.count("\n") == 1, err
+    loop = tmp_path / "loop"
+    loop.symlink_to(loop)
+    assert main(["demo", "--data", str(data), "-o", str(loop), "--only", "path_search", "--no-video"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "internal error" not in err and err.count("\n") == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["loop", "mocap"]

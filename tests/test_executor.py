@@ -440,7 +440,7 @@ def test_physics_audit_runs_its_clips_on_the_executor(tmp_path, monkeypatch):
 
     data = require_data()
     monkeypatch.setattr(physics_audit, "synthesized", lambda quick: {})  # only the captured clips matter here
-    monkeypatch.setattr(physics_audit, "cleanup_of_blends", lambda data_dir, out_dir: ([], []))
+    monkeypatch.setattr(physics_audit, "cleanup_of_blends", lambda data_dir, out_dir, cleaned=None: ([], []))
     spy = Spy()
     table = physics_audit.run(tmp_path, data, quick=True, executor=spy)
     (fn, keys), *more = spy.calls

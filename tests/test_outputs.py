@@ -227,3 +227,8 @@ def test_a_folder_that_takes_no_files_is_refused_before_the_work(tmp_path):
         check_output("/proc/mjmotion-out.bvh")
     assert check_output(tmp_path / "out.bvh") == tmp_path / "out.bvh"
     assert list(tmp_path.iterdir()) == []  # the probe leaves nothing behind
+    # The probe is named as the real temporary is: a name long enough for the write fits the probe.
+    long = tmp_path / ("a" * 236 + ".bvh")
+    assert check_output(long) == long
+    write_text_atomic(long, "x")
+    assert long.read_text() == "x"

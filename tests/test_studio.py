@@ -109,7 +109,7 @@ def test_travel_reads_a_known_root_path():
     from mjmotion.studio.tabs import travel
 
     rng = np.random.default_rng(0)
-    m = random_motion(rng, random_skeleton(rng, 4), 241)
+    m = random_motion(rng, random_skeleton(rng, 4), 241).replace(fps=120.0)
     t = np.arange(241) / m.fps
     straight = m.replace(root_positions=np.column_stack([1.2 * t, 0.3 + 0 * t, 0.9 + 0 * t]))
     speed, turn = travel(straight)
@@ -118,6 +118,11 @@ def test_travel_reads_a_known_root_path():
     arc = m.replace(root_positions=np.column_stack([2 * np.sin(a), 2 - 2 * np.cos(a), 0.9 + 0 * t]))
     speed, turn = travel(arc)
     assert speed == pytest.approx(np.pi / t[-1], rel=5e-3) and turn == pytest.approx(90.0 - 45.0 / 2, abs=1.0)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a clip shorter than one 0.25 s sample divided 0 by 0
+        assert travel(straight[:20]) == (0.0, 180.0) and travel(straight[:1]) == (0.0, 180.0)
 
 
 def test_numbered_clips_open_on_a_straight_walk_and_a_faster_gait(mocap):

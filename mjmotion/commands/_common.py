@@ -180,6 +180,8 @@ def check_bowler(args: argparse.Namespace) -> None:
     if not math.hypot(dx, dy) > 0:
         raise MjmotionError(f"--bowler {dx:g} {dy:g}: expected a horizontal direction to the bowler, not 0 0")
     if getattr(args, "_bowler_given", False) and args.delivery is None:
+        if getattr(args, "ball_release", None) is not None:  # that ball flies from where it is released
+            raise MjmotionError(f"--bowler {dx:g} {dy:g}: only a --delivery uses it, not a --ball-release ball; leave --bowler out")
         raise MjmotionError(f"--bowler {dx:g} {dy:g}: the direction a --delivery comes from; give --delivery PACE too, or leave --bowler out")
 
 
@@ -199,17 +201,19 @@ WRITTEN_AS = {".bvh": "a BVH clip", ".xml": "a MuJoCo model (MJCF XML)", ".npz":
 
 def check_suffix(path: str | os.PathLike[str], option: str, suffix: str) -> None:
     """Refuse an output path that does not end in ``suffix`` (any case): a model written to
-    ``out.bvh`` or a clip to ``out.npz`` is a trap for the next command that reads it."""
+    ``out.bvh`` or a clip to ``out.npz`` is a trap for the next command that reads it. The error
+    names ``option`` (none for a positional argument)."""
     if Path(path).suffix.lower() != suffix:
-        raise MjmotionError(f"{option} {os.fspath(path)}: this is written as {WRITTEN_AS[suffix]}; expected a {suffix} path")
+        where = f"{option} {os.fspath(path)}" if option else os.fspath(path)
+        raise MjmotionError(f"{where}: this is written as {WRITTEN_AS[suffix]}; expected a {suffix} path")
 
 
-def output_path(args: argparse.Namespace, *inputs: str, suffix: str | None = None) -> Path:
+def output_path(args: argparse.Namespace, *inputs: str, suffix: str | None = None, option: str = "-o") -> Path:
     """Check ``args.output`` before the work starts (exists → needs --force; never an input; ends
-    in ``suffix`` if one is given)."""
+    in ``suffix`` if one is given; errors name ``option``, "" for a positional argument)."""
     out = check_output(args.output, force=bool(getattr(args, "force", False)), inputs=inputs)
     if suffix is not None:
-        check_suffix(out, "-o", suffix)
+        check_suffix(out, option, suffix)
     return out
 
 

@@ -34,7 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from .. import bvh
 
-    out = output_path(args, args.input, suffix=".bvh")
+    out = output_path(args, args.input, suffix=".bvh", option="")
     with steps("convert", ("read", *(("resample",) if args.fps is not None else ()), "write")) as step:
         step("read")
         m = load(args.input, args, args.frames)

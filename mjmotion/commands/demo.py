@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from ..errors import MjmotionError
@@ -47,8 +48,11 @@ def run(args: argparse.Namespace) -> int:
         if not find_bvh(data):  # before any work or folder is made
             raise MjmotionError(f"--data {args.data}: no .bvh files in it; expected the shared CMU clips (its flavour folders)")
     out = Path(args.out)
-    if data is not None and out.resolve().is_relative_to(data.resolve()):  # results never go among the user's clips
-        raise MjmotionError(f"-o {args.out}: inside --data {args.data}; choose an output folder outside the mocap folder")
+    if data is not None:  # results never go among the user's clips (realpath: a link loop is no error here)
+        o, dd = Path(os.path.realpath(out)), Path(os.path.realpath(data))
+        if o.is_relative_to(dd) or dd.is_relative_to(o):
+            where = "inside" if o.is_relative_to(dd) else "holds"
+            raise MjmotionError(f"-o {args.out}: {where} --data {args.data}; choose an output folder apart from the mocap folder")
     if out.exists() and not out.is_dir():
         raise MjmotionError(f"-o {args.out}: exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not args.force:

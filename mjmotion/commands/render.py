@@ -141,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
 
     out = output_path(args, *args.files)
     if out.suffix.lower() not in (".mp4", ".gif"):
-        raise MjmotionError(f"{out}: expected an .mp4 or .gif output")
+        raise MjmotionError(f"-o {out}: this is written as a video (MP4 or GIF, by the suffix); expected an .mp4 or .gif path")
     if out.suffix.lower() == ".mp4" and (args.width % 2 or args.height % 2):
         raise MjmotionError(f"--width {args.width} --height {args.height}: MP4 (yuv420p) needs an even width and height")
     if args.labels is not None and len(args.labels) != len(args.files):

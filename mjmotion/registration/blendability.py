@@ -57,8 +57,8 @@ class Blendability:
         """One line for a pair above the threshold, else ``None``."""
         if self.blendable:
             return None
-        if not np.isfinite(self.score):  # a clip whose frames are all alike has no spread to compare with
-            still = [n for n, s in zip((name_a, name_b), self.self_similarity, strict=True) if not s > 0]
+        still = [n for n, s in zip((name_a, name_b), self.self_similarity, strict=True) if not s > 0]
+        if still and not np.isfinite(self.score):  # a clip whose frames are all alike has no spread to compare with
             return f"{' and '.join(still)} hold{'s' if len(still) == 1 else ''} one pose throughout: blendability (seed 004 §7.2) cannot be measured"
         return (
             f"{name_a} and {name_b} look unblendable: blendability {self.score:.2f} > {self.threshold:g} "

@@ -118,9 +118,8 @@ def register(
     """
     prepare([a, b])
     if min(a.n_frames, b.n_frames) < 2:
-        short = next((m, k) for k, m in enumerate((a, b)) if m.n_frames < 2)
-        who = short[0].name or ("the first clip", "the second clip")[short[1]]
-        raise MjmotionError(f"{who}: {short[0].n_frames} frame as read; registration needs clips of at least 2 frames")
+        short = [m.name or ("the first clip", "the second clip")[k] for k, m in enumerate((a, b)) if m.n_frames < 2]
+        raise MjmotionError(f"{' and '.join(short)}: 1 frame as read; registration needs clips of at least 2 frames")
     check_grid_size(a.n_frames, b.n_frames, max_cells)
     w = joint_weights(a.skeleton, weights)
     pa, pb = positions if positions is not None else (positions_of(a), positions_of(b))

@@ -47,6 +47,8 @@ def travel(motion: Any) -> tuple[float, float]:
         return 0.0, 180.0
     every = max(1, round(0.25 * motion.fps))
     path = xy[::every]
+    if len(path) < 2:  # shorter than 0.25 s: no path to measure
+        return 0.0, 180.0
     speed = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum() / (((len(path) - 1) * every) / motion.fps))
     q = len(xy) // 4
     a, b = xy[q] - xy[0], xy[-1] - xy[-1 - q]
