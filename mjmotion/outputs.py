@@ -116,6 +116,23 @@ def _probe(out: Path) -> None:
         os.unlink(tmp)
 
 
+def check_folder(path: str | os.PathLike[str]) -> Path:
+    """Before any work, for an output *folder*: ``path`` is a folder this process can write in, or can be
+    made (its nearest existing ancestor is such a folder). Returns it as a ``Path``."""
+    d = Path(path)
+    existing = next((p for p in (d, *d.parents) if os.path.lexists(p)), Path("."))
+    if not _is_dir(existing):
+        raise MjmotionError(f"{d}: {existing} exists and is not a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".mjmotion-", suffix=".probe", dir=existing)
+    except OSError as e:
+        raise MjmotionError(f"{d}: cannot write in {existing} ({e.strerror or e})") from None
+    os.close(fd)
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(tmp)
+    return d
+
+
 def _check_replaceable(out: Path, st: os.stat_result) -> None:
     """Refuse an existing output that is not a regular file or a symbolic link (``/dev/null``, a FIFO)."""
     if stat.S_ISLNK(st.st_mode) or stat.S_ISREG(st.st_mode):

@@ -232,3 +232,23 @@ def test_a_folder_that_takes_no_files_is_refused_before_the_work(tmp_path):
     assert check_output(long) == long
     write_text_atomic(long, "x")
     assert long.read_text() == "x"
+
+
+def test_an_output_folder_is_checked_before_the_work(tmp_path, monkeypatch, capsys):
+    """`synth library /proc/x` made every clip (1.3 s) and only then failed; `demo -o /proc/x` ran its
+    first experiment. The folder, or its nearest existing ancestor, is probed first."""
+    from mjmotion import synth
+    from mjmotion.cli import main
+    from mjmotion.outputs import check_folder
+
+    assert check_folder(tmp_path / "a" / "b") == tmp_path / "a" / "b" and list(tmp_path.iterdir()) == []
+    with pytest.raises(MjmotionError, match=r"^/proc/mjmotion-x: cannot write in /proc \("):
+        check_folder("/proc/mjmotion-x")
+    (tmp_path / "f.bvh").write_text("x")
+    with pytest.raises(MjmotionError, match="f.bvh exists and is not a folder"):
+        check_folder(tmp_path / "f.bvh" / "sub")
+    monkeypatch.setattr(synth, "library", lambda: pytest.fail("the clips were made before the folder was checked"))
+    assert main(["synth", "library", "/proc/mjmotion-lib"]) == 2
+    assert capsys.readouterr().err.startswith("error: /proc/mjmotion-lib: cannot write in /proc")
+    assert main(["demo", "-o", "/proc/mjmotion-demo", "--only", "path_search", "--no-video"]) == 2
+    assert capsys.readouterr().err.startswith("error: /proc/mjmotion-demo: cannot write in /proc")

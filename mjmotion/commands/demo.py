@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..errors import MjmotionError
 from ..inputs import find_bvh
+from ..outputs import check_folder
 
 NAME = "demo"
 HELP = "run a short version of every experiment with plots and videos (bundled clips, or --data DIR)"
@@ -57,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError(f"-o {args.out}: exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not args.force:
         raise MjmotionError(f"-o {args.out}: the folder exists and holds files; pass --force to replace its results, or choose another folder")
+    check_folder(out)  # before the first experiment runs
     names = tuple(args.only) if args.only else demo.EXPERIMENTS
     path = demo.run(out, data, videos=not args.no_video, names=names)
     from collections import Counter

@@ -6,7 +6,7 @@ import argparse
 import json
 
 from ..errors import MjmotionError
-from ..outputs import check_output, write_text_atomic
+from ..outputs import check_folder, check_output, write_text_atomic
 from ._common import check_suffix, output_path
 from ._options import integer, number
 from ._progress import steps
@@ -76,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
             raise MjmotionError("synth library: give the folder to write, e.g. `mjmotion synth library clips/`")
         if args.output or args.truth or args.speed is not None or args.seconds is not None or args.turn or args.step_length is not None:
             raise MjmotionError("synth library: takes only DIR (and --force); the set is fixed")
+        check_folder(args.directory)  # before the clips are made
         with steps("synth library", ("make clips", "write")) as step:
             step("make clips")
             made = synth.library()
