@@ -116,17 +116,19 @@ def _probe(out: Path) -> None:
         os.unlink(tmp)
 
 
-def check_folder(path: str | os.PathLike[str]) -> Path:
+def check_folder(path: str | os.PathLike[str], option: str = "") -> Path:
     """Before any work, for an output *folder*: ``path`` is a folder this process can write in, or can be
-    made (its nearest existing ancestor is such a folder). Returns it as a ``Path``."""
+    made (its nearest existing ancestor is such a folder). Errors name ``option`` (none for a
+    positional argument). Returns it as a ``Path``."""
     d = Path(path)
+    where = f"{option} {d}" if option else str(d)
     existing = next((p for p in (d, *d.parents) if os.path.lexists(p)), Path("."))
     if not _is_dir(existing):
-        raise MjmotionError(f"{d}: {existing} exists and is not a folder")
+        raise MjmotionError(f"{where}: {existing} exists and is not a folder")
     try:
         fd, tmp = tempfile.mkstemp(prefix=".mjmotion-", suffix=".probe", dir=existing)
     except OSError as e:
-        raise MjmotionError(f"{d}: cannot write in {existing} ({e.strerror or e})") from None
+        raise MjmotionError(f"{where}: cannot write in {existing} ({e.strerror or e})") from None
     os.close(fd)
     with contextlib.suppress(FileNotFoundError):
         os.unlink(tmp)

@@ -251,4 +251,10 @@ def test_an_output_folder_is_checked_before_the_work(tmp_path, monkeypatch, caps
     assert main(["synth", "library", "/proc/mjmotion-lib"]) == 2
     assert capsys.readouterr().err.startswith("error: /proc/mjmotion-lib: cannot write in /proc")
     assert main(["demo", "-o", "/proc/mjmotion-demo", "--only", "path_search", "--no-video"]) == 2
-    assert capsys.readouterr().err.startswith("error: /proc/mjmotion-demo: cannot write in /proc")
+    assert capsys.readouterr().err.startswith("error: -o /proc/mjmotion-demo: cannot write in /proc")
+    from mjmotion import experiments
+
+    assert experiments.script("skinning", None, ["--bundled", "--out", "/proc/mjmotion-exp"]) == 2
+    assert capsys.readouterr().err.startswith("error: --out /proc/mjmotion-exp: cannot write in /proc")
+    assert main(["studio", "--out", "/proc/mjmotion-studio", "--check"]) == 2
+    assert capsys.readouterr().err.startswith("error: --out /proc/mjmotion-studio: cannot write in /proc")

@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError(f"-o {args.out}: exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not args.force:
         raise MjmotionError(f"-o {args.out}: the folder exists and holds files; pass --force to replace its results, or choose another folder")
-    check_folder(out)  # before the first experiment runs
+    check_folder(out, "-o")  # before the first experiment runs
     names = tuple(args.only) if args.only else demo.EXPERIMENTS
     path = demo.run(out, data, videos=not args.no_video, names=names)
     from collections import Counter

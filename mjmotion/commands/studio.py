@@ -36,7 +36,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", metavar="DIR", help="also list every .bvh file under DIR")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=integer(1, 65535, what="a TCP port"), default=8080, help="port, 1 to 65535 (default 8080)")
-    p.add_argument("--out", default="studio_output", metavar="DIR", help="the folder saved clips go to (default ./studio_output)")
+    p.add_argument("--out", default=None, metavar="DIR", help="the folder saved clips go to (default ./studio_output)")
     p.add_argument(
         "--keep-start",
         action="store_true",
@@ -45,14 +45,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--check", action="store_true", help="read and validate the clips, print what would be served, and exit (no server)")
 
 
+#: Where saved clips go without --out.
+DEFAULT_OUT = "studio_output"
+
+
 def run(args: argparse.Namespace) -> int:
     from ..errors import MjmotionError
+    from ..outputs import check_folder
     from ..studio.app import LOCAL_HOSTS, Studio
     from ..studio.clips import ClipLibrary
     from ._common import note_skipped
 
     if not 0 <= args.port <= 65535:
         raise MjmotionError(f"--port {args.port}: expected 0-65535")
+    if args.out is not None:  # a folder given that takes no files is said now, not at the first save
+        check_folder(args.out, "--out")
+    else:  # the default: the studio still serves from a folder it cannot write in; saving says why it fails
+        args.out = DEFAULT_OUT
     library = ClipLibrary.from_paths(args.files, args.data, keep_start=args.keep_start)
     for clip in map(library.get, library.names()):
         if clip.skipped:

@@ -128,6 +128,9 @@ def script(name: str, doc: str | None, argv: list[str] | None = None) -> int:
     out = Path(args.out)
     try:
         source = None if args.bundled else data_dir(args.data)
+        from ..outputs import check_folder
+
+        check_folder(out, "--out")  # before the experiment runs: an --out that cannot be written ended in a traceback
         if takes_jobs and args.jobs < 1:
             raise MjmotionError(f"--jobs {args.jobs}: expected at least 1")
         extra = {"jobs": args.jobs} if takes_jobs else {}
