@@ -4,8 +4,9 @@ Two steps, for every file a verb writes:
 
 1. :func:`check_output` before any work: refuses an output that names an input, a folder
    (``out.bvh/``), a directory, a FIFO, a device or a socket, an existing file or symbolic link
-   (dangling too) without ``force``, and a folder that does not exist. It records the decision
-   for the path (a *claim*: replace or not).
+   (dangling too) without ``force``, and a folder that does not exist or takes no files (probed
+   with a temporary named as step 2's). It records the decision for the path (a *claim*: replace
+   or not). :func:`check_folder` is its counterpart for a verb that writes a whole folder.
 2. :func:`atomic_path` (and the ``write_*`` helpers on it) at the end: the result goes to a
    temporary file beside the output, is flushed to the disk (``fsync``: a full disk shows here,
    not later), and is *published*: without ``force`` by a rename that fails if the output exists
