@@ -101,3 +101,20 @@ def test_frames_and_actors_are_checked_against_the_clip():
         O.check_frame(10, 10, "--frame")
     with pytest.raises(MjmotionError, match="17 clips, more than the limit of 16"):
         O.check_actors(17)
+
+
+def test_an_unknown_prop_kind_is_refused_before_the_clip_is_read(capsys):
+    """`compile CLIP --prop sword` read the clip first, so a `note:` line (its skipped T-pose) came
+    before the `error:` line; the kinds are named where the options are parsed, as mjcf has them."""
+    from conftest import require_data
+
+    from mjmotion import mjcf
+    from mjmotion.cli import main
+    from mjmotion.commands._options import PROP_KINDS
+
+    assert set(PROP_KINDS) == set(mjcf.PROP_PRESETS)
+    daz = require_data() / "cmu_cgspeed_daz" / "07_01.bvh"  # its frames 0-3 are skipped with a note
+    for verb in (["compile", str(daz), "-o", "/nonexistent/m.xml"], ["evaluate", str(daz)], ["fk", str(daz), "-o", "/nonexistent/p.npz"]):
+        assert main([*verb, "--prop", "sword:Hips"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("error: --prop sword:Hips: unknown prop 'sword'; expected club or bat") and err.count("\n") == 1, err

@@ -126,6 +126,10 @@ class Given(argparse.Action):
         setattr(namespace, f"_{self.dest}_given", True)
 
 
+#: The prop kinds (``mjmotion.mjcf.PROP_PRESETS``, named here so a wrong one is refused before MuJoCo loads or a clip is read).
+PROP_KINDS = ("club", "bat")
+
+
 class UniqueProps(argparse.Action):
     """``--prop KIND[:JOINT]``, repeatable, each kind once (two props of one kind share a name in the model)."""
 
@@ -138,6 +142,10 @@ class UniqueProps(argparse.Action):
         kind, _, joint = text.partition(":")
         if not kind or not text.isprintable() or (":" in text and not joint):
             raise argparse.ArgumentError(None, f"{option_string} {_shown(text)}: expected KIND or KIND:JOINT (e.g. club or club:rwrist)")
+        if kind not in PROP_KINDS:
+            raise argparse.ArgumentError(
+                None, f"{option_string} {_shown(text)}: unknown prop {kind!r}; expected {' or '.join(PROP_KINDS)} (KIND or KIND:JOINT)"
+            )
         items = list(getattr(namespace, self.dest, None) or [])
         if any(str(v).partition(":")[0] == kind for v in items):
             raise argparse.ArgumentError(None, f"{option_string} {_shown(text)}: a {kind} is given twice; give each kind of prop once")
