@@ -162,6 +162,22 @@ def _refuse_empty(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
             p.error(f"{max(a.option_strings, key=len)} {blank[0]!r}: expected {a.metavar or a.dest.upper()}, not an empty value")
 
 
+def _refuse_repeated(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: Sequence[str]) -> None:
+    """An option that holds one value given twice is a usage error: argparse keeps the last
+    (``--fps 30 --fps 60`` wrote 60 fps, silently). Repeatable options (``--source``, ``--prop``) append."""
+    p = _verb_parser(parser, getattr(args, "verb", None))
+    if p is None:
+        return
+    words = list(argv)
+    words = words[: words.index("--")] if "--" in words else words
+    for a in p._actions:
+        if not a.option_strings or not (isinstance(a, argparse._StoreAction) or getattr(a, "holds_one_value", False)):
+            continue
+        given = [w for w in words if w in a.option_strings or any(w.startswith(f"{o}=") for o in a.option_strings if o.startswith("--"))]
+        if len(given) > 1:
+            p.error(f"{max(a.option_strings, key=len)} is given {len(given)} times; give it once")
+
+
 def _is_number(word: str) -> bool:
     try:
         float(word)
@@ -233,6 +249,7 @@ def _main(argv: Sequence[str] | None) -> int:
         if extra:
             _unrecognized(parser, getattr(args, "verb", None), extra)
         _refuse_empty(parser, args)
+        _refuse_repeated(parser, args, argv)
     except SystemExit as e:  # a usage error (exit status 2, already reported) or --help (0)
         return e.code if isinstance(e.code, int) else 2
     if not getattr(args, "verb", None):  # a usage error like any other: the help, then one error line, on stderr

@@ -425,6 +425,21 @@ def test_an_option_that_would_do_nothing_is_refused(tmp_path, human, capsys):
     assert not (tmp_path / "h.bvh").exists() and not (tmp_path / "v.bvh").exists()
 
 
+def test_an_option_of_one_value_given_twice_is_refused(tmp_path, human, capsys):
+    """`convert --fps 30 --fps 60` kept the last and wrote 60 fps, silently (a hostile-input sweep);
+    the spelled `--fps=60` counts too; repeatable options (`--source`, `--prop`) still append."""
+    walk = str(_human(human))
+    for extra in (["--fps", "30", "--fps", "60"], ["--fps", "30", "--fps=60"]):
+        refused(*run(["convert", walk, str(tmp_path / "c.bvh"), *extra], capsys)[::2], "--fps is given 2 times")
+    refused(
+        *run(["blend", walk, walk, "--weights", "0.5,0.5", "-o", str(tmp_path / "a.bvh"), "-o", str(tmp_path / "b.bvh")], capsys)[::2],
+        "--output is given 2 times",
+    )
+    assert sorted(os.listdir(tmp_path)) == []
+    rc, _, err = run(["compile", walk, "-o", str(tmp_path / "m.xml"), "--prop", "club:rwrist", "--prop", "bat:lwrist"], capsys)
+    assert rc != 2 or "given 2 times" not in err, err
+
+
 def test_errors_name_the_option_they_are_about(tmp_path, human, capsys):
     """Library messages reached the user without the option they concern ("no joint named 'x'",
     "trail: no site…", "segment 0:1 must select…"); --bowler 0 0 was refused only after the clip was read."""

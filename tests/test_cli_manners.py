@@ -181,7 +181,7 @@ def test_hit_summary_is_rounded_and_names_a_grip_only_for_two_hands(tmp_path, ca
 def test_render_shows_its_frame_bar_on_a_terminal_only(monkeypatch, tmp_path, clip, human, capsys):
     """`render … 2> log` leaves the log empty (it wrote a tqdm bar with carriage returns there)."""
     spec = VERBS["render"]
-    argv = ["render", *spec.argv(str(_input(spec, clip, human)), str(tmp_path / "a.gif")), "--width", "64", "--height", "48", "--fast"]
+    argv = ["render", *spec.argv(str(_input(spec, clip, human)), str(tmp_path / "a.gif")), "--fast"]  # (the spec's size: 64x48)
     for stream, bar in ((io.StringIO(), False), (_Terminal(), True)):
         monkeypatch.setattr(sys, "stderr", stream)
         assert cli.main([*argv, "--force"]) == 0

@@ -121,6 +121,8 @@ class Given(argparse.Action):
     cannot tell an option given without effect from one left alone. (The note starts with ``_``: not a
     judge option, so audit rows and their resume keys are the same.)"""
 
+    holds_one_value = True  # given twice is a usage error (mjmotion.cli), as for a plain store
+
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any, option_string: str | None = None) -> None:
         setattr(namespace, self.dest, values)
         setattr(namespace, f"_{self.dest}_given", True)
