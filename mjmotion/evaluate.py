@@ -126,17 +126,22 @@ def skating_ratio(track: FootTrack | Motion, h_c: float = H_C, v: float = V_C, w
 
 
 def skate_sensitivity(
-    track: FootTrack | Motion, h_cs: Sequence[float] = H_C_SENSITIVITY, v_c: float = V_C, hysteresis: float = HYSTERESIS
+    track: FootTrack | Motion,
+    h_cs: Sequence[float] = H_C_SENSITIVITY,
+    v_c: float = V_C,
+    hysteresis: float = HYSTERESIS,
+    window: int = SKATE_WINDOW,
 ) -> list[dict[str, float]]:
     """Rows ``{h_c, planted_skate_mm_per_s, skate_mm_per_s, skating_ratio, contact_fraction}`` for
-    each contact height ``h_c`` (UnderPressure, 2022: contact labels from thresholds are fragile)."""
+    each contact height ``h_c`` (UnderPressure, 2022: contact labels from thresholds are fragile);
+    ``window``: the skating ratio's, as the report's own."""
     tr = _track(track)
     return [
         {
             "h_c": float(h),
             "planted_skate_mm_per_s": planted_skate_mm_per_s(tr, h, v_c, hysteresis),
             "skate_mm_per_s": skate_mm_per_s(tr, h),
-            "skating_ratio": skating_ratio(tr, h, v_c),
+            "skating_ratio": skating_ratio(tr, h, v_c, window),
             "contact_fraction": float(contacts(tr, h, v_c, hysteresis).any(axis=1).mean()),
         }
         for h in h_cs
@@ -512,7 +517,7 @@ def evaluate(
             raise MjmotionError("a ball needs a hit frame (--frame H)")
         hit = physics.hit_metrics(captured, ball, hit_frame, props=tuple(props), launch=launch, ball_velocity=ball_velocity)
     con = contacts(track, params.h_c, params.v_c, params.hysteresis)
-    sens = skate_sensitivity(track, params.h_c_sensitivity, params.v_c, params.hysteresis)
+    sens = skate_sensitivity(track, params.h_c_sensitivity, params.v_c, params.hysteresis, params.skate_window)
     # The headline footskate is the sensitivity row at the report's own h_c when there is one (same arguments).
     at_h_c = next((r for r in sens if r["h_c"] == float(params.h_c)), None)
     return Report(

@@ -300,6 +300,17 @@ def test_leading_transient_finds_daz_tpose():
 # ----------------------------------------------------------------- the report on real clips
 
 
+def test_the_sensitivity_row_at_h_c_is_the_headline_with_any_skate_window():
+    """The sensitivity rows took the skating ratio's default 5-frame window whatever the report's
+    was, so with another window the row at the report's h_c disagreed with its headline."""
+    walk = shared_clip("cmu_cgspeed_daz/07_01.bvh", 4)
+    for window in (5, 15):
+        rep = ev.evaluate(walk, params=ev.Params(skate_window=window))
+        (row,) = [r for r in rep.sensitivity if r["h_c"] == rep.params.h_c]
+        assert row["skating_ratio"] == rep.skating_ratio
+    assert ev.evaluate(walk, params=ev.Params(skate_window=15)).skating_ratio != ev.evaluate(walk).skating_ratio
+
+
 def test_jump_has_flight_with_small_residual_and_runs_fly():
     rep = ev.evaluate(shared_clip("cmu_asfamc_converted/16_01.bvh"))
     assert rep.flight_fraction > 0.08
