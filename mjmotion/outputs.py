@@ -111,7 +111,12 @@ def _probe(out: Path) -> None:
     cannot write in (permissions, a read-only mount, ``/sys``) is refused before the work, not after.
     (``os.access`` is no test: root passes it on a read-only mount.)"""
     with _beside(out) as parent:
-        fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=out.suffix or ".tmp", dir=parent)  # named as atomic_path's
+        _make_and_remove(parent, prefix=f".{out.name}.", suffix=out.suffix or ".tmp")  # named as atomic_path's
+
+
+def _make_and_remove(folder: Path, prefix: str, suffix: str) -> None:
+    """Create a temporary file in ``folder`` and remove it (raises ``OSError`` where none can be made)."""
+    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=folder)
     os.close(fd)
     with contextlib.suppress(FileNotFoundError):
         os.unlink(tmp)
@@ -127,12 +132,9 @@ def check_folder(path: str | os.PathLike[str], option: str = "") -> Path:
     if not _is_dir(existing):
         raise MjmotionError(f"{where}: {existing} exists and is not a folder")
     try:
-        fd, tmp = tempfile.mkstemp(prefix=".mjmotion-", suffix=".probe", dir=existing)
+        _make_and_remove(existing, prefix=".mjmotion-", suffix=".probe")
     except OSError as e:
         raise MjmotionError(f"{where}: cannot write in {existing} ({e.strerror or e})") from None
-    os.close(fd)
-    with contextlib.suppress(FileNotFoundError):
-        os.unlink(tmp)
     return d
 
 
