@@ -10,6 +10,7 @@ import argparse
 import math
 import os
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -206,6 +207,16 @@ def check_suffix(path: str | os.PathLike[str], option: str, suffix: str) -> None
     if Path(path).suffix.lower() != suffix:
         where = f"{option} {os.fspath(path)}" if option else os.fspath(path)
         raise MjmotionError(f"{where}: this is written as {WRITTEN_AS[suffix]}; expected a {suffix} path")
+
+
+def extra_output(path: str | None, option: str, suffix: str, force: bool, inputs: Iterable[str | os.PathLike[str]]) -> Path | None:
+    """A report or plot (``--json``, ``--plot``, ``--truth``) checked before the work as ``-o`` is
+    (:func:`mjmotion.outputs.check_output`), then its suffix (:func:`check_suffix`); ``None`` when not given."""
+    if not path:
+        return None
+    out = check_output(path, force=force, inputs=inputs)
+    check_suffix(out, option, suffix)
+    return out
 
 
 def output_path(args: argparse.Namespace, *inputs: str, suffix: str | None = None, option: str = "-o") -> Path:

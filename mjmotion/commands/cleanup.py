@@ -7,8 +7,8 @@ import json
 import math
 
 from ..errors import MjmotionError
-from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, check_suffix, load, naming, output_path
+from ..outputs import write_text_atomic
+from ._common import add_input_options, extra_output, load, naming, output_path
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, number
 from .evaluate import _finite, _nan_to_none, add_judge_options, check_floor, load_sources
 
@@ -94,9 +94,7 @@ def run(args: argparse.Namespace) -> int:
     _finite(args.clearance, "--clearance", "a height in metres", strict=False)
     check_floor(args)
     out = output_path(args, args.file, *args.source, suffix=".bvh")
-    rep_path = check_output(args.json, force=args.force, inputs=(args.file, str(out), *args.source)) if args.json else None
-    if args.json:
-        check_suffix(args.json, "--json", ".json")
+    rep_path = extra_output(args.json, "--json", ".json", args.force, (args.file, str(out), *args.source))
     m = load(args.file, args)
     try:
         ev.require_frames(m.n_frames)  # the table judges it before and after

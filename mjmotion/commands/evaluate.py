@@ -15,8 +15,19 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import MjmotionError, printable, require_number
 from ..inputs import find_bvh
-from ..outputs import check_output, write_text_atomic
-from ._common import add_bowler_option, add_input_options, check_bowler, check_same_file, check_suffix, load, load_first, named, naming, prop_option
+from ..outputs import write_text_atomic
+from ._common import (
+    add_bowler_option,
+    add_input_options,
+    check_bowler,
+    check_same_file,
+    extra_output,
+    load,
+    load_first,
+    named,
+    naming,
+    prop_option,
+)
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, Given, UniqueProps, integer, number
 
 if TYPE_CHECKING:
@@ -383,9 +394,7 @@ def run(args: argparse.Namespace) -> int:
             raise MjmotionError(f"{args.path}: no such file or folder")  # anything else: the reader says what it is
         files = [args.path]
     # Checked before any work: the report may never replace one of the clips it reads.
-    out = check_output(args.json, force=args.force, inputs=[*files, *args.source]) if args.json else None
-    if args.json:
-        check_suffix(args.json, "--json", ".json")
+    out = extra_output(args.json, "--json", ".json", args.force, [*files, *args.source])
     if os.path.isdir(args.path):
         results = evaluate_files(files, opts, args.jobs)
     else:

@@ -10,7 +10,7 @@ from pathlib import Path
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from . import _joint_weights as joint_weights
-from ._common import add_input_options, check_suffix, load
+from ._common import add_input_options, check_suffix, extra_output, load
 from ._options import FPS, integer, number, resample
 from ._progress import steps
 
@@ -114,13 +114,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from .. import registration
 
-    out = check_output(args.json, args.force, (args.a, args.b, *joint_weights.inputs(args)))
-    check_suffix(args.json, "--json", ".json")
-    plot = (
-        check_output(args.plot, args.force, (args.a, args.b, args.json, *joint_weights.inputs(args))) if args.plot else None
+    out = check_output(args.json, args.force, (args.a, args.b, *joint_weights.inputs(args)))  # (required)
+    check_suffix(out, "--json", ".json")
+    plot = extra_output(
+        args.plot, "--plot", ".png", args.force, (args.a, args.b, args.json, *joint_weights.inputs(args))
     )  # (not the JSON's path either)
-    if plot is not None:
-        check_suffix(plot, "--plot", ".png")
     if args.window < 1 or args.window % 2 == 0:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
     if not 0 < args.time_limit < float("inf"):

@@ -7,9 +7,9 @@ import json
 import sys
 
 from ..errors import MjmotionError
-from ..outputs import check_output, write_text_atomic
+from ..outputs import write_text_atomic
 from . import _joint_weights as joint_weights
-from ._common import add_input_options, check_suffix, load, output_path
+from ._common import add_input_options, extra_output, load, output_path
 from ._progress import steps
 
 NAME = "stream"
@@ -59,9 +59,7 @@ def run(args: argparse.Namespace) -> int:
     def load_clip(path: str, frames: str | None, field: str):
         return load(path, args, frames, frames_option=field)
 
-    report = check_output(args.json, args.force, (args.script, *joint_weights.inputs(args))) if args.json else None
-    if args.json:
-        check_suffix(args.json, "--json", ".json")
+    report = extra_output(args.json, "--json", ".json", args.force, (args.script, *joint_weights.inputs(args)))
     if report is not None and report == out:
         raise MjmotionError("--json and -o name the same file")
     with steps("stream", ("read", "register", "stream", "write")) as step:

@@ -6,8 +6,8 @@ import argparse
 import json
 
 from ..errors import MjmotionError
-from ..outputs import check_folder, check_output, write_text_atomic
-from ._common import check_suffix, output_path
+from ..outputs import check_folder, write_text_atomic
+from ._common import extra_output, output_path
 from ._options import integer, number
 from ._progress import steps
 
@@ -89,9 +89,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.output:
         raise MjmotionError(f"synth {args.kind}: give the output file with -o OUT.bvh")
     out = output_path(args, suffix=".bvh")
-    truth = check_output(args.truth, force=args.force, inputs=(args.output,)) if args.truth else None
-    if args.truth:
-        check_suffix(args.truth, "--truth", ".json")
+    truth = extra_output(args.truth, "--truth", ".json", args.force, (args.output,))
     fn, is_gait = synth.GENERATORS[args.kind]
     if is_gait:
         kw = {"turn_deg_per_s": args.turn, "seed": args.seed}
