@@ -414,14 +414,14 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
     for name, (motion, props, sources) in synthesized(quick).items():
         rep = ev.evaluate(motion, props, params=params, sources=sources)  # type: ignore[arg-type]
         table.add(*_row("synthesized", name, rep.to_dict()))
-    full = data_dir is not None and not quick
+    real = Path(data_dir) if data_dir is not None and not quick else None  # the notes' captured clips (none in the quick run)
     # Each captured clip cleaned once (in workers): the clean walks' lines and the all-clips note share it.
-    cleaned = cleanup_of_clips(sorted(str(p) for p in Path(data_dir).rglob("*.bvh")), executor, jobs) if full and data_dir is not None else None
-    lines, files = cleanup_of_blends(None if data_dir is None or quick else Path(data_dir), out_dir, cleaned[0] if cleaned else None)
-    table.notes.extend(mid_stance_lines(None if data_dir is None or quick else Path(data_dir)))
-    table.notes.extend(head_sway_lines(None if data_dir is None or quick else Path(data_dir)))
-    table.notes.extend(flight_fall_lines(None if data_dir is None or quick else Path(data_dir)))
-    table.notes.extend(tolerance_lines(None if data_dir is None or quick else Path(data_dir), executor, jobs))
+    cleaned = cleanup_of_clips(sorted(str(p) for p in real.rglob("*.bvh")), executor, jobs) if real is not None else None
+    lines, files = cleanup_of_blends(real, out_dir, cleaned[0] if cleaned else None)
+    table.notes.extend(mid_stance_lines(real))
+    table.notes.extend(head_sway_lines(real))
+    table.notes.extend(flight_fall_lines(real))
+    table.notes.extend(tolerance_lines(real, executor, jobs))
     table.notes.extend(lines)
     if cleaned is not None:
         table.notes.extend(cleanup_of_clips_line([], done=cleaned))
