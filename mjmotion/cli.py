@@ -170,12 +170,28 @@ def _refuse_repeated(parser: argparse.ArgumentParser, args: argparse.Namespace, 
         return
     words = list(argv)
     words = words[: words.index("--")] if "--" in words else words
+    longs = [o for a in p._actions for o in a.option_strings if o.startswith("--")]
     for a in p._actions:
         if not a.option_strings or not (isinstance(a, argparse._StoreAction) or getattr(a, "holds_one_value", False)):
             continue
-        given = [w for w in words if w in a.option_strings or any(w.startswith(f"{o}=") for o in a.option_strings if o.startswith("--"))]
+        given = [w for w in words if _names(w, a.option_strings, longs)]
         if len(given) > 1:
             p.error(f"{max(a.option_strings, key=len)} is given {len(given)} times; give it once")
+
+
+def _names(word: str, options: Sequence[str], longs: Sequence[str]) -> bool:
+    """Whether the command-line ``word`` gives the option of ``options``: by one of its names, as
+    ``--name=value``, or by a prefix of its long name that no other long option starts with (argparse
+    takes ``--fp 30`` for ``--fps 30``)."""
+    if word in options:
+        return True
+    if not word.startswith("--"):
+        return False
+    name = word.partition("=")[0]
+    if name in options:
+        return True
+    matches = {o for o in longs if o.startswith(name)}
+    return bool(matches) and matches <= set(options)
 
 
 def _is_number(word: str) -> bool:

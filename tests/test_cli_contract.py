@@ -427,12 +427,17 @@ def test_an_option_that_would_do_nothing_is_refused(tmp_path, human, capsys):
 
 def test_an_option_of_one_value_given_twice_is_refused(tmp_path, human, capsys):
     """`convert --fps 30 --fps 60` kept the last and wrote 60 fps, silently (a hostile-input sweep);
-    the spelled `--fps=60` counts too; repeatable options (`--source`, `--prop`) still append."""
+    the spelled `--fps=60` counts too, and so does an abbreviation argparse takes for it (`--fp 30`);
+    repeatable options (`--source`, `--prop`) still append."""
     walk = str(_human(human))
-    for extra in (["--fps", "30", "--fps", "60"], ["--fps", "30", "--fps=60"]):
+    for extra in (["--fps", "30", "--fps", "60"], ["--fps", "30", "--fps=60"], ["--fp", "30", "--fps", "60"], ["--fp=30", "--fps", "60"]):
         refused(*run(["convert", walk, str(tmp_path / "c.bvh"), *extra], capsys)[::2], "--fps is given 2 times")
     refused(
         *run(["blend", walk, walk, "--weights", "0.5,0.5", "-o", str(tmp_path / "a.bvh"), "-o", str(tmp_path / "b.bvh")], capsys)[::2],
+        "--output is given 2 times",
+    )
+    refused(
+        *run(["blend", walk, walk, "--weights", "0.5,0.5", "--out", str(tmp_path / "a.bvh"), "-o", str(tmp_path / "b.bvh")], capsys)[::2],
         "--output is given 2 times",
     )
     assert sorted(os.listdir(tmp_path)) == []

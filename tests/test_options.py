@@ -118,3 +118,23 @@ def test_an_unknown_prop_kind_is_refused_before_the_clip_is_read(capsys):
         assert main([*verb, "--prop", "sword:Hips"]) == 2
         err = capsys.readouterr().err
         assert err.startswith("error: --prop sword:Hips: unknown prop 'sword'; expected club or bat") and err.count("\n") == 1, err
+
+
+def test_a_prop_joint_the_clip_lacks_is_refused_before_any_note(tmp_path, capsys):
+    """`render CLIP --prop club:NoSuchJoint` printed the clip's skipped-T-pose note, then the error: the
+    joint is checked as soon as the skeleton is read, in every verb that takes --prop KIND:JOINT."""
+    from conftest import require_data
+
+    from mjmotion.cli import main
+
+    daz = str(require_data() / "cmu_cgspeed_daz" / "07_01.bvh")  # its frames 0-3 are skipped with a note
+    for verb in (
+        ["compile", daz, "-o", str(tmp_path / "m.xml")],
+        ["render", daz, "-o", str(tmp_path / "r.mp4")],
+        ["fk", daz, "-o", str(tmp_path / "p.npz")],
+        ["evaluate", daz],
+    ):
+        assert main([*verb, "--prop", "club:NoSuchJoint"]) == 2
+        err = capsys.readouterr().err
+        assert err == "error: --prop club:NoSuchJoint: no joint named 'NoSuchJoint' in the skeleton\n", (verb[0], err)
+    assert not list(tmp_path.iterdir())

@@ -81,7 +81,18 @@ def read_motion(path: str, args: argparse.Namespace) -> Motion:
         out = getattr(args, option, None)
         if isinstance(out, str) and out and check_same_file(out, path):
             raise OutputExistsError(f"{out}: is an input of this command ({path}); choose another output path")
-    return bvh.read(path, scale=units_scale(getattr(args, "units", "auto")), up=getattr(args, "up", "y"))
+    m = bvh.read(path, scale=units_scale(getattr(args, "units", "auto")), up=getattr(args, "up", "y"))
+    check_prop_joints(m, args)
+    return m
+
+
+def check_prop_joints(m: Motion, args: argparse.Namespace) -> None:
+    """Refuse a ``--prop KIND:JOINT`` that names no joint of ``m`` as soon as the clip is read, before any
+    ``note:`` line about it (a note, then the error, read as if the work had begun)."""
+    props = getattr(args, "prop", None)
+    for text in props if isinstance(props, list) else ():  # (hit's --prop is one kind, no joint)
+        if ":" in text:
+            prop_option(m, text)
 
 
 def load_first(
