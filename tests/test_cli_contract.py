@@ -1129,6 +1129,10 @@ def test_demo_keeps_an_existing_results_folder(tmp_path, capsys):
     for flag in ("-o", "--output", "--out"):
         refused(*run(["demo", flag, str(folder), "--only", "path_search", "--no-video"], capsys)[::2], "--force")
     assert (folder / "summary.md").read_text() == "precious"
+    # a file where the folder would go, or on its way, is refused and kept
+    for out in (folder / "summary.md", folder / "summary.md" / "deeper"):
+        refused(*run(["demo", "-o", str(out), "--only", "path_search", "--no-video"], capsys)[::2], "summary.md exists and is not a folder")
+    assert (folder / "summary.md").read_text() == "precious"
 
 
 def test_info_prints_no_terminal_escapes(tmp_path, clip, capsys):

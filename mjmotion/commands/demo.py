@@ -54,11 +54,9 @@ def run(args: argparse.Namespace) -> int:
         if o.is_relative_to(dd) or dd.is_relative_to(o):
             where = "inside" if o.is_relative_to(dd) else "holds"
             raise MjmotionError(f"-o {args.out}: {where} --data {args.data}; choose an output folder apart from the mocap folder")
-    if out.exists() and not out.is_dir():
-        raise MjmotionError(f"-o {args.out}: exists and is not a folder")
+    check_folder(out, "-o")  # before the first experiment runs (a file in the way is refused here too)
     if out.is_dir() and any(out.iterdir()) and not args.force:
         raise MjmotionError(f"-o {args.out}: the folder exists and holds files; pass --force to replace its results, or choose another folder")
-    check_folder(out, "-o")  # before the first experiment runs
     names = tuple(args.only) if args.only else demo.EXPERIMENTS
     path = demo.run(out, data, videos=not args.no_video, names=names)
     from collections import Counter
