@@ -167,9 +167,10 @@ def write(out_dir: str | Path) -> list[Path]:
     return paths
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mjmotion.models", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--out", default="models", metavar="DIR", help="the folder to write (default: models)")
+def main(argv: list[str] | None = None, *, prog: str = "python -m mjmotion.models", out: str = "models") -> int:
+    """The command line: ``argv`` (default ``sys.argv[1:]``), ``--out`` defaulting to ``out``."""
+    p = argparse.ArgumentParser(prog=prog, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", default=out, metavar="DIR", help=f"the folder to write (default: {out})")
     args = p.parse_args(argv)
     try:
         for path in write(args.out):

@@ -5,4 +5,5 @@ from pathlib import Path
 from mjmotion.models import main
 
 if __name__ == "__main__":
-    raise SystemExit(main(["--out", str(Path(__file__).resolve().parent)]))
+    # (the options are main's: --help shows them rather than writing the models)
+    raise SystemExit(main(prog="python models/make_models.py", out=str(Path(__file__).resolve().parent)))

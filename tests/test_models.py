@@ -58,3 +58,18 @@ def test_models_are_what_the_script_makes(tmp_path):
     assert sorted(p.name for p in written) == sorted(FILES)
     for p in written:
         assert p.read_text() == (MODELS / p.name).read_text(), f"models/{p.name} is stale: run python models/make_models.py"
+
+
+def test_the_script_shows_its_help_without_writing(tmp_path):
+    """`python models/make_models.py --help` rewrote the four models (the script gave main a fixed argv)."""
+    import subprocess
+    import sys
+
+    before = {name: (MODELS / name).stat().st_mtime_ns for name in FILES}
+    done = subprocess.run([sys.executable, str(MODELS / "make_models.py"), "--help"], capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == 0 and done.stdout.startswith("usage: python models/make_models.py") and "--out DIR" in done.stdout
+    assert {name: (MODELS / name).stat().st_mtime_ns for name in FILES} == before
+    # --out is taken (the default is this folder)
+    assert subprocess.run([sys.executable, str(MODELS / "make_models.py"), "--out", str(tmp_path / "m")], capture_output=True).returncode == 0
+    assert sorted(p.name for p in (tmp_path / "m").iterdir()) == sorted(FILES)
+    assert {name: (MODELS / name).stat().st_mtime_ns for name in FILES} == before
