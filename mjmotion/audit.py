@@ -60,6 +60,8 @@ OUTPUTS = ("audit.csv", "audit.parquet", "summary.md", "histograms.png")
 HISTOGRAMS_KEY = "mjmotion-histograms"
 #: Clips listed per metric among the worst in the summary.
 WORST = 5
+#: The flavour column of the summary's count for the rows with no skeleton read (every error but a late one).
+NO_FLAVOUR = "no skeleton read"
 #: The headline metrics drawn as histograms in the summary (docs/METRICS.md; every metric is in its tables).
 HEADLINE = (
     "planted_skate_mm_per_s", "skate_mm_per_s", "penetrate_mm", "float_mm", "flight_fraction", "contact_fraction",
@@ -845,7 +847,8 @@ def write_summary(
     ]
     by: dict[str, list[int]] = {}
     for r in rows:
-        n = by.setdefault(str(r.get("flavour") or "unreadable"), [0, 0])
+        # (not "unreadable": that is one error kind; a file refused as input has no skeleton read either)
+        n = by.setdefault(str(r.get("flavour") or NO_FLAVOUR), [0, 0])
         n[0 if r.get("status") == "ok" else 1] += 1
     lines += [f"| {f} | {a + b} | {a} | {b} |" for f, (a, b) in sorted(by.items())]
     lines += _misread(rows)

@@ -468,8 +468,10 @@ class Dask(Executor):
             return False
 
     def describe(self) -> str:
-        where = "a LocalCluster" if self.cluster is not None else f"the scheduler at {self.address}"
-        return f"dask on {where}, {self.workers} worker thread(s)"
+        n = self.workers
+        if self.cluster is not None:  # one thread per worker process
+            return f"dask on a LocalCluster, {n} worker process{'es' if n != 1 else ''}"
+        return f"dask on the scheduler at {self.address}, {n} worker thread{'s' if n != 1 else ''}"
 
     def _run(
         self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int, meanwhile: Callable[[], object]

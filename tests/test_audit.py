@@ -113,7 +113,7 @@ def test_audit_on_a_local_cluster_matches_evaluate(corpus, tmp_path, capsys):
     out = tmp_path / "audit"
     assert cli.main(["audit", str(corpus), "-o", str(out), "--workers", "2", "--dashboard"]) == 0
     text = capsys.readouterr().out
-    assert "LocalCluster, 2 worker" in text and f"{len(_listed(corpus))} clips: {len(CUTS) + 1} ok, {len(HOSTILE)} error" in text
+    assert "LocalCluster, 2 worker processes" in text and f"{len(_listed(corpus))} clips: {len(CUTS) + 1} ok, {len(HOSTILE)} error" in text
     try:
         import bokeh  # noqa: F401
 
@@ -149,7 +149,7 @@ def test_audit_on_a_local_cluster_matches_evaluate(corpus, tmp_path, capsys):
     for r in table:
         assert all(_same(r.get(k), v) for k, v in rows[r["path"]].items()), r["path"]
     summary = (out / "summary.md").read_text()
-    assert "| cmu-asf | 1 | 1 | 0 |" in summary and f"| unreadable | {len(HOSTILE) - 2} | 0 | {len(HOSTILE) - 2} |" in summary
+    assert "| cmu-asf | 1 | 1 | 0 |" in summary and f"| {audit.NO_FLAVOUR} | {len(HOSTILE) - 2} | 0 | {len(HOSTILE) - 2} |" in summary
     assert "`hostile/empty.bvh`" in summary and "planted_skate_mm_per_s" in summary and (out / "histograms.png").stat().st_size > 0
     # The errors table names each file once, in its clip cell (the message said the full path again).
     errors = summary.split("## Errors")[1].split("## Parameters")[0]
@@ -486,7 +486,7 @@ def test_audit_on_a_dask_scheduler_and_workers_gives_the_same_table(corpus, tmp_
     out_remote, out_local = tmp_path / "remote", tmp_path / "local"
     assert cli.main(["audit", str(corpus), "-o", str(out_remote), "--scheduler", dask_processes]) == 0
     printed = capsys.readouterr().out
-    assert f"the scheduler at {dask_processes}, 2 worker" in printed
+    assert f"the scheduler at {dask_processes}, 2 worker threads" in printed
     assert "dashboard" not in printed  # started with --no-dashboard: its web server's address is no dashboard
     audit.run(corpus, out_local, dask2, progress=False)
     remote, local = _rows(out_remote), _rows(out_local)
