@@ -19,7 +19,7 @@ once. Pictures, and the time of each run (1.5 min in all on a 2-core machine, 20
 The launch picture is Figure 2.6 of one task of the hit-point grid, 64_01 with the NLP and the
 locked wrist (the first golf shot, the main solver), and depends on that task alone
 (``hitpoint_grid.launch_figures``): it is drawn from that task, run as the full grid runs it
-(``hitpoint_grid.plan``), instead of the whole 24-minute grid (the two were checked byte for
+(``hitpoint_grid.plan``), instead of the whole grid (17 minutes on 2 cores) (the two were checked byte for
 byte equal). ``--from DIR`` copies it from a full grid's folder instead
 (``DIR/launch_64_01_locked.png``, e.g. ``results/hitpoint_grid``). Likewise the variations
 picture comes from ``variations.run_shot`` of 64_01 alone, the shot it draws (equal to the full

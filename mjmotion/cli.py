@@ -125,6 +125,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         p.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS, help="show the traceback of an error")
         if argv is None or mod.NAME == chosen:
             mod.add_arguments(p)
+            from .commands._options import state_ranges  # (loaded by the verbs' options already)
+
+            state_ranges(p)
         p.set_defaults(_run=mod.run, _mujoco_without_gl=getattr(mod, "MUJOCO_WITHOUT_GL", False))
     return parser
 

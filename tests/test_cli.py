@@ -30,6 +30,8 @@ def test_info_table_is_readable(walk, capsys):
     assert main(["info", str(walk)]) == 0
     out = capsys.readouterr().out
     assert "471 at 120 fps" in out and "Zrotation Yrotation Xrotation" in out
+    # the head, feet and hands found by name, as the README's verb table says
+    assert "  head        head\n" in out and "  feet        left lfoot → ltoes, right rfoot → rtoes\n" in out and "  hands       left lwrist" in out
 
 
 def test_fk_npz_matches_kinematics(walk, tmp_path):
@@ -90,6 +92,24 @@ def test_evaluate_measures_the_prop_hit_moved(mocap, tmp_path, capsys):
     hit = json.loads(ev_json.read_text())[0]["report"]["hit"]
     assert hit["contact"] and abs(hit["hit_error_m"]) < 0.05, hit
     assert main([*args, "--prop", "club:rwrist", "--force"]) == 0  # a club along the wrist's bone is another club
+    assert not json.loads(ev_json.read_text())[0]["report"]["hit"]["contact"]
+
+
+def test_hit_takes_a_prop_held_by_a_joint_as_every_verb_does(mocap, tmp_path, capsys):
+    """`hit --prop club:JOINT` was refused (hit took a kind alone), though the README gives --prop one meaning in
+    every verb: hit moves the club along lwrist's bone onto the ball, and evaluate with the same --prop finds it there."""
+    out, rep = tmp_path / "h.bvh", tmp_path / "h.json"
+    swing = str(mocap / "cmu_asfamc_converted" / "64_01.bvh")
+    assert main(["hit", swing, "--prop", "club:lwrist", "--offset", "0", "0.1", "0", "-o", str(out), "--json", str(rep)]) == 0
+    r = json.loads(rep.read_text())
+    capsys.readouterr()
+    assert r["hit_error_m"] < 1e-4
+    ev_json = tmp_path / "e.json"
+    args = ["evaluate", str(out), "--ball", *map(str, r["target"]), "--frame", str(r["hit_frame"]), "--json", str(ev_json)]
+    assert main([*args, "--prop", "club:lwrist"]) == 0
+    hit = json.loads(ev_json.read_text())[0]["report"]["hit"]
+    assert hit["contact"] and abs(hit["hit_error_m"]) < 0.05, hit
+    assert main([*args, "--prop", "club", "--force"]) == 0  # the club fitted to both hands is another club
     assert not json.loads(ev_json.read_text())[0]["report"]["hit"]["contact"]
 
 

@@ -133,8 +133,30 @@ def test_a_prop_joint_the_clip_lacks_is_refused_before_any_note(tmp_path, capsys
         ["render", daz, "-o", str(tmp_path / "r.mp4")],
         ["fk", daz, "-o", str(tmp_path / "p.npz")],
         ["evaluate", daz],
+        ["hit", daz, "--offset", "0", "0", "0.1", "-o", str(tmp_path / "h.bvh")],
     ):
         assert main([*verb, "--prop", "club:NoSuchJoint"]) == 2
         err = capsys.readouterr().err
         assert err == "error: --prop club:NoSuchJoint: no joint named 'NoSuchJoint' in the skeleton\n", (verb[0], err)
     assert not list(tmp_path.iterdir())
+
+
+def test_every_option_help_gives_its_range():
+    """The README's limits say each option's help gives its range; `synth --speed`, `vary --pcs`,
+    `audit --connect-timeout` and others refused values outside a range their help never named."""
+    from mjmotion import cli
+
+    parser = cli.build_parser()
+    verbs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+    checked, missing = 0, []
+    for name, p in verbs.items():
+        text = " ".join(p.format_help().split())  # (the help wraps lines)
+        for a in p._actions:
+            if getattr(a.type, "domain", None):
+                checked += 1
+                if not O.states_range(" ".join(a.help.split()), *a.type.bounds) or " ".join(a.help.split()) not in text:
+                    missing.append(f"{name} {max(a.option_strings, key=len)}")
+    assert checked > 40 and not missing, missing
+    # an option whose help already says it gets nothing added
+    port = next(a for a in verbs["studio"]._actions if "--port" in a.option_strings)
+    assert port.help.count("65535") == 1 and "range:" not in port.help

@@ -90,7 +90,7 @@ def check_prop_joints(m: Motion, args: argparse.Namespace) -> None:
     """Refuse a ``--prop KIND:JOINT`` that names no joint of ``m`` as soon as the clip is read, before any
     ``note:`` line about it (a note, then the error, read as if the work had begun)."""
     props = getattr(args, "prop", None)
-    for text in props if isinstance(props, list) else ():  # (hit's --prop is one kind, no joint)
+    for text in [props] if isinstance(props, str) else props or ():  # (hit's --prop is one value)
         if ":" in text:
             prop_option(m, text)
 

@@ -77,6 +77,8 @@ def number(
 
     parse.__name__ = "number"
     parse.option_domain = True  # type: ignore[attr-defined]
+    parse.domain = domain  # type: ignore[attr-defined]  # (the help states it: cli.state_ranges)
+    parse.bounds = (lo, hi)  # type: ignore[attr-defined]
     return parse
 
 
@@ -97,7 +99,27 @@ def integer(lo: int | None = None, hi: int | None = None, *, what: str = "a whol
 
     parse.__name__ = "integer"
     parse.option_domain = True  # type: ignore[attr-defined]
+    parse.domain = domain  # type: ignore[attr-defined]
+    parse.bounds = (lo, hi)  # type: ignore[attr-defined]
     return parse
+
+
+def states_range(help_text: str, lo: float | None, hi: float | None) -> bool:
+    """Whether an option's help already gives both ends of its range (as the errors write them, or plain)."""
+
+    def said(x: float | None) -> bool:
+        return x is None or any(t in help_text for t in {_fmt(x), _fmt(abs(x)), str(x), f"{x:g}"})
+
+    return said(lo) and said(hi)
+
+
+def state_ranges(parser: argparse.ArgumentParser) -> None:
+    """Add its range to the help of every option of ``parser`` with a domain whose help does not give it
+    (the README's limits: each option's help gives its range; the errors already name it)."""
+    for a in parser._actions:
+        domain, bounds = getattr(a.type, "domain", None), getattr(a.type, "bounds", None)
+        if domain and bounds and a.help and a.help != argparse.SUPPRESS and not states_range(a.help, *bounds):
+            a.help = f"{a.help}; range: {domain}"
 
 
 def label(max_length: int = 80) -> Callable[[str], str]:
@@ -132,6 +154,20 @@ class Given(argparse.Action):
 PROP_KINDS = ("club", "bat")
 
 
+def prop_text(text: str) -> str:
+    """An argparse ``type``: one ``--prop`` value, ``KIND`` or ``KIND:JOINT`` of a known kind (the joint is
+    checked once the clip is read: ``mjmotion.commands._common.check_prop_joints``)."""
+    kind, _, joint = text.partition(":")
+    if not kind or not text.isprintable() or (":" in text and not joint):
+        raise argparse.ArgumentTypeError(f"{_shown(text)}: expected KIND or KIND:JOINT (e.g. club or club:rwrist)")
+    if kind not in PROP_KINDS:
+        raise argparse.ArgumentTypeError(f"{_shown(text)}: unknown prop {kind!r}; expected {' or '.join(PROP_KINDS)} (KIND or KIND:JOINT)")
+    return text
+
+
+prop_text.option_domain = True  # type: ignore[attr-defined]  # (its errors name the option: mjmotion.cli)
+
+
 class UniqueProps(argparse.Action):
     """``--prop KIND[:JOINT]``, repeatable, each kind once (two props of one kind share a name in the model)."""
 
@@ -141,13 +177,11 @@ class UniqueProps(argparse.Action):
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any, option_string: str | None = None) -> None:
         text = str(values)
-        kind, _, joint = text.partition(":")
-        if not kind or not text.isprintable() or (":" in text and not joint):
-            raise argparse.ArgumentError(None, f"{option_string} {_shown(text)}: expected KIND or KIND:JOINT (e.g. club or club:rwrist)")
-        if kind not in PROP_KINDS:
-            raise argparse.ArgumentError(
-                None, f"{option_string} {_shown(text)}: unknown prop {kind!r}; expected {' or '.join(PROP_KINDS)} (KIND or KIND:JOINT)"
-            )
+        try:
+            prop_text(text)
+        except argparse.ArgumentTypeError as e:
+            raise argparse.ArgumentError(None, f"{option_string} {e}") from None
+        kind = text.partition(":")[0]
         items = list(getattr(namespace, self.dest, None) or [])
         if any(str(v).partition(":")[0] == kind for v in items):
             raise argparse.ArgumentError(None, f"{option_string} {_shown(text)}: a {kind} is given twice; give each kind of prop once")

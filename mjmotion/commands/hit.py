@@ -8,8 +8,8 @@ import sys
 
 from ..errors import MjmotionError
 from ..outputs import write_text_atomic
-from ._common import add_bowler_option, add_input_options, check_bowler, check_suffix, clip_frame, load_first, output_path
-from ._options import COORD, FRAME, VELOCITY, number
+from ._common import add_bowler_option, add_input_options, check_bowler, check_suffix, clip_frame, load_first, output_path, prop_option
+from ._options import COORD, FRAME, VELOCITY, number, prop_text
 from ._progress import steps
 
 NAME = "hit"
@@ -76,7 +76,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="the delivered ball's release velocity (m/s, each within ±1000)",
     )
     add_bowler_option(p)
-    p.add_argument("--prop", default="club", choices=("club", "bat"), help="the prop fitted to both hands for --effector club (default: club)")
+    p.add_argument(
+        "--prop",
+        default="club",
+        type=prop_text,
+        metavar="KIND[:JOINT]",
+        help="the prop for --effector club: club or bat fitted to both hands, or KIND:JOINT held by JOINT along its bone (default: club)",
+    )
     p.add_argument(
         "--frame",
         type=FRAME,
@@ -137,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
                 raise MjmotionError(f"--lock {name}: no joint of that name in {args.file}")
         # (the edit fades in and out around its hit frame and keeps the clip's first and last frames)
         frame = None if args.frame is None else clip_frame(args.frame, first, "--frame", m.n_frames, inner=True, why=HIT_INSIDE)
-        prop = hitpoint.fit_club(m, args.prop) if args.effector == "club" else None
+        prop = prop_option(m, args.prop) if args.effector == "club" else None
         source_ball = None if args.source_ball is None else np.array(args.source_ball)
         target = None if args.target is None else np.array(args.target)
         flight = None

@@ -104,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         stands = "the body stands along no one axis in most frames"
     print(f"  units       {d['scale_m_per_unit']:.6g} m per file unit, up axis {d['up']} ({stands}); stature ≈ {d['stature_m']:.2f} m")
+    print(f"  head        {_shown(d['head'] or 'none found by name')}")
     feet = [f"{side} {f['ankle']}" + (f" → {f['toe']}" if f["toe"] else " (no toe)") for side, f in d["feet"].items()]
     print(f"  feet        {_shown(', '.join(feet) or 'none found by name')}")
     hands = [f"{side} {name}" for side, name in d["hands"].items()]
