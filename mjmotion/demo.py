@@ -20,7 +20,7 @@ from .errors import MjmotionError
 from .experiments import Table, single_thread_blas
 
 #: The experiments, in the order the demo runs them.
-EXPERIMENTS = ("physics_audit", "path_search", "timewarp_blend", "transitions", "hitpoint_grid", "variations", "skinning")
+EXPERIMENTS = ("physics_audit", "corruption", "path_search", "timewarp_blend", "transitions", "hitpoint_grid", "variations", "skinning")
 
 
 @dataclass(frozen=True)
