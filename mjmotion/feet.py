@@ -347,17 +347,29 @@ def sole_points(soles: Soles, pose: Pose) -> np.ndarray:
     return pose.joint_positions[:, j] + rot.rotate(r, np.broadcast_to(soles.local, r.shape[:-1] + (3,)))
 
 
+def _lateral(normal: np.ndarray, forward: np.ndarray) -> np.ndarray:
+    """A unit vector on the plane with ``normal``, across ``forward`` where it has a direction on it."""
+    for d in (forward, np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])):
+        y = np.cross(normal, d)
+        if float(np.linalg.norm(y)) > 1e-9:
+            return y / float(np.linalg.norm(y))
+    raise ValueError("a sole plane without a normal")  # (sole_boxes passes unit normals only)
+
+
 def _box(a: np.ndarray, b: np.ndarray, side: np.ndarray, normal: np.ndarray, thickness: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The box whose underside is the sole patch ``a ± side`` to ``b ± side`` (midpoints of its back
     and front edges and their half-width vector, on a sole plane with ``normal``), as ``(pos, quat,
     half_sizes)`` in their frame. Its width runs along ``side`` (the sole's own lateral), its length
     along the rest of ``b - a``: a ball set off the heel's line shifts the box sideways, not its tilt."""
-    y = side / max(float(np.linalg.norm(side)), 1e-9)
+    width = float(np.linalg.norm(side))
+    y = side / width if width > 1e-6 else _lateral(normal, b - a)  # (a foot of zero-length bones has no patch)
     x = np.cross(y, normal)
+    x = x / max(float(np.linalg.norm(x)), 1e-12)
     x = x if x @ (b - a) >= 0 else -x
     length = float(x @ (b - a))
     quat = mjcf.mat_quat(np.column_stack([x, np.cross(normal, x), normal]))
-    half = np.array([max(0.5 * length, 0.01), float(np.linalg.norm(side)), max(0.5 * thickness, 0.005)])
+    # At least 1 cm long and wide: MuJoCo refuses a box of zero size (or zero mass) in a body that moves.
+    half = np.array([max(0.5 * length, 0.01), max(width, 0.01), max(0.5 * thickness, 0.005)])
     return 0.5 * (a + b) + half[2] * normal, quat, half  # the underside on the sole, however thin the box
 
 
@@ -374,6 +386,8 @@ def sole_boxes(skeleton: Skeleton, soles: Soles) -> mjcf.FootBoxes:
     for f, side in enumerate(soles.sides):
         ankle, toe = feet_[side]
         n, pts, joints = soles.normals[f], soles.local[f], soles.joints[f]
+        if not (np.all(np.isfinite(n)) and abs(float(np.linalg.norm(n)) - 1.0) < 1e-6):
+            continue  # no sole plane (a foot of zero-length bones): the foot keeps its capsules alone
         heel, ball = pts[0:2].mean(axis=0), pts[2:4].mean(axis=0)
         # As thick as the rest-pose boxes (mjcf._foot_boxes): up to the ankle, at most 9 cm for 1.75 m.
         thick = min(-float(heel @ n), 0.09 * height / 1.75)
@@ -382,8 +396,8 @@ def sole_boxes(skeleton: Skeleton, soles: Soles) -> mjcf.FootBoxes:
             base = ball - (rest[toe] - rest[ankle])  # the ball, from the toe joint
             tip = pts[4:6].mean(axis=0)
             n_t = np.cross(tip - base, pts[4] - pts[5])
-            n_t = n_t / max(float(np.linalg.norm(n_t)), 1e-9)
-            n_t = n_t if n_t @ n >= 0 else -n_t
+            size = float(np.linalg.norm(n_t))
+            n_t = (n_t if n_t @ n >= 0 else -n_t) / size if size > 1e-9 else n  # (a zero-length toe: the foot's plane)
             out.setdefault(toe, {})[f"toe/{side}"] = _box(base, tip, 0.5 * (pts[4] - pts[5]), n_t, min(-float(base @ n_t), 0.04 * height / 1.75))
     return out
 

@@ -498,7 +498,7 @@ def compile(
     present = {c: SEGMENT_MASS[c] * (1 if c in ("head", "trunk") else 2) for c in class_geoms}
     scale = 1.0 / sum(present.values()) if present else 0.0
     for cls, geoms in class_geoms.items():
-        density = mass * present[cls] * scale / volumes[cls]
+        density = mass * present[cls] * scale / max(volumes[cls], 1e-12)  # (a segment of zero-length bones: its spheres)
         for g in geoms:
             g.density = density
     model = spec.compile()

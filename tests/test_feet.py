@@ -117,6 +117,29 @@ def test_judged_model_keeps_a_skeleton_without_feet_plain():
     assert a.ngeom == b.ngeom and np.array_equal(a.geom_size, b.geom_size)
 
 
+def test_judged_model_of_feet_with_zero_length_bones_compiles():
+    """A walk whose toe bones (or their End Sites) have zero length: render and the Studio failed with an
+    internal error (a zero-size foot box: zero volume, zero mass) where evaluate, compile and fk read it."""
+    import dataclasses
+
+    from mjmotion import synth
+
+    m = synth.walk(seconds=1.0).motion
+    sk = m.skeleton
+    toes = [t for _, t in sk.feet().values() if t is not None]
+    for bones in ("toe", "end"):
+        offsets, ends = sk.offsets.copy(), sk.end_offsets.copy()
+        for t in toes:
+            if bones == "toe":
+                offsets[t] = 0.0
+            ends[sk.end_parents == t] = 0.0
+        odd = m.replace(skeleton=dataclasses.replace(sk, offsets=offsets, end_offsets=ends))
+        c = feet.judged_model(odd)
+        sizes = c.model.geom_size[[c.model.geom(f"foot/{side}").id for side in ("left", "right")]]
+        assert np.all(sizes >= 0.005), (bones, sizes)
+        assert np.all(c.model.body_mass[1:] > 0)
+
+
 def test_rest_pose_soles_for_a_clip_too_short_to_calibrate():
     m = shared_clip("cmu_asfamc_converted/16_15.bvh")[100:110]
     c = mjcf.compile(m.skeleton)
