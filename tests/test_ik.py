@@ -219,3 +219,37 @@ def test_an_overconstrained_frame_goes_straight_to_the_best_effort_without_casad
     err = capfd.readouterr().err
     assert "CasADi" not in err and "WARNING" not in err, err[:600]  # (the tmp path holds the test name)
     assert out.exists()
+
+
+def test_ctrl_c_during_a_solve_is_raised_once_it_returns():
+    """CasADi catches the KeyboardInterrupt Python raises inside IPOPT's callback and returns from the solve
+    (`hit --solver nlp-shot` ran on for 20 s after Ctrl-C and wrote its result). A stand-in solver that
+    swallows the interrupt as CasADi does: nlp._solve raises it once the solver returns."""
+    import os
+    import signal
+
+    from mjmotion.ik import nlp
+
+    class Swallowing:
+        calls = 0
+
+        def __call__(self, **args):
+            self.calls += 1
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                for _ in range(1000):  # (Python runs the handler between bytecodes)
+                    pass
+            except KeyboardInterrupt:
+                pass  # what CasADi does (its warning: "KeyboardInterruptException")
+            return {"x": args["x0"]}
+
+        def stats(self):
+            return {"success": False, "return_status": "NonIpopt_Exception_Thrown", "iter_count": 1}
+
+    s = Swallowing()
+    with pytest.raises(KeyboardInterrupt):
+        nlp._solve(s, x0=np.zeros(2))
+    assert s.calls == 1 and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    # without an interrupt, the solution and the stats come back
+    quiet = type("Quiet", (), {"__call__": lambda self, **a: {"x": a["x0"]}, "stats": lambda self: {"success": True}})()
+    assert nlp._solve(quiet, x0=np.ones(2))[1] == {"success": True}

@@ -14,7 +14,12 @@ infeasible, the goal becomes a heavy penalty instead and the result says how far
 
 from __future__ import annotations
 
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import mujoco
@@ -26,6 +31,40 @@ from ..errors import MjmotionError
 from ..mjcf import CompiledModel
 from .chains import Chain, _coords
 from .dls import ORIENTATION_SCALE, IKResult, rotation_error
+
+
+@contextlib.contextmanager
+def _keeping_interrupts() -> Iterator[None]:
+    """Ctrl-C during an IPOPT solve, raised once the solve returns. CasADi catches the KeyboardInterrupt
+    that Python raises inside IPOPT's callback, ends that solve (``NonIpopt_Exception_Thrown``) and
+    returns: the interrupt was lost, and ``hit --solver nlp-shot`` ran on for 20 s and wrote its
+    result. Only where Python's own handler is in place (a Dask worker ignores SIGINT; threads
+    cannot set handlers)."""
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        yield
+        return
+    seen: list[int] = []
+
+    def note(signum: int, frame: Any) -> None:
+        seen.append(signum)
+        previous(signum, frame)  # (Python's default raises KeyboardInterrupt, which CasADi swallows)
+
+    signal.signal(signal.SIGINT, note)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if seen:
+        raise KeyboardInterrupt
+
+
+def _solve(solver: ca.Function, **args: Any) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``solver(**args)`` and its stats, a Ctrl-C during it raised (:func:`_keeping_interrupts`)."""
+    with _keeping_interrupts():
+        sol = solver(**args)
+    return sol, solver.stats()
+
 
 #: Penalty weight of the goal when it cannot be met exactly (per m²).
 SOFT_WEIGHT = 1e6
@@ -259,11 +298,11 @@ class FrameSolver:
         # More goal equations than free coordinates: IPOPT refuses (CasADi warns on every frame), the best effort it is.
         hard = np.count_nonzero(np.asarray(upper) > np.asarray(lower)) >= self.n_res
         if hard:
-            sol = self.hard(x0=x0, p=pars, lbx=lower, ubx=upper, lbg=np.concatenate([zeros, lo_cone]), ubg=np.concatenate([zeros, inf]))
-            stats = self.hard.stats()
+            sol, stats = _solve(
+                self.hard, x0=x0, p=pars, lbx=lower, ubx=upper, lbg=np.concatenate([zeros, lo_cone]), ubg=np.concatenate([zeros, inf])
+            )
         if not hard or not stats["success"]:
-            sol = self.soft(x0=x0, p=pars, lbx=lower, ubx=upper, lbg=lo_cone, ubg=inf)
-            stats = self.soft.stats()
+            sol, stats = _solve(self.soft, x0=x0, p=pars, lbx=lower, ubx=upper, lbg=lo_cone, ubg=inf)
         delta = np.clip(np.asarray(sol["x"]).ravel(), lower, upper)
         out = self.fk.function(delta, p)
         if self.six:
@@ -426,12 +465,10 @@ class ShotSolver:
         ubg = np.hstack([np.zeros((self.n, self.n_res)), np.full(lo_cone.shape, np.inf)]).ravel()
         ok = bool(np.count_nonzero(ubx > lbx) >= self.n_res * self.n)  # else overconstrained: straight to the best effort
         if ok:
-            sol = self.hard(x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-            stats = self.hard.stats()
+            sol, stats = _solve(self.hard, x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
             ok = bool(stats["success"])
         if not ok:
-            sol = self.soft(x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=lo_cone.ravel(), ubg=np.inf)
-            stats = self.soft.stats()
+            sol, stats = _solve(self.soft, x0=x0, p=pars, lbx=lbx, ubx=ubx, lbg=lo_cone.ravel(), ubg=np.inf)
         xs = np.clip(np.asarray(sol["x"]).ravel(), lbx, ubx)
         res = np.asarray(self.residual(xs, pars))
         d = xs.reshape(self.n, self.nd)
