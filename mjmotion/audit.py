@@ -25,7 +25,6 @@ import os
 import re
 import socket
 import time
-from collections import Counter
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,7 +34,7 @@ from . import __version__
 from .caps import MAX_JSON_BYTES
 from .errors import MjmotionError, printable
 from .executor import Aside, one_line
-from .inputs import InputError, find_bvh, read_text
+from .inputs import DuplicateKey, InputError, find_bvh, once, read_text
 from .outputs import write_text_atomic, write_with
 from .thresholds import JUDGE_REVISION
 
@@ -460,13 +459,6 @@ def read_source_map(path: str | os.PathLike[str], clips: Iterable[str], root: Pa
     clip given as its own source is refused too (the judge refuses it for each clip, after the listing)."""
     p = Path(path)
 
-    def once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-        out = dict(pairs)
-        if len(out) < len(pairs):  # JSON would keep the last silently
-            twice = min(k for k, n in Counter(k for k, _ in pairs).items() if n > 1)
-            raise MjmotionError(f"--source-map {p}: {twice!r} is given more than once; expected one entry per clip")
-        return out
-
     try:
         # A regular file of at most caps.MAX_JSON_BYTES: a FIFO or /dev/zero was read without end.
         text = read_text(p, MAX_JSON_BYTES, "a JSON source map")
@@ -474,6 +466,8 @@ def read_source_map(path: str | os.PathLike[str], clips: Iterable[str], root: Pa
         raise MjmotionError(f"--source-map {e}") from None
     try:
         data = json.loads(text, object_pairs_hook=once)
+    except DuplicateKey as e:  # (JSON would keep the last silently)
+        raise MjmotionError(f"--source-map {p}: {e.key!r} is given more than once; expected one entry per clip") from None
     except json.JSONDecodeError as e:
         raise MjmotionError(f"--source-map {p}: not JSON ({e})") from None
     except RecursionError:

@@ -19,7 +19,7 @@ import os
 import stat
 from collections.abc import Iterator
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 from .caps import MAX_FILE_BYTES
 from .errors import MjmotionError
@@ -133,6 +133,27 @@ def read_text(path: str | os.PathLike[str], limit: int = MAX_FILE_BYTES, what: s
     if nul >= 0:
         raise InputError(os.fspath(path), f"binary data (a NUL byte at character {nul}); expected {what}")
     return text
+
+
+class DuplicateKey(ValueError):
+    """A JSON object of an input names one key twice (:func:`once`); ``key`` is that key."""
+
+    def __init__(self, key: str):
+        super().__init__(key)
+        self.key = key
+
+
+def once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON ``object_pairs_hook``: the object as a dict, or :class:`DuplicateKey` for a key given twice
+    (``json`` keeps the last silently: a script's second "duration" replaced its first)."""
+    out = dict(pairs)
+    if len(out) < len(pairs):
+        seen: set[str] = set()
+        for k, _ in pairs:
+            if k in seen:
+                raise DuplicateKey(k)
+            seen.add(k)
+    return out
 
 
 def find_bvh(root: str | os.PathLike[str], unreadable: list[str] | None = None, skipped: list[str] | None = None) -> list[Path]:

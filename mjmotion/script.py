@@ -20,7 +20,7 @@ from typing import Any
 
 from .caps import MAX_JSON_BYTES
 from .errors import MjmotionError
-from .inputs import read_text
+from .inputs import DuplicateKey, once, read_text
 
 
 @dataclass(frozen=True)
@@ -189,7 +189,9 @@ def load_json(path: str | os.PathLike[str], schema: Any, what: str, root: str) -
     p = os.fspath(path)
     text = read_text(p, MAX_JSON_BYTES, what)
     try:
-        data = json.loads(text, parse_int=_int_or_float, parse_constant=float)  # NaN → refused by validate, with its key
+        data = json.loads(text, parse_int=_int_or_float, parse_constant=float, object_pairs_hook=once)  # NaN → refused by validate, with its key
+    except DuplicateKey as e:
+        raise MjmotionError(f"{p}: {e.key!r} is given twice in one object; give each key once") from None
     except json.JSONDecodeError as e:
         raise MjmotionError(f"{p}:{e.lineno}: not valid JSON ({e.msg})") from None
     except RecursionError:

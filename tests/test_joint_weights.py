@@ -62,6 +62,7 @@ def test_register_weighs_the_distance_by_the_file(clips, tmp_path, capsys):
         ('{"lThigh": 1e308}', "w.json", r"joint 'lThigh': expected a number from 0 to 1e\+06 .*got 1e\+308"),
         ("[1, 2]", "w.json", r"w\.json: expected a table of joint name -> non-negative weight"),
         ("{nope", "w.json", r"w\.json:1: not valid JSON"),
+        ('{"lThigh": 2, "lThigh": 3}', "w.json", r"w\.json: joint 'lThigh' is given twice"),  # (JSON kept the last)
         ("lThigh = [", "w.toml", r"w\.toml: not valid TOML"),
     ],
 )

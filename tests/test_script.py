@@ -82,6 +82,8 @@ def test_wrong_types_name_the_key_path(edit, message):
         ('{"duration": -Infinity}', "script.duration"),
         ("[]", "script: expected an object, got a list"),
         ('{"duration": 1,', "not valid JSON"),
+        ('{"duration": 3.0, "duration": 2.0}', "'duration' is given twice in one object"),  # (JSON kept the last: 2 s)
+        ('{"commands": [{"at": 0, "at": 1}]}', "'at' is given twice"),
     ],
 )
 def test_files_name_the_file_and_the_key(tmp_path, text, message):

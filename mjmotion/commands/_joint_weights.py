@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ..caps import MAX_JSON_BYTES
 from ..errors import MjmotionError
-from ..inputs import read_text
+from ..inputs import DuplicateKey, once, read_text
 from ..skeleton import Skeleton
 
 #: Weights are relative; a larger one would overflow the squared distances (1e308 read "mean cost 0").
@@ -51,7 +51,9 @@ def parse(text: str, path: str) -> dict[str, float]:
             raise MjmotionError(f"{path}: not valid TOML ({e}); expected {what}") from None
     else:
         try:
-            data = json.loads(text)
+            data = json.loads(text, object_pairs_hook=once)
+        except DuplicateKey as e:
+            raise MjmotionError(f"{path}: joint {e.key!r} is given twice; give each joint once") from None
         except json.JSONDecodeError as e:
             raise MjmotionError(f"{path}:{e.lineno}: not valid JSON ({e.msg}); expected {what}") from None
         except RecursionError:
