@@ -330,6 +330,25 @@ def _look_quat(forward: np.ndarray) -> np.ndarray:
     return mat_quat(np.column_stack([x, np.cross(z, x), z]))
 
 
+def check_model_size(skeleton: Skeleton) -> None:
+    """Refuse a skeleton deeper than :data:`MAX_DEPTH` or with more joints than ``caps.MAX_MODEL_JOINTS``
+    (what :func:`compile` refuses; the verbs check each clip as it is read, naming its file)."""
+    depth = np.zeros(skeleton.n_joints, dtype=int)
+    for j in range(1, skeleton.n_joints):
+        depth[j] = depth[skeleton.parents[j]] + 1
+    if depth.max() + 1 > MAX_DEPTH:
+        raise MjmotionError(
+            f"skeleton is {depth.max() + 1} joints deep (joint {skeleton.names[int(depth.argmax())]!r}); "
+            f"MuJoCo models are limited to {MAX_DEPTH} nested bodies here (compile time grows with the "
+            "cube of the depth) — is this a character skeleton?"
+        )
+    if skeleton.n_joints > MAX_MODEL_JOINTS:
+        raise MjmotionError(
+            f"skeleton has {skeleton.n_joints} joints; MuJoCo models are limited to {MAX_MODEL_JOINTS} joints here "
+            "(compile time grows faster than the joint count) — is this a character skeleton?"
+        )
+
+
 def compile(
     skeleton: Skeleton,
     props: tuple[Prop, ...] | list[Prop] = (),
@@ -351,20 +370,7 @@ def compile(
         foot_boxes: the feet's box geoms instead of those built from the rest pose (e.g. the judge's
             soles calibrated on a clip: :func:`mjmotion.feet.judged_model`).
     """
-    depth = np.zeros(skeleton.n_joints, dtype=int)
-    for j in range(1, skeleton.n_joints):
-        depth[j] = depth[skeleton.parents[j]] + 1
-    if depth.max() + 1 > MAX_DEPTH:
-        raise MjmotionError(
-            f"skeleton is {depth.max() + 1} joints deep (joint {skeleton.names[int(depth.argmax())]!r}); "
-            f"MuJoCo models are limited to {MAX_DEPTH} nested bodies here (compile time grows with the "
-            "cube of the depth) — is this a character skeleton?"
-        )
-    if skeleton.n_joints > MAX_MODEL_JOINTS:
-        raise MjmotionError(
-            f"skeleton has {skeleton.n_joints} joints; MuJoCo models are limited to {MAX_MODEL_JOINTS} joints here "
-            "(compile time grows faster than the joint count) — is this a character skeleton?"
-        )
+    check_model_size(skeleton)
     # "world": MuJoCo's own body 0, which every model has.
     reserved = {"world", FLOOR, BALL} | {p.name for p in props}
     clash = reserved.intersection(skeleton.names)

@@ -801,8 +801,20 @@ def test_deep_hierarchy_through_the_cli(tmp_path, capsys):
     deep.write_bytes(_corpus().deep_hierarchy(10_000))
     rc, out, err = run(["info", str(deep)], capsys)
     assert rc == 0 and "10000" in out, err
-    refused(*run(["compile", str(deep), "-o", str(tmp_path / "deep.xml")], capsys)[::2], "joints deep")
+    refused(*run(["compile", str(deep), "-o", str(tmp_path / "deep.xml")], capsys)[::2], f"{deep}: skeleton is 10000 joints deep")
     assert not (tmp_path / "deep.xml").exists()
+
+
+def test_a_render_names_the_clip_no_model_takes(tmp_path, human, capsys):
+    """`render walk.bvh deep.bvh` said "skeleton is 500 joints deep" without saying which clip (every clip
+    is compiled at once, after all are read); each clip is checked as it is read, naming its file."""
+    deep = tmp_path / "deep.bvh"
+    deep.write_bytes(_corpus().deep_hierarchy(500))
+    walk = str(_human(human))
+    refused(*run(["render", walk, str(deep), "-o", str(tmp_path / "r.gif")], capsys)[::2], f"{deep}: skeleton is 500 joints deep")
+    for verb in (["fk", str(deep), "-o", str(tmp_path / "p.npz")], ["vary", str(deep), "--scale", "1.2", "-o", str(tmp_path / "v.bvh")]):
+        refused(*run(verb, capsys)[::2], f"{deep}: skeleton is 500 joints deep")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["deep.bvh"]
 
 
 # --- issue 17: hostile options, files and faults, for every verb ---------------------------------

@@ -86,6 +86,17 @@ def read_motion(path: str, args: argparse.Namespace) -> Motion:
     return m
 
 
+def check_model(m: Motion, path: str) -> None:
+    """Refuse a clip whose skeleton no MuJoCo model takes (too deep, too many joints), naming its file (the
+    model is compiled later, for every clip of a render at once: the message did not say which)."""
+    from .. import mjcf
+
+    try:
+        mjcf.check_model_size(m.skeleton)
+    except MjmotionError as e:
+        raise naming(path, e) from None
+
+
 def check_prop_joints(m: Motion, args: argparse.Namespace) -> None:
     """Refuse a ``--prop KIND:JOINT`` that names no joint of ``m`` as soon as the clip is read, before any
     ``note:`` line about it (a note, then the error, read as if the work had begun)."""

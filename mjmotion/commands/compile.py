@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_input_options, note_up, output_path, prop_option, read_motion, trim_start
+from ._common import add_input_options, check_model, note_up, output_path, prop_option, read_motion, trim_start
 from ._options import UniqueProps
 from ._progress import steps
 
@@ -62,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     with steps("compile", names) as step:
         step("read")
         m = read_motion(args.file, args)
+        check_model(m, args.file)
         note_up(m, args.file)
         clip = trim_start(m, args.file, args)[0]  # the frames a pose is taken from (the skin binds on the whole file)
         step("compile")

@@ -6,7 +6,7 @@ import argparse
 import io
 
 from ..outputs import write_bytes_atomic
-from ._common import add_input_options, load, output_path, prop_option
+from ._common import add_input_options, check_model, load, output_path, prop_option
 from ._options import UniqueProps
 from ._progress import steps
 
@@ -41,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
     with steps("fk", ("read", "compile", "forward kinematics", "write")) as step:
         step("read")
         m = load(args.file, args)
+        check_model(m, args.file)
         step("compile")
         props = tuple(prop_option(m, text) for text in args.prop)
         compiled = mjcf.compile(m.skeleton, props)

@@ -8,7 +8,7 @@ import sys
 
 from ..errors import MjmotionError
 from ..outputs import write_text_atomic
-from ._common import add_bowler_option, add_input_options, check_bowler, check_suffix, clip_frame, load_first, output_path, prop_option
+from ._common import add_bowler_option, add_input_options, check_bowler, check_model, check_suffix, clip_frame, load_first, output_path, prop_option
 from ._options import COORD, FRAME, VELOCITY, number, prop_text
 from ._progress import steps
 
@@ -138,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
     with steps("hit", names) as step:
         step("read")
         m, first = load_first(args.file, args)
+        check_model(m, args.file)
         for name in args.lock:
             if name not in m.skeleton.names:
                 raise MjmotionError(f"--lock {name}: no joint of that name in {args.file}")

@@ -13,7 +13,7 @@ from typing import Any
 from ..caps import MAX_MODEL_JOINTS, check_motion_size
 from ..errors import MjmotionError, printable
 from ..floor import Floor
-from ._common import add_input_options, load, output_path, parse_frames, prop_option
+from ._common import add_input_options, check_model, load, output_path, parse_frames, prop_option
 from ._options import COORD, VIDEO_FPS, UniqueProps, check_actors, integer, number
 from ._options import label as label_text
 from .evaluate import add_judge_options, check_floor, load_sources
@@ -151,6 +151,7 @@ def run(args: argparse.Namespace) -> int:
     actors = []
     for i, (path, label) in enumerate(zip(args.files, labels)):
         m = load(path, args, trim=not args.frames)  # --frames: the file's own frame numbers
+        check_model(m, path)
         props = tuple(prop_option(m, text) for text in args.prop)  # fitted on the whole clip (a swing's address frames)
         if args.frames:
             m = m[parse_frames(args.frames, m.n_frames)]

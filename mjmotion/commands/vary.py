@@ -10,7 +10,7 @@ import json
 from ..caps import MAX_COMPONENTS, MAX_FRAMES, check_motion_size
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
-from ._common import add_input_options, check_suffix, clip_frame, load_first, output_path, parse_frames
+from ._common import add_input_options, check_model, check_suffix, clip_frame, load_first, output_path, parse_frames
 from ._options import FRAME, Given, integer, number
 from ._progress import steps
 
@@ -164,6 +164,7 @@ def run(args: argparse.Namespace) -> int:
     with steps("vary", names) as step:
         step("read")
         source, first = load_first(args.file, args)
+        check_model(source, args.file)
         step("pose space")
         # inner-joint translations (some rigs animate them) are parameters too, so nothing is lost
         space = PoseSpace.fit(source, translations=True)
