@@ -525,3 +525,35 @@ def test_cli_register_writes_the_documented_json(mocap, tmp_path):
     assert again.returncode == 2 and again.stderr.startswith("error:") and "--force" in again.stderr
     bad = subprocess.run(cmd[:-4] + ["--json", str(tmp_path / "x.json"), "--window", "4"], capture_output=True, text=True)
     assert bad.returncode == 2 and "odd" in bad.stderr
+
+
+def test_cli_area_threshold_reaches_the_dp_optimum_and_method_options_go_with_their_method(tmp_path, capsys):
+    """The threshold search's error said "raise the threshold" with no option to do it, and options of
+    another method (--time-limit with dp, --free-end with --loop or greedy) were ignored, the same path
+    coming back. --area-threshold ≥ 1 prunes nothing: the DP optimum (threshold_path's doc)."""
+    from mjmotion import bvh, synth
+    from mjmotion.cli import main
+
+    a, b = tmp_path / "walk.bvh", tmp_path / "run.bvh"
+    bvh.write(synth.walk(seconds=2.0).motion, a)
+    bvh.write(synth.run(seconds=2.0).motion, b)
+
+    def path(*extra: str) -> list:
+        out = tmp_path / "r.json"
+        assert main(["register", str(a), str(b), "--json", str(out), "--force", *extra]) == 0
+        return json.loads(out.read_text())["path"]
+
+    assert path("--loop", "--method", "threshold", "--area-threshold", "2") == path("--loop")
+    assert main(["register", str(a), str(b), "--json", str(tmp_path / "t.json"), "--loop", "--method", "threshold"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {a} and {b}: no path reaches the end") and "--area-threshold" in err, err
+    for extra, says in (
+        (["--time-limit", "5"], "--time-limit 5: bounds the brute search; give it with --method brute"),
+        (["--area-threshold", "0.5"], "--area-threshold 0.5: bounds the threshold search"),
+        (["--loop", "--free-end", "mean"], "--free-end mean: --loop fixes both ends"),
+        (["--method", "greedy", "--free-end", "mean"], "--free-end mean: greedy"),
+    ):
+        assert main(["register", str(a), str(b), "--json", str(tmp_path / "x.json"), *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"error: {says}") and err.count("\n") == 1, err
+    assert not (tmp_path / "x.json").exists() and not (tmp_path / "t.json").exists()

@@ -11,7 +11,7 @@ from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from . import _joint_weights as joint_weights
 from ._common import add_input_options, check_suffix, extra_output, load
-from ._options import FPS, integer, number, resample
+from ._options import FPS, Given, integer, number, resample
 from ._progress import steps
 
 NAME = "register"
@@ -98,13 +98,29 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="dp",
         help="path search (default dp: exact for --free-end and --loop; brute: exact by enumeration, slow)",
     )
-    p.add_argument("--free-end", choices=("per-end", "mean"), default="per-end", help="free-end objective (default per-end, see above)")
+    p.add_argument(
+        "--free-end",
+        choices=("per-end", "mean"),
+        default="per-end",
+        action=Given,
+        help="free-end objective of dp, threshold and brute (default per-end, see above; not with --loop)",
+    )
     p.add_argument(
         "--time-limit",
         type=number(0, 86400, lo_open=True, what="a number of seconds"),
         default=60.0,
+        action=Given,
         metavar="S",
-        help="brute force: give up after S seconds (default 60)",
+        help="with --method brute: give up after S seconds (default 60)",
+    )
+    p.add_argument(
+        "--area-threshold",
+        type=number(0, 1e6, lo_open=True, what="a fraction of the largest cost"),
+        default=0.35,
+        action=Given,
+        metavar="F",
+        help="with --method threshold: cells costing more than F × the grid's largest cost are never entered "
+        "(default 0.35, Sako 2008 found 0.30-0.35 best; 1 or more prunes nothing)",
     )
     p.add_argument("--curve", choices=("bspline", "discrete"), default="bspline", help="timewarp fit (default bspline)")
     p.add_argument("--force", action="store_true", help="replace outputs that exist")
@@ -123,6 +139,14 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError(f"--window {args.window}: expected an odd number of frames ≥ 1 (2L+1)")
     if not 0 < args.time_limit < float("inf"):
         raise MjmotionError(f"--time-limit {args.time_limit}: expected a positive number of seconds")
+    # (an option of another method was ignored: the same path came back)
+    for option, method in (("time_limit", "brute"), ("area_threshold", "threshold")):
+        if getattr(args, f"_{option}_given", False) and args.method != method:
+            flag = "--" + option.replace("_", "-")
+            raise MjmotionError(f"{flag} {getattr(args, option):g}: bounds the {method} search; give it with --method {method}")
+    if getattr(args, "_free_end_given", False) and (args.loop or args.method == "greedy"):
+        why = "--loop fixes both ends" if args.loop else "greedy takes the cheapest next cell and has no objective to choose"
+        raise MjmotionError(f"--free-end {args.free_end}: {why}; leave it out")
     with steps("register", ("read", "register", "write")) as step:
         step("read")
         a, b = load_clips([args.a, args.b], args)
@@ -131,7 +155,10 @@ def run(args: argparse.Namespace) -> int:
                 f"--window {args.window}: longer than the shorter clip ({min(a.n_frames, b.n_frames)} frames); use a smaller odd window"
             )
         step("grid, path and curve" + (f" (brute force, at most {args.time_limit:g} s)" if args.method == "brute" else ""))
-        pr = _register(registration, a, b, args)
+        try:
+            pr = _register(registration, a, b, args)
+        except MjmotionError as e:  # (the search's own words speak of "the grid": say whose)
+            raise MjmotionError(str(e) if str(e).startswith(("-", args.a, args.b)) else f"{args.a} and {args.b}: {e}") from None
         step("write")
         written = _write(pr, out, plot, a.name, b.name)
     t = pr.timing_s
@@ -158,7 +185,11 @@ def _register(registration, a, b, args: argparse.Namespace):
         curve=args.curve,
         weights=joint_weights.load(args, a.skeleton),
         rule=args.free_end,
-        path_options={"time_limit_s": args.time_limit} if args.method == "brute" else None,
+        path_options={"time_limit_s": args.time_limit}
+        if args.method == "brute"
+        else {"area_threshold": args.area_threshold}
+        if args.method == "threshold"
+        else None,
     )
 
 

@@ -511,7 +511,7 @@ def _pruned_search(
     n_a, n_b = cost.shape
     si, sj = start
     if not allowed[si, sj]:
-        raise MjmotionError("the start cell is above the area threshold; raise the threshold")
+        raise MjmotionError("the start cell costs more than the area threshold allows; raise the threshold (--area-threshold)")
     best: dict[tuple[int, int, int, int], tuple[float, int, tuple | None]] = {(si, sj, 0, 0): (float(cost[si, sj]), 1, None)}
     heap = [(si + sj, si, sj, 0, 0)]
     end_best: dict[tuple[int, int], tuple[float, int, tuple]] = {}
@@ -524,7 +524,7 @@ def _pruned_search(
         if nodes > max_nodes:
             raise MjmotionError(
                 f"the threshold search expanded more than {max_nodes:,} partial paths on a {n_a} × {n_b} grid; "
-                "use --method dp (exact and fast) or lower the area threshold"
+                "use --method dp (exact and fast) or lower the area threshold (--area-threshold)"
             )
         on_end = (i == n_a - 1 or j == n_b - 1) if free_end else (i == n_a - 1 and j == n_b - 1)
         if on_end and ((i, j) not in end_best or total < end_best[(i, j)][0]):
@@ -544,7 +544,7 @@ def _pruned_search(
                 heapq.heappush(heap, (ni + nj, ni, nj, nrh, nrv))
             best[nkey] = (nt, length + 1, key)
     if not end_best:
-        raise MjmotionError("no path reaches the end under the area threshold; raise the threshold or use --method dp")
+        raise MjmotionError("no path reaches the end under the area threshold; raise the threshold (--area-threshold) or use --method dp")
     total, length, last = min(end_best.values(), key=lambda v: v[0] / v[1] if free_end and rule == "per-end" else v[0])
     cells = []
     node: tuple | None = last
