@@ -91,6 +91,25 @@ def test_library_leaves_out_a_leading_t_pose_as_the_verbs_do(mocap, tmp_path, ca
     assert "07_01.bvh: skipped frames 0-3" in capsys.readouterr().err
 
 
+def test_the_studio_reads_clips_with_units_and_up_as_the_verbs_do(tmp_path, capsys):
+    """A clip too small to guess its unit: the Studio's error said "give it with --units", an option it did
+    not have. It has --units and --up now, for its files and its uploads, as every verb reads them."""
+    from mjmotion import synth
+    from mjmotion.cli import main
+
+    walk = synth.walk(seconds=1.0).motion
+    bvh.write(walk, tmp_path / "walk.bvh")
+    tiny = tmp_path / "tiny.bvh"  # its lengths a thousandth of the walk's centimetres: 0.17 units tall
+    assert main(["convert", str(tmp_path / "walk.bvh"), str(tiny), "--scale", "1e-3"]) == 0
+    assert main(["studio", str(tiny), "--check"]) == 2
+    assert "give it with --units" in capsys.readouterr().err
+    assert main(["studio", str(tiny), "--check", "--units", "10"]) == 0
+    lib = ClipLibrary.from_paths([str(tiny)], scale=10.0)
+    np.testing.assert_allclose(lib.get("tiny").motion.root_positions, walk.root_positions, atol=1e-6)
+    _, up = lib.with_upload("again.bvh", tiny.read_bytes())
+    np.testing.assert_allclose(up.motion.root_positions, walk.root_positions, atol=1e-6)
+
+
 def test_the_tabs_first_pair_is_of_one_skeleton(mocap):
     """A folder of two skeletons opens with a pair the Blend and Stream tabs can use (it opened on a walk of one
     skeleton and a run of another: an error before the user did anything)."""

@@ -6,6 +6,7 @@ import argparse
 import sys
 import threading
 
+from ._common import add_input_options
 from ._options import integer
 
 NAME = "studio"
@@ -37,11 +38,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=integer(1, 65535, what="a TCP port"), default=8080, help="port, 1 to 65535 (default 8080)")
     p.add_argument("--out", default=None, metavar="DIR", help="the folder saved clips go to (default ./studio_output)")
-    p.add_argument(
-        "--keep-start",
-        action="store_true",
-        help="keep a clip's leading T-pose or transition (by default it is left out, as every verb leaves it out)",
-    )
+    add_input_options(p)  # --units, --up, --keep-start: clips are read as every verb reads them
     p.add_argument("--check", action="store_true", help="read and validate the clips, print what would be served, and exit (no server)")
 
 
@@ -54,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from ..outputs import check_folder
     from ..studio.app import LOCAL_HOSTS, Studio
     from ..studio.clips import ClipLibrary
-    from ._common import note_skipped
+    from ._common import note_skipped, units_scale
 
     if not 0 <= args.port <= 65535:
         raise MjmotionError(f"--port {args.port}: expected 0-65535")
@@ -62,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         check_folder(args.out, "--out")
     else:  # the default: the studio still serves from a folder it cannot write in; saving says why it fails
         args.out = DEFAULT_OUT
-    library = ClipLibrary.from_paths(args.files, args.data, keep_start=args.keep_start)
+    library = ClipLibrary.from_paths(args.files, args.data, keep_start=args.keep_start, scale=units_scale(args.units), up=args.up)
     for clip in map(library.get, library.names()):
         if clip.skipped:
             note_skipped(str(clip.source or clip.name), clip.skipped)

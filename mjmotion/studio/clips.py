@@ -49,8 +49,9 @@ class Clip:
 class ClipLibrary:
     """An ordered set of clips by name; :meth:`with_upload` returns a new library (pages keep their own)."""
 
-    def __init__(self, clips: list[Clip], keep_start: bool = False):
+    def __init__(self, clips: list[Clip], keep_start: bool = False, scale: float | None = None, up: str = "y"):
         self.keep_start = keep_start
+        self.scale, self.up = scale, up  # (how files are read: --units, --up; uploads too)
         self._clips = {c.name: c for c in clips}
         if len(self._clips) != len(clips):
             raise MjmotionError("clip names must be unique")
@@ -63,9 +64,12 @@ class ClipLibrary:
         return cls([Clip(name, c.motion.replace(name=name), None, c.prop, c.hit_frame) for name, c in synth.library().items()])
 
     @classmethod
-    def from_paths(cls, files: list[str], data: str | None = None, keep_start: bool = False) -> ClipLibrary:
+    def from_paths(
+        cls, files: list[str], data: str | None = None, keep_start: bool = False, scale: float | None = None, up: str = "y"
+    ) -> ClipLibrary:
         """Clips from ``files`` and the ``.bvh`` files under ``data`` (sorted); the bundled library when both are empty.
-        A file's leading T-pose or transition is left out, as the verbs do, unless ``keep_start``."""
+        A file's leading T-pose or transition is left out, as the verbs do, unless ``keep_start``; ``scale``
+        (metres per file unit, ``None``: detected) and ``up`` read the files as ``--units`` and ``--up`` do."""
         paths = [Path(f) for f in files]
         if data is not None:
             root = Path(data)
@@ -80,10 +84,10 @@ class ClipLibrary:
         clips: list[Clip] = []
         names: set[str] = set()
         for p in paths:
-            motion, skipped = skip_leading_transient(bvh.read(p, max_bytes=MAX_CLIP_BYTES), keep_start)
+            motion, skipped = skip_leading_transient(bvh.read(p, scale=scale, up=up, max_bytes=MAX_CLIP_BYTES), keep_start)
             name = _unique(p.stem, names)
             clips.append(Clip(name, motion.replace(name=name), p.resolve(), skipped=skipped))
-        return cls(clips, keep_start)
+        return cls(clips, keep_start, scale, up)
 
     def names(self) -> list[str]:
         return list(self._clips)
@@ -103,10 +107,10 @@ class ClipLibrary:
         shown = os.path.basename(filename) or "upload.bvh"
         if len(content) > MAX_CLIP_BYTES:
             raise MjmotionError(f"{shown}: {len(content)} bytes is more than the {MAX_CLIP_BYTES // 2**20} MiB limit for a clip")
-        motion, skipped = skip_leading_transient(bvh.parse(content, path=shown), self.keep_start)
+        motion, skipped = skip_leading_transient(bvh.parse(content, path=shown, scale=self.scale, up=self.up), self.keep_start)
         name = _unique(Path(shown).stem, set(self._clips))
         clip = Clip(name, motion.replace(name=name), skipped=skipped)
-        return ClipLibrary([*self._clips.values(), clip], self.keep_start), clip
+        return ClipLibrary([*self._clips.values(), clip], self.keep_start, self.scale, self.up), clip
 
     def shots(self) -> list[str]:
         """Clips that can be adapted to a ball: those holding a prop, two-handed swings, kicks and punches by name."""
