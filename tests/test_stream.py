@@ -281,3 +281,26 @@ def test_stream_returns_the_tracks_it_composed(mocap):
     plain = S.stream(script, "s")
     for m in (again, plain):
         assert np.array_equal(m.rotations, out.rotations) and np.array_equal(m.root_positions, out.root_positions)
+
+
+def test_a_grid_too_large_is_refused_in_the_scripts_words(tmp_path, monkeypatch, capsys):
+    """Registration's remedy named register's --frames and --fps, which stream does not have, and not the
+    script: stream words it with the script's "fps" and "frames"."""
+    import json
+
+    from mjmotion import bvh, synth
+    from mjmotion.cli import main
+    from mjmotion.registration import grid, pairs
+
+    monkeypatch.setattr(pairs, "check_grid_size", lambda n_a, n_b, max_cells=0: grid.check_grid_size(n_a, n_b, 1000))
+    for gait in ("walk", "run"):
+        bvh.write(getattr(synth, gait)(seconds=2.0).motion, tmp_path / f"{gait}.bvh")
+    script = tmp_path / "s.json"
+    clips = {g: {"file": str(tmp_path / f"{g}.bvh")} for g in ("walk", "run")}
+    commands = [{"time": 0, "weights": {"walk": 1}}]
+    script.write_text(json.dumps({"fps": 60, "duration": 1, "clips": clips, "locomotion": ["walk", "run"], "commands": commands}))
+    assert main(["stream", str(script), "-o", str(tmp_path / "o.bvh")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {script}: registering its locomotion clips at 60 fps needs a") and err.count("\n") == 1, err
+    assert 'lower the script\'s "fps" at least 4×' in err and "--fps" not in err and "--frames" not in err
+    assert not (tmp_path / "o.bvh").exists()

@@ -53,6 +53,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from .. import bvh, stream
+    from ..registration.grid import GridTooLarge
 
     out = output_path(args, args.script, *joint_weights.inputs(args), suffix=".bvh")
 
@@ -66,7 +67,13 @@ def run(args: argparse.Namespace) -> int:
         step("read")
         script = stream.load_script(args.script, load_clip)
         step("register")
-        controller = stream.MotionStream(script, joint_weights.load(args, script.clips[script.locomotion[0]].skeleton))
+        try:
+            controller = stream.MotionStream(script, joint_weights.load(args, script.clips[script.locomotion[0]].skeleton))
+        except GridTooLarge as e:  # (its remedy names register's options)
+            raise MjmotionError(
+                f"{args.script}: registering its locomotion clips at {script.fps:g} fps needs a {e.cells:,}-cell grid, above the "
+                f'{e.max_cells:,}-cell limit; lower the script\'s "fps" at least {e.factor}× or give the clips shorter "frames"'
+            ) from None
         step("stream")
         result = controller.run(name=out.stem)
         step("write")

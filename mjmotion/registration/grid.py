@@ -133,15 +133,27 @@ class Grid:
     window: int
 
 
+class GridTooLarge(MjmotionError):
+    """A distance grid too large to register (:func:`check_grid_size`); ``cells`` and ``factor`` (how many
+    times lower both clips' frame rates must be) let a caller word the remedy in its own options."""
+
+    def __init__(self, message: str, cells: int, max_cells: int, factor: int):
+        super().__init__(message)
+        self.cells, self.max_cells, self.factor = cells, max_cells, factor
+
+
 def check_grid_size(n_a: int, n_b: int, max_cells: int = MAX_CELLS) -> None:
-    """Refuse grids that would not fit in memory, saying what to do instead."""
+    """Refuse grids that would not fit in memory, saying what to do instead (``register``'s options)."""
     cells = n_a * n_b
     if cells > max_cells:
         factor = math.ceil(math.sqrt(cells / max_cells))
-        raise MjmotionError(
+        raise GridTooLarge(
             f"registering {n_a} × {n_b} frames needs a {cells:,}-cell grid (about {cells * 11 / 1e9:.1f} GB "
             f"with the path search), above the {max_cells:,}-cell limit; register shorter excerpts "
-            f"(--frames) or resample both clips at least {factor}× lower (--fps)"
+            f"(--frames) or resample both clips at least {factor}× lower (--fps)",
+            cells,
+            max_cells,
+            factor,
         )
 
 
