@@ -277,7 +277,9 @@ class ProcessPool(Executor):
         from concurrent.futures import ProcessPoolExecutor
 
         self.workers = jobs
-        self.pool = ProcessPoolExecutor(max_workers=jobs)
+        # The workers ignore Ctrl-C, as Dask's do: the terminal sends it to every process of the group, and a
+        # worker interrupted mid-task broke the pool's queues, so the command printed "interrupted" and hung.
+        self.pool = ProcessPoolExecutor(max_workers=jobs, initializer=_ignore_interrupt)
 
     def _run(
         self, fn: Callable[..., Any], tasks: list[tuple[Any, tuple]], timeout: float | None, retries: int, meanwhile: Callable[[], object]
@@ -300,6 +302,13 @@ class ProcessPool(Executor):
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)
+
+    def __exit__(self, *exc: object) -> None:
+        if isinstance(exc[1], KeyboardInterrupt):
+            # Ctrl-C: the clips running are not waited for (a long one took seconds); their processes are ended.
+            for p in list((getattr(self.pool, "_processes", None) or {}).values()):
+                p.terminate()
+        self.close()
 
 
 def _executing(dask_worker: Any) -> dict[str, float]:

@@ -535,3 +535,32 @@ def test_aside_runs_in_its_own_process_with_its_preload_and_falls_back_here_when
             aside.call(int, "x")()  # what the function raises comes back
         os.kill(pid, signal.SIGKILL)  # lost (killed, out of memory): the work is done here instead
         assert aside.call(loaded, "json")() == (os.getpid(), True)
+
+
+def _sigint_handler() -> bool:
+    import signal
+
+    return signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+
+
+def _sleep(seconds: float) -> float:
+    time.sleep(seconds)
+    return seconds
+
+
+def test_a_process_pool_ignores_ctrl_c_in_its_workers_and_ends_them_on_it():
+    """`evaluate DIR` printed "interrupted" after Ctrl-C and then hung (4 runs in 15): the terminal's SIGINT
+    reached the pool's workers too, and a worker interrupted mid-task broke the pool. The workers ignore it,
+    as Dask's do, and a Ctrl-C in this process ends them rather than waiting for their clips."""
+    with executor.start(jobs=2) as ex:
+        assert all(o.unwrap() is True for o in ex.run(_sigint_handler, [(i, ()) for i in range(4)], progress=False))
+    import threading
+
+    started = time.perf_counter()
+    ex = executor.start(jobs=2)
+    threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()  # Ctrl-C while the tasks run
+    with pytest.raises(KeyboardInterrupt):
+        with ex:
+            for _ in ex.run(_sleep, [(0, (60.0,)), (1, (60.0,))], progress=False):
+                pass
+    assert time.perf_counter() - started < 30  # the 60 s tasks were not waited for
