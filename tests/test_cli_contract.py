@@ -423,6 +423,18 @@ def test_an_option_that_would_do_nothing_is_refused(tmp_path, human, capsys):
         "--plot-dims 3: the components --plot draws",
     )
     assert not (tmp_path / "h.bvh").exists() and not (tmp_path / "v.bvh").exists()
+    # a hit's options with no ball to hit (they changed nothing), and a grid finer than launches can tell apart
+    refused(*run(["evaluate", walk, "--grid-step", "0.1"], capsys)[::2], "--grid-step 0.1: the spacing of --hit-grid")
+    refused(*run(["evaluate", walk, "--ball-radius", "0.5"], capsys)[::2], "--ball-radius 0.5: the radius of --ball")
+    refused(*run(["evaluate", walk, "--grid-step", "1e-12"], capsys)[::2], "--grid-step 1e-12: expected a spacing in metres")
+    # more dimensions than the variation has components: refused before the clip is written (it was
+    # written, then the plot failed with "score_paths: 3-D plot needs at least 3 components")
+    plotted = ["--plot", str(tmp_path / "v.png"), "--json", str(tmp_path / "v.json"), "-o", str(tmp_path / "v.bvh")]
+    refused(
+        *run(["vary", walk, "--scale", "1.2", "--pcs", "2", "--plot-dims", "3", *plotted], capsys)[::2],
+        "--plot-dims 3: this variation has 2 principal component(s) to draw; use --plot-dims 2",
+    )
+    assert not any(tmp_path.glob("v.*"))
 
 
 def test_an_option_of_one_value_given_twice_is_refused(tmp_path, human, capsys):

@@ -104,6 +104,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--ball-radius",
         type=number(0.001, 1, what="a ball radius in metres"),
         default=0.036,
+        action=Given,
         metavar="R",
         help="ball radius in m, 0.001 to 1 (default 0.036, cricket)",
     )
@@ -137,10 +138,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--grid-step",
-        type=number(0, 1, lo_open=True, what="a spacing in metres"),
+        type=number(0.001, 1, what="a spacing in metres"),
         default=0.05,
+        action=Given,
         metavar="M",
-        help="hit-grid spacing in m, at most 1 (default 0.05)",
+        help="with --hit-grid: its spacing in m, 0.001 to 1 (default 0.05; a finer grid's launches differ by nothing)",
     )
     p.add_argument("--frames", metavar="A:B", help="evaluate only these frames")
     add_judge_options(p)
@@ -361,6 +363,13 @@ def check_options(args: argparse.Namespace) -> None:
             raise MjmotionError("--ball-velocity is the velocity of --ball (or of --hit-grid's launches); give --ball X Y Z, where the ball is met")
         if args.ball_release is not None or args.delivery is not None:
             raise MjmotionError("--ball-velocity with a delivered ball: its velocity is where the delivery meets --ball; give one or the other")
+    # (options of a hit that no --ball or --hit-grid asks for were ignored: the report came back the same)
+    if getattr(args, "_grid_step_given", False) and args.hit_grid is None:
+        raise MjmotionError(f"--grid-step {args.grid_step:g}: the spacing of --hit-grid; give --hit-grid N too, or leave it out")
+    if getattr(args, "_ball_radius_given", False) and args.ball is None and args.hit_grid is None:
+        raise MjmotionError(
+            f"--ball-radius {args.ball_radius:g}: the radius of --ball (or --hit-grid's ball); give --ball X Y Z too, or leave it out"
+        )
     if args.jobs < 1:
         raise MjmotionError(f"--jobs {args.jobs}: expected a number of processes ≥ 1")
     if args.hit_grid is not None and args.hit_grid < 2:

@@ -209,6 +209,11 @@ def run(args: argparse.Namespace) -> int:
                 if first:  # its label counts from the clip as read; the user's frame is the file's
                     path = dataclasses.replace(path, label=f"abort at {args.abort_at}")
         k = path.k
+        if args.plot and k < args.plot_dims:  # (before anything is written: the plot came last)
+            given = f"--plot-dims {args.plot_dims}" if getattr(args, "_plot_dims_given", False) else f"--plot {args.plot}"
+            raise MjmotionError(
+                f"{given}: this variation has {k} principal component(s) to draw" + ("; use --plot-dims 2" if k >= 2 else "; a plot needs 2")
+            )
 
         step("synthesise")
         raw = variations.synthesise(space, path)
