@@ -9,7 +9,7 @@ import sys
 from ..errors import MjmotionError
 from ..outputs import write_text_atomic
 from ._common import add_bowler_option, add_input_options, check_bowler, check_model, check_suffix, clip_frame, load_first, output_path, prop_option
-from ._options import COORD, FRAME, VELOCITY, number, prop_text
+from ._options import COORD, FRAME, VELOCITY, Given, number, prop_text
 from ._progress import steps
 
 NAME = "hit"
@@ -80,6 +80,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--prop",
         default="club",
         type=prop_text,
+        action=Given,
         metavar="KIND[:JOINT]",
         help="the prop for --effector club: club or bat fitted to both hands, or KIND:JOINT held by JOINT along its bone (default: club)",
     )
@@ -131,6 +132,11 @@ def run(args: argparse.Namespace) -> int:
     falloff = hitpoint.DEFAULT_FALLOFF if args.falloff is None else args.falloff
     if (args.ball_release is None) != (args.release_velocity is None):
         raise MjmotionError("--ball-release and --release-velocity go together")
+    # (ignored options gave the same result as without them)
+    if getattr(args, "_prop_given", False) and args.effector != "club":
+        raise MjmotionError(f"--prop {args.prop}: the prop of --effector club; --effector {args.effector} moves no prop, leave it out")
+    if args.source_ball is not None and args.frame is not None:
+        raise MjmotionError(f"--source-ball with --frame {args.frame}: the source's ball finds the hit frame, --frame gives it; give one")
     if args.target is None and args.offset is None and args.ball_release is None and args.delivery is None:
         raise MjmotionError("give --target or --offset (or a delivered ball: --ball-release with --release-velocity, or --delivery)")
     delivered = args.ball_release is not None or args.delivery is not None
