@@ -197,7 +197,10 @@ def resolve_effector(motion: Motion, name: str, prop: mjcf.Prop | None = None) -
             raise MjmotionError(f"--effector {name}: no {side} hand found by name in the skeleton")
         return Effector(name, hands[side], tuple(_first_tip(skel, hands[side]))), None
     compiled = mjcf.compile(skel, (prop,) if prop else ())
-    sid = compiled.site_id(name)
+    try:
+        sid = compiled.site_id(name)
+    except MjmotionError as e:
+        raise MjmotionError(f"--effector {name}: expected {', '.join(EFFECTORS)} or a site of the model; {e}") from None
     body = int(compiled.model.site_bodyid[sid])
     joints = np.flatnonzero(compiled.body_ids == body)
     if len(joints) == 0:

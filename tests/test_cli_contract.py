@@ -472,9 +472,21 @@ def test_errors_name_the_option_they_are_about(tmp_path, human, capsys):
         (["hit", "missing.bvh", "--offset", "0", "0", "0.1", "--bowler", "0", "0", "-o", out], "--bowler 0 0"),
         (["vary", walk, "--scale", "1.2", "--segment", "0:1", "-o", out], "--segment 0:1: selects 1 frame(s); expected at least 3"),
         (["render", walk, "--trail", "nosuch", "-o", str(tmp_path / "r.gif")], "--trail nosuch: no site or joint"),
+        (["hit", walk, "--effector", "nosite", "--offset", "0", "0", "0.1", "-o", out], "--effector nosite: expected club, left_foot"),
+        (["hit", walk, "--offset", "0", "0", "0.1", "--delivery", "fast", "--bowler", "1e-300", "0", "-o", out], "--bowler 1e-300 0: expected"),
+        (
+            ["hit", walk, "--offset", "0", "0", "0.1", "--ball-release", "0", "0", "0", "--release-velocity", "0", "0", "0", "-o", out],
+            "--ball-release 0 0 0: the ball is released 0.000 m above the floor",
+        ),
     )
     for argv, phrase in cases:
         refused(*run(argv, capsys)[::2], phrase)
+    # two clips the registration cannot blend: which two (it said "the registered clips")
+    from mjmotion import bvh
+
+    short = tmp_path / "two_frames.bvh"
+    bvh.write(bvh.read(walk)[:2], short)
+    refused(*run(["blend", str(short), walk, "--weights", "0.5,0.5", "-o", out], capsys)[::2], f"{short} and {walk}: the registered clips")
 
 
 def test_error_is_one_line_even_for_names_with_line_breaks(tmp_path, capsys):

@@ -200,8 +200,8 @@ def check_bowler(args: argparse.Namespace) -> None:
     """``--bowler DX DY`` (a delivery's direction) is not 0 0 and comes with ``--delivery``: refused
     before any clip is read."""
     dx, dy = args.bowler
-    if not math.hypot(dx, dy) > 0:
-        raise MjmotionError(f"--bowler {dx:g} {dy:g}: expected a horizontal direction to the bowler, not 0 0")
+    if not math.hypot(dx, dy) > 1e-9:  # (1e-300 passed "not 0" and failed later, with no option named)
+        raise MjmotionError(f"--bowler {dx:g} {dy:g}: expected a horizontal direction to the bowler, not 0 0 (at least 1e-9 long)")
     if getattr(args, "_bowler_given", False) and args.delivery is None:
         if getattr(args, "ball_release", None) is not None:  # that ball flies from where it is released
             raise MjmotionError(f"--bowler {dx:g} {dy:g}: only a --delivery uses it, not a --ball-release ball; leave --bowler out")

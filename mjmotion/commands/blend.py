@@ -59,7 +59,11 @@ def run(args: argparse.Namespace) -> int:
             from ..registration import register_many
 
             step("register")
-            registration = register_many(clips, reference=0 if len(clips) <= 2 else None, weights=joint_weights.load(args, clips[0].skeleton))
+            try:
+                registration = register_many(clips, reference=0 if len(clips) <= 2 else None, weights=joint_weights.load(args, clips[0].skeleton))
+            except MjmotionError as e:  # (the registration speaks of "the clips": say which)
+                text = str(e)
+                raise MjmotionError(text if text.startswith(("-", *args.files)) else f"{' and '.join(args.files)}: {text}") from None
             for k, b in enumerate(registration.blendability):
                 warning = b.warning(clips[registration.reference].name, clips[k].name) if b is not None else None
                 if warning:

@@ -165,7 +165,10 @@ def run(args: argparse.Namespace) -> int:
             if args.delivery is not None:
                 ball = delivery.aimed(source_hit if target is None else target, bowler=np.array(args.bowler), preset=args.delivery)
             else:
-                ball = delivery.Delivery(tuple(args.ball_release), tuple(args.release_velocity))
+                try:
+                    ball = delivery.Delivery(tuple(args.ball_release), tuple(args.release_velocity))
+                except MjmotionError as e:
+                    raise MjmotionError(f"--ball-release {' '.join(f'{v:g}' for v in args.ball_release)}: {e}") from None
             flight = delivery.fly(ball)
             if target is None:
                 # Hicks 2010, §2.5.1: the new hit point is the point of the ball's path nearest the source's
