@@ -78,38 +78,31 @@ def test_compile_keyframe_skips_a_leading_t_pose(mocap, tmp_path, capsys):
     assert not np.allclose(keys[False][3:], keys[True][3:], atol=1e-3)
 
 
-def test_evaluate_measures_the_prop_hit_moved(mocap, tmp_path, capsys):
-    """A one-word --prop is the same prop in every verb: evaluate finds the club of `hit`'s result on the ball it was sent to
-    (it attached a club along the right wrist before, 0.55 m from the ball)."""
+@pytest.mark.parametrize(
+    ("prop", "other"),
+    [
+        # A one-word --prop is the same prop in every verb: evaluate finds the club of `hit`'s result on
+        # the ball it was sent to (it attached a club along the right wrist before, 0.55 m from the ball).
+        (None, "club:rwrist"),
+        # `hit --prop club:JOINT` was refused (hit took a kind alone), though the README gives --prop one
+        # meaning in every verb: hit moves the club along lwrist's bone, and evaluate finds it there.
+        ("club:lwrist", "club"),
+    ],
+)
+def test_evaluate_measures_the_prop_hit_moved(mocap, tmp_path, capsys, prop, other):
     out, rep = tmp_path / "h.bvh", tmp_path / "h.json"
-    assert main(["hit", str(mocap / "cmu_asfamc_converted" / "64_01.bvh"), "--offset", "0", "0.1", "0", "-o", str(out), "--json", str(rep)]) == 0
-    r = json.loads(rep.read_text())
-    capsys.readouterr()
-    assert r["hit_error_m"] < 1e-4
-    ev_json = tmp_path / "e.json"
-    args = ["evaluate", str(out), "--ball", *map(str, r["target"]), "--frame", str(r["hit_frame"]), "--json", str(ev_json)]
-    assert main([*args, "--prop", "club"]) == 0
-    hit = json.loads(ev_json.read_text())[0]["report"]["hit"]
-    assert hit["contact"] and abs(hit["hit_error_m"]) < 0.05, hit
-    assert main([*args, "--prop", "club:rwrist", "--force"]) == 0  # a club along the wrist's bone is another club
-    assert not json.loads(ev_json.read_text())[0]["report"]["hit"]["contact"]
-
-
-def test_hit_takes_a_prop_held_by_a_joint_as_every_verb_does(mocap, tmp_path, capsys):
-    """`hit --prop club:JOINT` was refused (hit took a kind alone), though the README gives --prop one meaning in
-    every verb: hit moves the club along lwrist's bone onto the ball, and evaluate with the same --prop finds it there."""
-    out, rep = tmp_path / "h.bvh", tmp_path / "h.json"
+    given = ["--prop", prop] if prop else []
     swing = str(mocap / "cmu_asfamc_converted" / "64_01.bvh")
-    assert main(["hit", swing, "--prop", "club:lwrist", "--offset", "0", "0.1", "0", "-o", str(out), "--json", str(rep)]) == 0
+    assert main(["hit", swing, *given, "--offset", "0", "0.1", "0", "-o", str(out), "--json", str(rep)]) == 0
     r = json.loads(rep.read_text())
     capsys.readouterr()
     assert r["hit_error_m"] < 1e-4
     ev_json = tmp_path / "e.json"
     args = ["evaluate", str(out), "--ball", *map(str, r["target"]), "--frame", str(r["hit_frame"]), "--json", str(ev_json)]
-    assert main([*args, "--prop", "club:lwrist"]) == 0
+    assert main([*args, "--prop", prop or "club"]) == 0
     hit = json.loads(ev_json.read_text())[0]["report"]["hit"]
     assert hit["contact"] and abs(hit["hit_error_m"]) < 0.05, hit
-    assert main([*args, "--prop", "club", "--force"]) == 0  # the club fitted to both hands is another club
+    assert main([*args, "--prop", other, "--force"]) == 0  # another club (along a bone, or fitted to both hands)
     assert not json.loads(ev_json.read_text())[0]["report"]["hit"]["contact"]
 
 
