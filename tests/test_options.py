@@ -157,6 +157,8 @@ def test_every_option_help_gives_its_range():
                 if not O.states_range(" ".join(a.help.split()), *a.type.bounds) or " ".join(a.help.split()) not in text:
                     missing.append(f"{name} {max(a.option_strings, key=len)}")
     assert checked > 40 and not missing, missing
+    # bounds count as whole numbers: the 0 and 1 inside "0.15" state neither end; 1e-06 reads as written
+    assert not O.states_range("(default 0.15)", 0, 1) and O.states_range("0 to 1", 0, 1) and O.states_range("(1e-6 to 1e6)", 1e-6, 1e6)
     # an option whose help already says it gets nothing added
     port = next(a for a in verbs["studio"]._actions if "--port" in a.option_strings)
     assert port.help.count("65535") == 1 and "range:" not in port.help

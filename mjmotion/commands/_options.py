@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -107,8 +108,12 @@ def integer(lo: int | None = None, hi: int | None = None, *, what: str = "a whol
 def states_range(help_text: str, lo: float | None, hi: float | None) -> bool:
     """Whether an option's help already gives both ends of its range (as the errors write them, or plain)."""
 
-    def said(x: float | None) -> bool:
-        return x is None or any(t in help_text for t in {_fmt(x), _fmt(abs(x)), str(x), f"{x:g}"})
+    def said(x: float | None) -> bool:  # (as a whole number: the 0 of "0.05" is not a bound of 0)
+        if x is None:
+            return True
+        spelled = {_fmt(x), _fmt(abs(x)), str(x), f"{x:g}"}
+        spelled |= {re.sub(r"e\+?(-?)0*(\d)", r"e\1\2", t) for t in spelled}  # 1e-06 as 1e-6, 1e+06 as 1e6
+        return any(re.search(rf"(?<![\w.]){re.escape(t)}(?![\w.])", help_text) for t in spelled)
 
     return said(lo) and said(hi)
 

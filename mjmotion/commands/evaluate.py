@@ -106,7 +106,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=0.036,
         action=Given,
         metavar="R",
-        help="ball radius in m, 0.001 to 1 (default 0.036, cricket)",
+        help="with --ball or --hit-grid: the ball's radius in m, 0.001 to 1 (default 0.036, cricket)",
     )
     p.add_argument(
         "--ball-velocity",
