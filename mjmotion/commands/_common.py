@@ -10,7 +10,7 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -285,13 +285,15 @@ def prop_option(motion: Motion, text: str) -> Prop:
     return fit_club(motion, kind)
 
 
-def named(path: str, message: str) -> str:
+def named(path: str | Sequence[str], message: str) -> str:
     """``message`` with ``path`` in front, unless it already begins with the file or an option
-    (the judge's own errors speak of "a clip": a user with many files needs to know which)."""
-    return message if message.startswith((path, "-")) else f"{path}: {message}"
+    (the judge's own errors speak of "a clip": a user with many files needs to know which);
+    ``path`` may be several files, named together ("A and B": a registration of two clips)."""
+    paths = [path] if isinstance(path, str) else list(path)
+    return message if message.startswith((*paths, "-")) else f"{' and '.join(paths)}: {message}"
 
 
-def naming(path: str, e: MjmotionError) -> MjmotionError:
+def naming(path: str | Sequence[str], e: MjmotionError) -> MjmotionError:
     """``e`` as :func:`named` words it."""
     text = named(path, str(e))
     return e if text == str(e) else MjmotionError(text)

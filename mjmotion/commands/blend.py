@@ -7,7 +7,7 @@ import sys
 
 from ..errors import MjmotionError
 from . import _joint_weights as joint_weights
-from ._common import output_path
+from ._common import naming, output_path
 from ._progress import steps
 from .register import add_clip_options, load_clips
 
@@ -62,8 +62,7 @@ def run(args: argparse.Namespace) -> int:
             try:
                 registration = register_many(clips, reference=0 if len(clips) <= 2 else None, weights=joint_weights.load(args, clips[0].skeleton))
             except MjmotionError as e:  # (the registration speaks of "the clips": say which)
-                text = str(e)
-                raise MjmotionError(text if text.startswith(("-", *args.files)) else f"{' and '.join(args.files)}: {text}") from None
+                raise naming(args.files, e) from None
             for k, b in enumerate(registration.blendability):
                 warning = b.warning(clips[registration.reference].name, clips[k].name) if b is not None else None
                 if warning:

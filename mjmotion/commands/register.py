@@ -10,7 +10,7 @@ from pathlib import Path
 from ..errors import MjmotionError
 from ..outputs import check_output, write_text_atomic
 from . import _joint_weights as joint_weights
-from ._common import add_input_options, check_suffix, extra_output, load
+from ._common import add_input_options, check_suffix, extra_output, load, naming
 from ._options import FPS, Given, integer, number, resample
 from ._progress import steps
 
@@ -158,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             pr = _register(registration, a, b, args)
         except MjmotionError as e:  # (the search's own words speak of "the grid": say whose)
-            raise MjmotionError(str(e) if str(e).startswith(("-", args.a, args.b)) else f"{args.a} and {args.b}: {e}") from None
+            raise naming([args.a, args.b], e) from None
         step("write")
         written = _write(pr, out, plot, a.name, b.name)
     t = pr.timing_s
