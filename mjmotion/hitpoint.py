@@ -402,6 +402,22 @@ def _lca(skeleton: Skeleton, a: int, b: int) -> int:
     return common
 
 
+def check_chain_options(skel: Skeleton, tip: int, wrist: str, lock: tuple[str, ...] | list[str], start: int | None = None, dash: str = "") -> None:
+    """Refuse a ``lock`` or a ``wrist`` freedom that the chain from ``start`` (default: where :func:`setup`
+    starts it) to the effector's joint ``tip`` has no joint for: either would leave the result as if it
+    were not given (a foot's chain has no wrist; an arm joint is not in a leg's chain). ``dash``: ``--``
+    to name them as options."""
+    chain = skel.chain(_chain_start(skel, tip) if start is None else start, tip)
+    names = [skel.names[j] for j in chain]
+    span = f"the chain {names[0]} → {names[-1]} ({', '.join(names)})"
+    for name in lock:
+        skel.index(name)
+        if name not in names:
+            raise MjmotionError(f"{dash}lock {name}: not a joint of {span}; locking it would change nothing")
+    if wrist != "locked" and not any(joint_role(skel, j) == "wrist" for j in chain):
+        raise MjmotionError(f"{dash}wrist {wrist}: {span} has no wrist joint; leave it out")
+
+
 def setup(
     motion: Motion,
     target: np.ndarray | None = None,
@@ -456,6 +472,7 @@ def setup(
     start = skel.index(chain_start) if chain_start else _chain_start(skel, eff.joint)
     chain_weights = "clip" if weights == "style" else weights
     max_angles = judge_cones(motion) if joint_limits is None else np.asarray(joint_limits, dtype=float)
+    check_chain_options(skel, eff.joint, wrist, lock, start)
     lead = build_chain(motion, start, eff.joint, eff, wrist=wrist, lock=lock, margin=margin, weights=chain_weights, max_angles=max_angles)
     # One PCA of the source for both chains' weights (the second fits it itself if the lead has none).
     space = PoseSpace.fit(motion) if weights == "style" and lead.n_dof else None
@@ -833,7 +850,8 @@ def adapt(
         falloff: metres, the importance blend's falloff distance (§2.2.5; different values give
             different trajectories to the same hit, §2.4).
         wrist: the effector-side wrist's freedom: ``locked`` (§2.3.3), ``swing`` (2 DOF) or ``ball``.
-        lock: further joints to lock.
+        lock: further joints of the chain to lock. A ``lock`` joint not in the chain, or a ``wrist``
+            other than ``locked`` for a chain with no wrist (a foot's), is refused: it would change nothing.
         margin: radians added to the clip's range for the rotation limits.
         weights: stiffness weights: ``style`` (learned from the source's PCA style space,
             :func:`style_weights`), ``clip`` (the coordinate's variance in the clip) or ``uniform``.

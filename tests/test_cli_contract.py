@@ -426,6 +426,10 @@ def test_an_option_that_would_do_nothing_is_refused(tmp_path, human, capsys):
     hit = ["hit", walk, "--offset", "0.05", "0", "0", "-o", str(tmp_path / "h.bvh")]
     refused(*run([*hit, "--effector", "right_foot", "--prop", "bat"], capsys)[::2], "--prop bat: the prop of --effector club")
     refused(*run([*hit, "--source-ball", "0", "0", "0", "--frame", "5"], capsys)[::2], "--source-ball with --frame 5")
+    # a foot's chain has no wrist and no arm joint: --wrist and --lock gave the result of leaving them out
+    kick = [*hit, "--effector", "right_foot"]
+    refused(*run([*kick, "--wrist", "swing"], capsys)[::2], "--wrist swing: the chain rButtock → rFoot (rButtock, rThigh, rShin, rFoot) has no wrist")
+    refused(*run([*kick, "--lock", "lShldr"], capsys)[::2], "--lock lShldr: not a joint of the chain rButtock → rFoot")
     # a hit's options with no ball to hit (they changed nothing), and a grid finer than launches can tell apart
     refused(*run(["evaluate", walk, "--grid-step", "0.1"], capsys)[::2], "--grid-step 0.1: the spacing of --hit-grid")
     refused(*run(["evaluate", walk, "--ball-radius", "0.5"], capsys)[::2], "--ball-radius 0.5: the radius of --ball")

@@ -435,3 +435,24 @@ def test_a_hit_at_the_clips_first_or_last_frame_is_refused_before_solving():
     assert hitpoint.setup(m, offset=np.array([0.0, 0.0, 0.01]), frame=1, prop=drive.prop).hit == 1
     with pytest.raises(MjmotionError, match=r"^frame 1 is not inside a clip of 2 frames;"):  # it read "frames 1..0"
         hitpoint.setup(m[:2], offset=np.array([0.0, 0.0, 0.01]), frame=1, prop=drive.prop)
+
+
+def test_a_lock_or_wrist_the_chain_has_no_joint_for_is_refused_and_one_it_has_locks_it():
+    """A foot's chain has no wrist and no arm joint: ``wrist`` and ``lock`` of those gave the result of
+    leaving them out (a sweep of the CLI). A joint of the chain that is locked keeps the source's rotation."""
+    from mjmotion import synth
+
+    kick = synth.kick().motion
+    names = kick.skeleton.names
+    foot = hitpoint.resolve_effector(kick, "right_foot")[0].joint
+    chain = [names[j] for j in kick.skeleton.chain(hitpoint._chain_start(kick.skeleton, foot), foot)]
+    arm = next(n for n in names if n not in chain and "Arm" in n)
+    with pytest.raises(MjmotionError, match=rf"^wrist swing: the chain {chain[0]} → {chain[-1]} \(.*\) has no wrist joint"):
+        hitpoint.setup(kick, offset=np.array([0.1, 0.0, 0.0]), effector="right_foot", wrist="swing")
+    with pytest.raises(MjmotionError, match=rf"^lock {arm}: not a joint of the chain {chain[0]} → {chain[-1]}"):
+        hitpoint.setup(kick, offset=np.array([0.1, 0.0, 0.0]), effector="right_foot", lock=[arm])
+    knee = names.index(chain[-2])
+    free = hitpoint.adapt(kick, offset=np.array([0.1, 0.0, 0.0]), effector="right_foot", solver="dls", style=False)
+    held = hitpoint.adapt(kick, offset=np.array([0.1, 0.0, 0.0]), effector="right_foot", solver="dls", style=False, lock=[chain[-2]])
+    assert not np.allclose(free.motion.rotations[:, knee], kick.rotations[:, knee])
+    assert np.allclose(held.motion.rotations[:, knee], kick.rotations[:, knee])

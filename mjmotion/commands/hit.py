@@ -108,8 +108,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="D",
         help="importance falloff distance in metres, at most 100 (default: 0.6)",
     )
-    p.add_argument("--wrist", default="locked", choices=("locked", "swing", "ball"), help="freedom of the effector's wrist (default: locked)")
-    p.add_argument("--lock", nargs="+", default=[], metavar="JOINT", help="joints to lock in the chain")
+    p.add_argument(
+        "--wrist",
+        default="locked",
+        choices=("locked", "swing", "ball"),
+        help="freedom of the wrist in the effector's chain (a foot's chain has none; default: locked)",
+    )
+    p.add_argument("--lock", nargs="+", default=[], metavar="JOINT", help="joints of the effector's chain to keep as in the source")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="the adapted clip")
     p.add_argument("--json", default=None, metavar="REPORT.json", help="also write the report here")
     p.add_argument("--force", action="store_true", help="replace existing outputs")
@@ -151,6 +156,7 @@ def run(args: argparse.Namespace) -> int:
         # (the edit fades in and out around its hit frame and keeps the clip's first and last frames)
         frame = None if args.frame is None else clip_frame(args.frame, first, "--frame", m.n_frames, inner=True, why=HIT_INSIDE)
         prop = prop_option(m, args.prop) if args.effector == "club" else None
+        hitpoint.check_chain_options(m.skeleton, hitpoint.resolve_effector(m, args.effector, prop)[0].joint, args.wrist, args.lock, dash="--")
         source_ball = None if args.source_ball is None else np.array(args.source_ball)
         target = None if args.target is None else np.array(args.target)
         flight = None
