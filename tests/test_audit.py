@@ -543,6 +543,9 @@ def test_bad_input_is_one_error_line(corpus, tmp_path, capsys):
         _refused(["audit", str(corpus), "-o", str(taken), "--force", "--scheduler", address], capsys, "not a Dask scheduler address", why)
         assert time.perf_counter() - t0 < 5.0
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o3"), "--timeout", "-5"], capsys, "--timeout -5")
+    for name in ("out.csv", "out.PARQUET", "summary.md"):  # a file's name made a folder of that name
+        _refused(["audit", str(corpus), "-o", str(tmp_path / name)], capsys, f"-o {tmp_path / name}: names a", "file; an audit writes a folder")
+        assert not (tmp_path / name).exists()
     (tmp_path / "o6").write_text("a file")
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o6" / "sub" / "out")], capsys, f"{tmp_path / 'o6'} is not a folder")
     assert (tmp_path / "o6").read_text() == "a file"

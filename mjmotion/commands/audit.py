@@ -100,6 +100,9 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path, list[Path]]:
         raise MjmotionError(f"-o {out}: is inside {root}; nothing is written in the audited folder, choose an output folder outside it")
     if out.exists() and not out.is_dir():
         raise MjmotionError(f"-o {out}: exists and is not a folder; an audit writes a folder of results")
+    if not out.exists() and out.suffix.lower() in (".csv", ".parquet", ".md"):
+        # (`-o audit.csv` made a folder of that name with audit.csv inside)
+        raise MjmotionError(f"-o {out}: names a {out.suffix} file; an audit writes a folder (audit.csv, audit.parquet, summary.md), give its name")
     # Missing folders on the way are made (as `mkdir -p`, like demo's --out); one that is a file is refused.
     above = next(a for a in (out, *out.parents) if a.exists())
     if above != out and not above.is_dir():
