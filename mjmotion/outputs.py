@@ -15,6 +15,10 @@ Two steps, for every file a verb writes:
    never replaced; with ``force`` by ``os.replace``, and only over a regular file or a symbolic
    link (the link itself, never what it points to).
 
+A verb with several outputs (a clip, its report, its plot) writes them inside :func:`together`: each is
+finished as a temporary as above, and all are published at the end of the block, so an interrupt or an
+error on the way leaves none of them (a clip without its report read as a finished run).
+
 A path no :func:`check_output` claimed (library code writing results) is published with
 replacement, as ``os.replace`` would, but never over a directory, FIFO, device or socket.
 """
@@ -29,6 +33,7 @@ import os
 import shutil
 import stat
 import tempfile
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
@@ -39,6 +44,8 @@ from .inputs import kind_of
 #: :func:`reset_claims` (the CLI resets them per command): a stale claim can only refuse a
 #: replacement, never allow one.
 _CLAIMS: dict[str, bool] = {}
+#: Per thread, the outputs held by :func:`together` blocks (innermost last): temporary, output, replace.
+_HELD = threading.local()
 
 
 def _key(path: str | os.PathLike[str]) -> str:
@@ -257,10 +264,37 @@ def atomic_path(path: str | os.PathLike[str], replace: bool | None = None) -> It
     try:
         yield Path(tmp)
         _fsync(tmp)
-        publish(tmp, out, replace)
+        held = getattr(_HELD, "stack", None)
+        if held:
+            held[-1].append((tmp, out, replace))
+        else:
+            publish(tmp, out, replace)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+        raise
+
+
+@contextlib.contextmanager
+def together() -> Iterator[None]:
+    """Publish every file :func:`atomic_path` finishes in this block (in this thread) when the block ends,
+    in the order written; if it raises or is interrupted, remove them all and publish none."""
+    stack = _HELD.__dict__.setdefault("stack", [])
+    pending: list[tuple[str, Path, bool]] = []
+    stack.append(pending)
+    published = 0
+    try:
+        try:
+            yield
+        finally:
+            stack.pop()
+        for tmp, out, replace in pending:
+            publish(tmp, out, replace)
+            published += 1
+    except BaseException:
+        for tmp, _, _ in pending[published:]:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
         raise
 
 

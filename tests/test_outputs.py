@@ -163,6 +163,32 @@ def test_the_block_failing_leaves_the_old_file(tmp_path):
     assert out.read_text() == "precious" and sorted(os.listdir(tmp_path)) == ["keep.txt"]
 
 
+def test_outputs_written_together_appear_together_or_not_at_all(tmp_path):
+    """vary wrote its clip, then measured and drew for seconds: an interrupt left the clip without its
+    report or plot. Written together, none appears until the block ends, and none if it fails."""
+    clip, report = tmp_path / "v.bvh", tmp_path / "v.json"
+    with pytest.raises(KeyboardInterrupt), outputs.together():
+        write_text_atomic(clip, "clip")
+        assert not clip.exists()  # held until the block ends
+        raise KeyboardInterrupt
+    assert sorted(os.listdir(tmp_path)) == []  # (temporaries removed too)
+    with outputs.together():
+        write_text_atomic(clip, "clip")
+        with outputs.together():  # an inner block publishes at its own end
+            write_text_atomic(report, "report")
+        assert report.exists() and not clip.exists()
+    assert clip.read_text() == "clip" and report.read_text() == "report"
+    # a file that appeared meanwhile is not replaced, and the outputs after it are not published
+    check_output(tmp_path / "a.txt", force=False)
+    with pytest.raises(OutputExistsError), outputs.together():
+        write_text_atomic(tmp_path / "a.txt", "a")
+        write_text_atomic(tmp_path / "b.txt", "b")
+        (tmp_path / "a.txt").write_text("theirs")
+    assert (tmp_path / "a.txt").read_text() == "theirs" and sorted(os.listdir(tmp_path)) == ["a.txt", "v.bvh", "v.json"]
+    write_text_atomic(clip, "again")  # outside a block: published at once, as before
+    assert clip.read_text() == "again"
+
+
 _WRITER = textwrap.dedent(
     """
     import os, sys, time

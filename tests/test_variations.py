@@ -309,6 +309,28 @@ def test_abort_follows_the_source_and_ends_at_the_rest_pose_smoothly(golf):
 
 
 # --- plots and CLI -----------------------------------------------------------------------------
+def test_an_interrupted_vary_leaves_none_of_its_outputs(tmp_path, monkeypatch, capsys):
+    """The clip was written first, then measured and drawn for seconds: Ctrl-C there left it without its
+    report and plot (and a rerun was refused: the clip existed)."""
+    from mjmotion import plots, synth
+
+    src = tmp_path / "drive.bvh"
+    bvh.write(synth.drive().motion, src)
+    drawn = []
+
+    def interrupted(*args, **kwargs):
+        drawn.append(args)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plots, "score_paths", interrupted)
+    argv = ["vary", str(src), "--scale", "1.2", "-o", str(tmp_path / "v.bvh"), "--json", str(tmp_path / "v.json"), "--plot", str(tmp_path / "v.png")]
+    assert main(argv) == 130 and drawn
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["drive.bvh"]
+    monkeypatch.undo()
+    assert main(argv) == 0, capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["drive.bvh", "v.bvh", "v.json", "v.png"]
+
+
 def test_vary_cli_report_and_errors(tmp_path, capsys):
     src_file = require_data() / "cmu_asfamc_converted" / "64_01.bvh"
     out, js, png = tmp_path / "v.bvh", tmp_path / "v.json", tmp_path / "v.png"

@@ -7,7 +7,7 @@ import json
 import math
 
 from ..errors import MjmotionError
-from ..outputs import write_text_atomic
+from ..outputs import together, write_text_atomic
 from ._common import add_input_options, extra_output, load, naming, output_path
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, number
 from .evaluate import _finite, _nan_to_none, add_judge_options, check_floor, load_sources
@@ -114,8 +114,12 @@ def run(args: argparse.Namespace) -> int:
         after = _metrics(res.motion, refs, args.floor, params)
     except MjmotionError as e:
         raise naming(args.file, e) from None
-    bvh.write(res.motion, out)
     info = res.to_dict()
+    with together():  # (the clip and its report appear together or not at all)
+        bvh.write(res.motion, out)
+        if rep_path is not None:
+            doc = dict(input=args.file, output=str(out), sources=list(args.source), before=before, after=after, **info)
+            write_text_atomic(rep_path, json.dumps(_nan_to_none(doc), indent=1, default=float, allow_nan=False))
     print(
         f"wrote {out}: {len(res.plants)} plants ({info['raised_plants']} raised onto the floor), "
         f"{int(res.changed_frames.sum())}/{m.n_frames} frames changed, root moved ≤ {res.max_root_shift_m * 1000:.1f} mm"
@@ -134,8 +138,6 @@ def run(args: argparse.Namespace) -> int:
         f"clearance={params.swing_clearance} m, min plant={params.min_plant} s, gap closed ≤ {params.max_gap} s (docs/METRICS.md)"
     )
     if rep_path is not None:
-        doc = dict(input=args.file, output=str(out), sources=list(args.source), before=before, after=after, **info)
-        write_text_atomic(rep_path, json.dumps(_nan_to_none(doc), indent=1, default=float, allow_nan=False))
         print(f"wrote {rep_path}")
     return 0
 

@@ -7,7 +7,7 @@ import json
 import sys
 
 from ..errors import MjmotionError
-from ..outputs import write_text_atomic
+from ..outputs import together, write_text_atomic
 from ._common import add_bowler_option, add_input_options, check_bowler, check_model, check_suffix, clip_frame, load_first, output_path, prop_option
 from ._options import COORD, FRAME, VELOCITY, Given, number, prop_text
 from ._progress import steps
@@ -197,10 +197,11 @@ def run(args: argparse.Namespace) -> int:
             step("launch")
             result.report["delivery"] = _launch(result, ball, flight, args.delivery)
         step("write")
-        bvh.write(result.motion, out)
         text = json.dumps(result.report, indent=2)
-        if report_path is not None:
-            write_text_atomic(report_path, text + "\n")
+        with together():  # (the clip and its report appear together or not at all)
+            bvh.write(result.motion, out)
+            if report_path is not None:
+                write_text_atomic(report_path, text + "\n")
     r = result.report
     written = f"{out} and {report_path}" if report_path is not None else str(out)
     # human output to meaningful digits (the JSON keeps full precision); a grip only where two hands hold the prop

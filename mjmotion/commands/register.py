@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from ..errors import MjmotionError
-from ..outputs import check_output, write_text_atomic
+from ..outputs import check_output, together, write_text_atomic
 from . import _joint_weights as joint_weights
 from ._common import add_input_options, check_suffix, extra_output, load, naming
 from ._options import FPS, Given, integer, number, resample
@@ -195,11 +195,12 @@ def _register(registration, a, b, args: argparse.Namespace):
 
 def _write(pr, out: Path, plot: Path | None, name_a: str, name_b: str) -> str:
     """Write the registration's JSON (and the grid's plot); the files written, for the summary line."""
-    write_text_atomic(out, json.dumps(pr.to_json()))
-    if plot is None:
-        return str(out)
-    from .. import plots
+    with together():  # (the registration and its plot appear together or not at all)
+        write_text_atomic(out, json.dumps(pr.to_json()))
+        if plot is None:
+            return str(out)
+        from .. import plots
 
-    a, b = name_a or "A", name_b or "B"
-    plots.distance_grid(pr.grid.cost, pr.path.cells, pr.curve.samples, plot, labels=(f"frame of {a}", f"frame of {b}"), title=f"{a} / {b}")
+        a, b = name_a or "A", name_b or "B"
+        plots.distance_grid(pr.grid.cost, pr.path.cells, pr.curve.samples, plot, labels=(f"frame of {a}", f"frame of {b}"), title=f"{a} / {b}")
     return f"{out} and {plot}"

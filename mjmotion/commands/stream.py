@@ -7,7 +7,7 @@ import json
 import sys
 
 from ..errors import MjmotionError
-from ..outputs import write_text_atomic
+from ..outputs import together, write_text_atomic
 from . import _joint_weights as joint_weights
 from ._common import add_input_options, extra_output, load, output_path
 from ._progress import steps
@@ -76,22 +76,24 @@ def run(args: argparse.Namespace) -> int:
             ) from None
         step("stream")
         result = controller.run(name=out.stem)
+        registration = controller.registration
+        blends = {script.locomotion[k]: b for k, b in enumerate(registration.blendability) if b is not None}
         step("write")
-        bvh.write(result, out)
-    registration = controller.registration
-    blends = {script.locomotion[k]: b for k, b in enumerate(registration.blendability) if b is not None}
+        with together():  # (the clip and its report appear together or not at all)
+            bvh.write(result, out)
+            if report is not None:
+                data = {
+                    "fps": script.fps,
+                    "frames": result.n_frames,
+                    "transitions": [t.to_json(script.fps) for t in controller.transitions],
+                    "blendability": {name: b.to_json() for name, b in blends.items()},
+                }
+                write_text_atomic(report, json.dumps(data, indent=1))
     for name, b in blends.items():
         warning = b.warning(script.locomotion[registration.reference], name)
         if warning:
             sys.stderr.write(f"warning: {warning}\n")
     print(f"wrote {out}: {result.n_frames} frames at {result.fps:g} fps from {len(script.commands)} commands")
     if report is not None:
-        data = {
-            "fps": script.fps,
-            "frames": result.n_frames,
-            "transitions": [t.to_json(script.fps) for t in controller.transitions],
-            "blendability": {name: b.to_json() for name, b in blends.items()},
-        }
-        write_text_atomic(report, json.dumps(data, indent=1))
         print(f"wrote {report}: {len(controller.transitions)} transition(s)")
     return 0

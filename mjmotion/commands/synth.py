@@ -6,7 +6,7 @@ import argparse
 import json
 
 from ..errors import MjmotionError
-from ..outputs import check_folder, write_text_atomic
+from ..outputs import check_folder, together, write_text_atomic
 from ._common import extra_output, output_path
 from ._options import integer, number
 from ._progress import steps
@@ -104,9 +104,10 @@ def run(args: argparse.Namespace) -> int:
         if args.speed is not None or args.seconds is not None or args.turn or args.step_length is not None:
             raise MjmotionError(f"synth {args.kind}: --speed, --turn, --seconds and --step-length apply to gaits only")
         clip = fn(seed=args.seed)
-    bvh.write(clip.motion, out)
-    if truth is not None:
-        write_text_atomic(truth, json.dumps(clip.to_manifest(out.name), indent=1) + "\n")
+    with together():  # (the clip and its ground truth appear together or not at all)
+        bvh.write(clip.motion, out)
+        if truth is not None:
+            write_text_atomic(truth, json.dumps(clip.to_manifest(out.name), indent=1) + "\n")
     extra = f", hit frame {clip.hit_frame}" if clip.hit_frame is not None else ""
     written = f"{out} and {truth}" if truth is not None else str(out)
     print(f"wrote {written}: {args.kind}, {clip.motion.n_frames} frames at {clip.motion.fps:g} fps{extra}")

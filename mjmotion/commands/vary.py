@@ -9,7 +9,7 @@ import json
 
 from ..caps import MAX_COMPONENTS, MAX_FRAMES, check_motion_size
 from ..errors import MjmotionError
-from ..outputs import check_output, write_text_atomic
+from ..outputs import check_output, together, write_text_atomic
 from ._common import add_input_options, check_model, check_suffix, clip_frame, load_first, output_path, parse_frames
 from ._options import FRAME, Given, integer, number
 from ._progress import steps
@@ -224,40 +224,41 @@ def run(args: argparse.Namespace) -> int:
         else:
             step("clean up")
             result, cleanup = variations.clean_up(source, raw, path, first_hand=hand, feet=args.feet)
-        step("write")
-        bvh.write(result, out)
+        with together():  # (a clip, its report and its plot appear together or not at all)
+            step("write")
+            bvh.write(result, out)
 
-        step("measure")
-        report = variations.report(source, raw, result, path, space, first_hand=hand)
-        report["cleanup"] = (
-            None
-            if cleanup is None
-            else {
-                "held_frames": cleanup.held_frames,
-                "foot_reach_error_m": cleanup.foot_reach_error_m,
-                "grip_hands": cleanup.grip_hands,
-                "grip_reach_error_m": cleanup.grip_reach_error_m,
-            }
-        )
-        errs = reconstruction_errors(
-            source,
-            sorted({1, 2, 3, 5, 10, k, space.n_components} & set(range(1, space.n_components + 1))),
-        )
-        report["reconstruction_error_m"] = {str(kk): v for kk, v in errs.items()}
-        vals = list(errs.values())
-        report["reconstruction_error_falls_with_k"] = bool(all(b <= a + 1e-9 for a, b in itertools.pairwise(vals)))
-        report.update(source=args.file, output=str(out))
-
-        if args.plot:
-            step("plot")
-            src_path = space.source_scores
-            plots.score_paths(
-                {"source": src_path, path.label: path.scores},
-                args.plot,
-                dims=args.plot_dims,
+            step("measure")
+            report = variations.report(source, raw, result, path, space, first_hand=hand)
+            report["cleanup"] = (
+                None
+                if cleanup is None
+                else {
+                    "held_frames": cleanup.held_frames,
+                    "foot_reach_error_m": cleanup.foot_reach_error_m,
+                    "grip_hands": cleanup.grip_hands,
+                    "grip_reach_error_m": cleanup.grip_reach_error_m,
+                }
             )
-        if args.json:
-            write_text_atomic(args.json, json.dumps(report, indent=2, default=_jsonable) + "\n")
+            errs = reconstruction_errors(
+                source,
+                sorted({1, 2, 3, 5, 10, k, space.n_components} & set(range(1, space.n_components + 1))),
+            )
+            report["reconstruction_error_m"] = {str(kk): v for kk, v in errs.items()}
+            vals = list(errs.values())
+            report["reconstruction_error_falls_with_k"] = bool(all(b <= a + 1e-9 for a, b in itertools.pairwise(vals)))
+            report.update(source=args.file, output=str(out))
+
+            if args.plot:
+                step("plot")
+                src_path = space.source_scores
+                plots.score_paths(
+                    {"source": src_path, path.label: path.scores},
+                    args.plot,
+                    dims=args.plot_dims,
+                )
+            if args.json:
+                write_text_atomic(args.json, json.dumps(report, indent=2, default=_jsonable) + "\n")
 
     written = ", ".join(str(x) for x in (out, args.json, args.plot) if x)
     print(f"wrote {written}: {path.label}, {result.n_frames} frames, k={k} ({100 * report['variance_explained']:.1f}% of the variance)")
