@@ -234,17 +234,18 @@ def check_suffix(path: str | os.PathLike[str], option: str, suffix: str) -> None
 def extra_output(path: str | None, option: str, suffix: str, force: bool, inputs: Iterable[str | os.PathLike[str]]) -> Path | None:
     """A report or plot (``--json``, ``--plot``, ``--truth``) checked before the work as ``-o`` is
     (:func:`mjmotion.outputs.check_output`), then its suffix (:func:`check_suffix`); ``None`` when not given."""
-    if not path:
-        return None
-    out = check_output(path, force=force, inputs=inputs)
-    check_suffix(out, option, suffix)
-    return out
+    return _checked_output(path, option, suffix, force, inputs) if path else None
 
 
 def output_path(args: argparse.Namespace, *inputs: str, suffix: str | None = None, option: str = "-o") -> Path:
     """Check ``args.output`` before the work starts (exists → needs --force; never an input; ends
     in ``suffix`` if one is given; errors name ``option``, "" for a positional argument)."""
-    out = check_output(args.output, force=bool(getattr(args, "force", False)), inputs=inputs)
+    return _checked_output(args.output, option, suffix, bool(getattr(args, "force", False)), inputs)
+
+
+def _checked_output(path: str, option: str, suffix: str | None, force: bool, inputs: Iterable[str | os.PathLike[str]]) -> Path:
+    """An output path checked before the work (:func:`mjmotion.outputs.check_output`), then its suffix."""
+    out = check_output(path, force=force, inputs=inputs)
     if suffix is not None:
         check_suffix(out, option, suffix)
     return out

@@ -8,7 +8,7 @@ import sys
 
 from ..errors import MjmotionError
 from ..outputs import together, write_text_atomic
-from ._common import add_bowler_option, add_input_options, check_bowler, check_model, check_suffix, clip_frame, load_first, output_path, prop_option
+from ._common import add_bowler_option, add_input_options, check_bowler, check_model, clip_frame, extra_output, load_first, output_path, prop_option
 from ._options import COORD, FRAME, VELOCITY, Given, number, prop_text
 from ._progress import steps
 
@@ -128,12 +128,9 @@ def run(args: argparse.Namespace) -> int:
 
     check_bowler(args)
     out = output_path(args, args.file, suffix=".bvh")
-    report_path = None
-    if args.json:
-        report_path = output_path(argparse.Namespace(output=args.json, force=args.force), args.file)
-        if report_path == out:
-            raise MjmotionError("--json and -o name the same file")
-        check_suffix(report_path, "--json", ".json")
+    report_path = extra_output(args.json, "--json", ".json", args.force, [args.file])
+    if report_path is not None and report_path == out:
+        raise MjmotionError("--json and -o name the same file")
     falloff = hitpoint.DEFAULT_FALLOFF if args.falloff is None else args.falloff
     if (args.ball_release is None) != (args.release_velocity is None):
         raise MjmotionError("--ball-release and --release-velocity go together")
