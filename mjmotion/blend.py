@@ -30,7 +30,7 @@ import numpy as np
 from . import rotations as rot
 from .errors import MjmotionError
 from .registration import Registration, register_many
-from .skeleton import Motion
+from .skeleton import Motion, same_rate
 from .transform import floor_transform
 
 METHODS = ("registered", "linear")
@@ -217,7 +217,7 @@ def common_rate(motions: list[Motion]) -> list[Motion]:
     out = [first]
     for m in motions[1:]:
         first.skeleton.require_same_topology(m.skeleton, f"{first.name or 'clip 1'} and {m.name or 'another clip'}")
-        out.append(m if abs(m.fps - first.fps) <= 1e-6 * first.fps else m.resample(first.fps))
+        out.append(m if same_rate(m.fps, first.fps) else m.resample(first.fps))
     return out
 
 

@@ -45,7 +45,7 @@ from .errors import MjmotionError
 from .filters import lowpass, velocity
 from .kinematics import Pose
 from .mjcf import CompiledModel
-from .skeleton import Motion, Skeleton
+from .skeleton import Motion, Skeleton, same_rate
 from .thresholds import CUTOFF_HZ, H_C, HYSTERESIS, SPEED_WINDOW, V_C
 
 # The 8 corner sign patterns of a box, (8, 3).
@@ -550,7 +550,7 @@ def check_sources(motion: Motion, sources: Sequence[Motion]) -> None:
         label = f"source {i + 1} ({s.name or 'unnamed'})"
         if not motion.skeleton.same_topology(s.skeleton):
             raise MjmotionError(f"{label}: another skeleton than {motion.name or 'the result'}'s; a source must share the result's skeleton")
-        if abs(s.fps - motion.fps) > 1e-6 * motion.fps:
+        if not same_rate(s.fps, motion.fps):
             raise MjmotionError(f"{label}: {s.fps:g} fps, the result {motion.fps:g} fps; resample one (mjmotion convert --fps)")
         if s is motion:
             raise MjmotionError(f"{label} is the result itself; judge a result against the clip(s) it was made from")

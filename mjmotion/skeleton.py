@@ -299,6 +299,17 @@ def detect_scale(extent: float) -> float:
     )
 
 
+#: Relative difference under which two frame rates are one: a BVH keeps its Frame Time to a few digits
+#: (cgspeed's ``.0083333`` is 120.0005 fps, iClone's ``0.016667`` 59.9988, ours 10 digits), so a clip
+#: resampled to its source's rate reads a few millionths off it. 1e-4 drifts a tenth of a frame in 1,000.
+RATE_TOLERANCE = 1e-4
+
+
+def same_rate(a: float, b: float) -> bool:
+    """Whether frame rates ``a`` and ``b`` (frames per second) are the same rate as files write it."""
+    return abs(a - b) <= RATE_TOLERANCE * max(abs(a), abs(b))
+
+
 #: How far from 1 a rotation quaternion's norm may be before a motion normalises it (operations write them to ~1e-15).
 UNIT_TOLERANCE = 1e-6
 #: A quaternion shorter than this is no rotation.

@@ -54,7 +54,7 @@ from . import registration as reg
 from . import script as script_schema
 from .blend import Track, WeightCurve, bezier_ease, check_weights, compose
 from .errors import MjmotionError
-from .skeleton import Motion
+from .skeleton import Motion, same_rate
 
 
 @dataclass(frozen=True)
@@ -183,7 +183,7 @@ def parse_script(data: dict, base: Path, load) -> Script:
         f"× {n_joints} joints × {BYTES_PER_TRACK_FRAME_JOINT} bytes per track at {fps:g} fps)"
     )
     duration = _number(data["duration"], "script.duration", 1.0 / fps, limit_s, why)
-    clips = {k: (m if abs(m.fps - fps) <= 1e-6 * fps else m.resample(fps)) for k, m in clips.items()}
+    clips = {k: (m if same_rate(m.fps, fps) else m.resample(fps)) for k, m in clips.items()}
     commands = []
     if not isinstance(data["commands"], list) or not data["commands"]:
         raise MjmotionError("script.commands: expected a non-empty list")

@@ -556,6 +556,20 @@ def test_cli_evaluate_refuses_a_bad_floor_or_source(case, tmp_path, capsys):
         assert ("is the result itself" in err) == (case == "itself") and ("a copy" in err) == (case != "itself"), err
 
 
+def test_a_clip_resampled_to_its_sources_rate_as_written_is_judged_against_it(tmp_path, capsys):
+    """cgspeed writes Frame Time .0083333 (120.0005 fps): `convert --fps 120` of such a clip was refused as
+    its source ("120 fps, r120.bvh 120 fps; resample one first"), and resampling could not help."""
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh")[10:130]
+    src, r120 = tmp_path / "src.bvh", tmp_path / "r120.bvh"
+    src.write_text(bvh.format_motion(m).replace(f"Frame Time: {bvh.frame_time_text(m.fps)}", "Frame Time: .0083333"))
+    assert bvh.read(src).fps != 120.0
+    assert main(["convert", str(src), str(r120), "--fps", "120"]) == 0
+    assert main(["evaluate", str(r120), "--source", str(src)]) == 0, capsys.readouterr().err
+    assert main(["convert", str(src), str(tmp_path / "r119.bvh"), "--fps", "119.9"]) == 0  # another rate is still refused
+    assert main(["evaluate", str(tmp_path / "r119.bvh"), "--source", str(src)]) == 2
+    assert "119.9 fps; resample one first" in capsys.readouterr().err
+
+
 def test_the_judge_reuses_a_compiled_model_only_for_an_equal_skeleton_and_props(tmp_path):
     """evaluate compiles a skeleton once per process (judge_model): an equal skeleton read again
     gets the same model, other props or another skeleton a new one, and the report is the same

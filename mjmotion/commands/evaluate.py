@@ -185,6 +185,7 @@ def load_sources(args: argparse.Namespace, result_path: str, result, what: str =
     """The ``--source`` clips, checked against the result (``result_path``, motion ``result``):
     same skeleton and frame rate, not the result itself; leading transients cut like the result's.
     ``what``: how the messages call the clip judged against them (``cleanup``: "the input")."""
+    from ..skeleton import same_rate
 
     out = []
     for src in args.source:
@@ -204,7 +205,7 @@ def load_sources(args: argparse.Namespace, result_path: str, result, what: str =
                 f"--source {src}: another skeleton ({m.skeleton.n_joints} joints, root {m.skeleton.names[0]!r}) than "
                 f"{result_path} ({result.skeleton.n_joints} joints, root {result.skeleton.names[0]!r}); a source must share {what}'s skeleton"
             )
-        if abs(m.fps - result.fps) > 1e-6 * result.fps:
+        if not same_rate(m.fps, result.fps):
             raise MjmotionError(f"--source {src}: {m.fps:g} fps, {result_path} {result.fps:g} fps; resample one first (mjmotion convert --fps)")
         out.append(m)
     return out

@@ -28,7 +28,7 @@ from .. import rotations as rot
 from .. import stream as st
 from ..blend import Track, WeightCurve, bezier_ease, check_weights, compose, yaw_of
 from ..errors import MjmotionError
-from ..skeleton import Motion
+from ..skeleton import Motion, same_rate
 
 
 @dataclass(frozen=True)
@@ -336,4 +336,4 @@ def _wrap(a: np.ndarray) -> np.ndarray:
 
 
 def _at_rate(m: Motion, fps: float) -> Motion:
-    return m if abs(m.fps - fps) <= 1e-6 * fps else m.resample(fps)
+    return m if same_rate(m.fps, fps) else m.resample(fps)
