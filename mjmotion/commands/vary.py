@@ -35,7 +35,8 @@ components (default: the fewest explaining --variance of the motion, 0.9; the st
 uses 0.7 and is reported as style_rmse.k); components beyond K
 keep the source's detail unless --no-detail (the seed's pure K-component reconstruction).
 The JSON report has k, variance explained, reconstruction error by number of components,
-footskate (mm/s) of source, raw and cleaned variant, grip error and joint-speed ratio.
+planted_skate_mm_per_s of source, raw and cleaned variant (the judge's, against the source: docs/METRICS.md),
+grip error, joint-speed ratios and pop frames.
 
 examples:
   mjmotion vary 64_01.bvh --scale 1.3 -o big.bvh --plot big.png --json big.json
@@ -262,9 +263,9 @@ def run(args: argparse.Namespace) -> int:
 
     written = ", ".join(str(x) for x in (out, args.json, args.plot) if x)
     print(f"wrote {written}: {path.label}, {result.n_frames} frames, k={k} ({100 * report['variance_explained']:.1f}% of the variance)")
-    fs = report["footskate_mm_per_s"]
+    fs = report["planted_skate_mm_per_s"]
     if fs["source"] is not None:
-        print(f"footskate mm/s: source {fs['source']:.1f}, raw {_mm(fs['raw'])}, cleaned {_mm(fs['result'])}")
+        print(f"planted_skate_mm_per_s (against the source): source {fs['source']:.1f}, raw {_mm(fs['raw'])}, cleaned {_mm(fs['result'])}")
     wj, pops = report["worst_joint_speed_ratio"], report["pop_frames"]
     print(
         f"joints against the source (docs/METRICS.md): worst_joint_speed_ratio raw {wj['raw']['ratio']:.2f} ({wj['raw']['joint']}), "

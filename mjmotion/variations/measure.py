@@ -88,6 +88,22 @@ def _finite(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
+def planted_skates(source: Motion, results: dict[str, Motion]) -> dict[str, Any]:
+    """The judge's headline footskate (docs/METRICS.md ``planted_skate_mm_per_s``) of ``source`` on its
+    own and of each of ``results`` judged against it (its floor and soles, as ``evaluate --source``),
+    with the thresholds used; ``None`` where a clip has no contact frame."""
+    from .. import evaluate, feet
+
+    compiled = evaluate.judge_model(source.skeleton)
+    judged = [(source, kinematics.forward(compiled, source))]
+    out: dict[str, Any] = {"source": _finite(evaluate.planted_skate_mm_per_s(feet.judged_feet(compiled, source, judged[0][1])[0]))}
+    for name, m in results.items():
+        track = feet.judged_feet(compiled, m, kinematics.forward(compiled, m), judged)[0]
+        out[name] = _finite(evaluate.planted_skate_mm_per_s(track))
+    out.update(h_c=evaluate.H_C, v_c=evaluate.V_C, hysteresis=evaluate.HYSTERESIS)
+    return out
+
+
 def report(
     source: Motion,
     raw: Motion,
@@ -120,20 +136,9 @@ def report(
         rmse, k_style = style_rmse(source, result)
         out["style_rmse"] = {"rmse": rmse, "k": k_style}
     try:
-        compiled = mjcf.compile(source.skeleton)  # one model for the three clips' foot tracks
-        out["footskate_mm_per_s"] = {
-            "source": _finite(evaluate.skate_mm_per_s(evaluate.foot_heights_speeds(compiled, source))),
-            "raw": _finite(evaluate.skate_mm_per_s(evaluate.foot_heights_speeds(compiled, raw))),
-            "result": _finite(evaluate.skate_mm_per_s(evaluate.foot_heights_speeds(compiled, result))),
-            "h_c": evaluate.H_C,
-        }
+        out["planted_skate_mm_per_s"] = planted_skates(source, {"raw": raw, "result": result})
     except MjmotionError as exc:  # no feet in the skeleton
-        out["footskate_mm_per_s"] = {
-            "source": None,
-            "raw": None,
-            "result": None,
-            "note": str(exc),
-        }
+        out["planted_skate_mm_per_s"] = {"source": None, "raw": None, "result": None, "note": str(exc)}
     out["max_joint_speed_ratio"] = {
         "raw": float(evaluate.max_joint_speed_ratio(raw, source)),
         "result": float(evaluate.max_joint_speed_ratio(result, source)),

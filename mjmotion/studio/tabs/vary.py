@@ -63,9 +63,9 @@ class VaryTab:
         rows.append(("variance explained", r["variance_explained"]))
         if "style_rmse" in r:
             rows.append(("style error", r["style_rmse"]["rmse"]))
-        fs = r.get("footskate_mm_per_s", {})
-        if fs.get("result") is not None:
-            rows.append(("footskate (mm/s) source / variant", f"{fs['source']:.1f} / {fs['result']:.1f}"))
+        fs = r.get("planted_skate_mm_per_s", {})
+        if fs.get("result") is not None and fs.get("source") is not None:
+            rows.append(("planted footskate (mm/s) source / variant", f"{fs['source']:.1f} / {fs['result']:.1f}"))
         rows.append(("max joint speed ratio", r["max_joint_speed_ratio"]["result"]))
         worst = r["worst_joint_speed_ratio"]["result"]
         rows.append(("worst joint speed ratio", f"{worst['ratio']:.2f} ({worst['joint']})"))
