@@ -169,3 +169,35 @@ def violations(skeleton: Skeleton, rotations: np.ndarray, limits: np.ndarray | N
     """``(T, J)`` bool: joints turned beyond their range in ``rotations (T, J, 4)``."""
     lim = joint_limits(skeleton) if limits is None else np.asarray(limits, dtype=float)
     return rotation_angles(rotations) > lim[None, :]
+
+
+#: Radians below a range's end where :func:`within` starts to ease a joint's angle in (10°): the angle
+#: stays continuous and smooth and ends inside the range, and a joint that far inside is left as it is.
+EASE = math.radians(10.0)
+
+
+def within(skeleton: Skeleton, rotations: np.ndarray, limits: np.ndarray | None = None, ease: float = EASE) -> np.ndarray:
+    """``rotations (T, J, 4)`` with every joint brought inside its range (``limits``, default
+    :func:`joint_limits`). A joint that leaves its range in some frame has, in every frame, its rotation
+    angle ``θ`` beyond ``a = limit − ease`` made ``a + ease·tanh((θ − a)/ease)``: below ``limit``, smooth
+    in ``θ`` (no kink where it nears the end, which read as a pop), about the same axis. Angles under
+    ``a``, and every joint that stays in range, are kept exactly (a clip in range comes back unchanged).
+    Where an operation (a variation scaled in PCA space) would turn a joint past what a body can."""
+    lim = joint_limits(skeleton) if limits is None else np.asarray(limits, dtype=float)
+    q = np.array(rotations, dtype=float, copy=True)
+    theta = rotation_angles(q)
+    start = np.maximum(lim - ease, 0.0)[None, :]
+    leaves = np.isfinite(lim) & (theta.max(axis=0, initial=0.0) > lim)
+    over = leaves[None, :] & (theta > start)
+    if not over.any():
+        return q
+    soft = np.minimum(ease, lim)[None, :]
+    # (ending 1e-4 rad inside the range: an angle eased to its very end read as beyond it once written to BVH)
+    eased = np.where(over, start + np.maximum(soft - 1e-4, 0.0) * np.tanh((theta - start) / np.where(soft > 0, soft, 1.0)), theta)
+    v = q[..., 1:]
+    n = rot.norm(v)
+    sign = np.where(q[..., 0] < 0, -1.0, 1.0)  # (the same rotation with w ≥ 0: θ in [0, π])
+    axis = sign[..., None] * v / np.where(n > 0, n, 1.0)[..., None]
+    q[over, 0] = np.cos(eased[over] / 2)
+    q[over, 1:] = np.sin(eased[over] / 2)[:, None] * axis[over]
+    return q

@@ -80,3 +80,29 @@ def test_violations_see_a_knee_turned_beyond_its_range():
     over = limits.violations(m.skeleton, q)
     assert over[10, j] and over.sum() == 1
     assert np.allclose(limits.rotation_angles(q[10, j]), math.radians(170.0))
+
+
+def test_within_eases_a_joint_that_leaves_its_range_back_inside_and_keeps_the_rest():
+    """vary's exaggerated variants turned wrists and shoulders past their ranges (10_02 ×1.3: lhumerus
+    161.8° > 160°). ``within`` brings such a joint inside, smoothly, about the same axis, and keeps every
+    joint that stays in range and every angle well inside it exactly."""
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh", 2)[:200]
+    knee = m.skeleton.index("ltibia")
+    lim = limits.joint_limits(m.skeleton)[knee]
+    assert limits.within(m.skeleton, m.rotations).tobytes() == m.rotations.tobytes()  # a clip in range: unchanged
+    axis = np.array([0.6, 0.0, 0.8])
+    theta = np.linspace(0.0, lim + math.radians(30.0), m.n_frames)  # a knee swept 30° past its end
+    q = m.rotations.copy()
+    q[:, knee] = rot.exp(theta[:, None] * axis)
+    q[5, knee] *= -1.0  # (the same rotation, w < 0)
+    got = limits.within(m.skeleton, q)
+    angle = limits.rotation_angles(got[:, knee])
+    assert not limits.violations(m.skeleton, got).any() and angle.max() < lim
+    inside = theta <= lim - limits.EASE
+    assert np.array_equal(got[:, np.arange(m.skeleton.n_joints) != knee], q[:, np.arange(m.skeleton.n_joints) != knee])
+    assert np.array_equal(got[inside, knee], q[inside, knee])
+    # the same axis, a monotone angle with no kink: its slope in θ falls smoothly from 1 towards 0
+    back = rot.log(got[1:, knee])  # (frame 0 is the identity: no axis)
+    assert np.allclose(back / np.linalg.norm(back, axis=1, keepdims=True), axis, atol=1e-9)
+    slope = np.diff(angle) / np.diff(theta)
+    assert np.all(slope > 0) and np.all(slope <= 1 + 1e-9) and np.max(np.abs(np.diff(slope))) < 0.1  # (a clamp: 1)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import kinematics, mjcf
+from .. import kinematics, limits, mjcf
 from .. import rotations as rot
 from ..errors import MjmotionError
 from ..filters import hann_smooth, lowpass, smooth_cover
@@ -537,4 +537,6 @@ def clean_up(
     if first_hand is not None:
         out, grip_err = restore_grip_minimal(source, out, path, first_hand)
         pair = (first_hand, "right" if first_hand == "left" else "left")
+    # the repairs' IK (feet, grip) may turn a joint past its range: brought back inside, as the synthesis is
+    out = out.replace(rotations=limits.within(out.skeleton, out.rotations))
     return out, CleanupReport(held, foot_err, pair, grip_err)

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import kinematics, mjcf
+from .. import kinematics, limits, mjcf
 from .. import rotations as rot
 from ..errors import MjmotionError
 from ..skeleton import Motion
@@ -396,5 +396,8 @@ def _read_npy(p: Path) -> np.ndarray:
 
 
 def synthesise(space: PoseSpace, path: ScorePath, name: str = "") -> Motion:
-    """The motion of ``path``: frame ``t`` is the pose ``P = (L S_t)ᵀ ⊙ D + M`` (§3.2.1)."""
-    return space.motion(path.scores, name=name or f"{space.template.name} {path.label}".strip())
+    """The motion of ``path``: frame ``t`` is the pose ``P = (L S_t)ᵀ ⊙ D + M`` (§3.2.1), with every joint
+    inside the judge's ranges (:func:`mjmotion.limits.within`: a scaled path turned wrists and shoulders
+    past them)."""
+    m = space.motion(path.scores, name=name or f"{space.template.name} {path.label}".strip())
+    return m.replace(rotations=limits.within(m.skeleton, m.rotations))
