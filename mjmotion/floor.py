@@ -3,7 +3,8 @@
 In order of precedence, the floor is *given* (``--floor METRES``), taken from the *source*
 clip(s) a result is judged against (``--source``), or *detected* from the clip's own stance:
 the median height of the lower foot's lowest sole point over the frames where that point stands
-still (neither sliding nor rising or falling). Flight frames (no foot still) and a leading T-pose (a few frames) do not move a median.
+still (neither sliding nor rising or falling). Flight frames (no foot still) do not move a median; a leading T-pose (one frame or held over many) is skipped by
+:mod:`mjmotion.trim` before the floor is sought.
 A result lifted or sunk against its source keeps the source's floor, so it reads as floating or
 penetrating; detected on its own it would just find its new floor.
 

@@ -15,8 +15,11 @@ import numpy as np
 from . import rotations as rot
 from .skeleton import Motion
 
-#: Only this many leading frames can be a transient.
+#: Only this many leading frames can be a transient (after a held pose).
 MAX_FRAMES = 10
+#: A step in which no joint turns more than this (radians) holds the pose: capture always moves a
+#: little, so leading frames of exactly one pose are a T-pose (or rest pose) held by the exporter.
+HOLD = 1e-6
 #: A step whose fastest joint turns faster than this many times the clip's 99th-percentile step
 #: is a spike (daz frames 0→3: 4–7×; steady captures: under 2×) ...
 SPIKE_FACTOR = 4.0
@@ -32,22 +35,29 @@ def peak_joint_speeds(motion: Motion) -> np.ndarray:
 
 
 def leading_transient(motion: Motion, max_frames: int = MAX_FRAMES, factor: float = SPIKE_FACTOR, tail: float = TAIL_FACTOR) -> int:
-    """Frames to skip at the start: a T-pose frame and the frames interpolating out of it.
+    """Frames to skip at the start: a T-pose frame (or a T-pose held over several frames: steps that
+    turn no joint more than :data:`HOLD`) and the frames interpolating out of it.
 
-    The last of the first ``max_frames`` steps whose fastest joint exceeds ``factor`` × the
-    clip's 99th-percentile step marks the transient; the steps right after it that still exceed
-    ``tail`` × that percentile belong to it too. 0 when nothing stands out, and for clips shorter
-    than ``4 · max_frames`` frames (too short to tell a transient from the motion).
+    After the held frames, the last of the next ``max_frames`` steps whose fastest joint exceeds
+    ``factor`` × the clip's 99th-percentile step marks the transient; the steps right after it that
+    still exceed ``tail`` × that percentile belong to it too. 0 when nothing stands out (a held pose
+    that the motion leaves smoothly is kept: a subject standing still), and for clips shorter than
+    ``4 · max_frames`` frames after the hold (too short to tell a transient from the motion).
     """
     if motion.n_frames < 4 * max_frames:
         return 0
     peak = peak_joint_speeds(motion)
-    ref = max(float(np.percentile(peak[max_frames:], 99)), 1e-9)
-    big = np.flatnonzero(peak[:max_frames] > factor * ref)
+    moving = np.flatnonzero(peak > HOLD * motion.fps)
+    held = int(moving[0]) if moving.size else len(peak)
+    if motion.n_frames - held < 4 * max_frames:
+        return 0
+    ref = max(float(np.percentile(peak[held + max_frames :], 99)), 1e-9)
+    big = np.flatnonzero(peak[held : held + max_frames] > factor * ref)
     if not big.size:
         return 0
-    k = int(big[-1]) + 1
-    while k < max_frames and peak[k] > tail * ref:
+    end = held + max_frames
+    k = held + int(big[-1]) + 1
+    while k < end and peak[k] > tail * ref:
         k += 1
     return k
 

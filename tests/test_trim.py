@@ -42,6 +42,29 @@ def test_skip_returns_the_clip_from_the_first_captured_frame(mocap):
     assert trim.skip_leading_transient(steady) == (steady, 0)
 
 
+@pytest.mark.parametrize("held", [20, 120])
+def test_a_t_pose_held_for_many_frames_is_skipped_and_leaves_the_floor_alone(mocap, held):
+    """daz's T-pose stands 6 cm under the capture's floor: held 20 frames (0.17 s) before a run it was
+    not skipped (only the first 10 steps were looked at) and moved the detected floor 9 cm. A pose
+    held and then left smoothly (a subject standing still) is kept."""
+    from mjmotion import feet
+
+    m = bvh.read(str(mocap / DAZ / "09_01.bvh"))
+    pad = np.repeat(np.arange(1), held)
+    longer = m.replace(
+        rotations=np.concatenate([m.rotations[pad], m.rotations]), root_positions=np.concatenate([m.root_positions[pad], m.root_positions])
+    )
+    cut, k = trim.skip_leading_transient(longer)
+    assert k == held + 4
+    np.testing.assert_array_equal(cut.rotations, m.rotations[4:])
+    own = trim.skip_leading_transient(m)[0]
+    assert feet.judged_floor(cut).height == pytest.approx(feet.judged_floor(own).height, abs=1e-9)
+    still = own.replace(
+        rotations=np.concatenate([own.rotations[pad], own.rotations]), root_positions=np.concatenate([own.root_positions[pad], own.root_positions])
+    )
+    assert trim.leading_transient(still) == 0  # the capture's first pose held: nothing stands out after it
+
+
 def _note_lines(err: str) -> list[str]:
     return [ln for ln in err.splitlines() if ln.startswith("note:")]
 
