@@ -59,6 +59,10 @@ LOCAL_CONFIG = {
     "distributed.admin.system-monitor.interval": "2s",
     # Each local worker runs this module's dask_setup as it starts (it ignores Ctrl-C: see there).
     "distributed.worker.preload": ["mjmotion.executor"],
+    # One task on a worker at a time (the default 1.1 sent a one-thread worker two): a worker that dies
+    # then has only the clip it was running counted against that clip; a clip merely queued behind a
+    # pathological one on the same worker was reported as killing its worker every time.
+    "distributed.scheduler.worker-saturation": 1.0,
 }
 
 
@@ -360,8 +364,11 @@ def dask_setup(worker: Any) -> None:
     """Dask's preload hook, run in each local worker process as it starts (:data:`LOCAL_CONFIG`): Ctrl-C at
     a terminal reaches the whole process group, and every worker printed the traceback of its interrupted
     event loop under the audit's one ``error: interrupted`` line. The process that started the cluster
-    takes the interrupt and closes its workers; they ignore it."""
+    takes the interrupt and closes its workers; they ignore it. A worker also ends with the process that
+    started it: forked workers hold each other's copy of the pipe Dask watches for that, and after a
+    ``kill -9`` of the audit they computed on for good."""
     _ignore_interrupt()
+    _end_with_parent()
 
 
 def _end_process() -> None:

@@ -9,6 +9,8 @@ import json
 import os
 import signal
 import socket
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -114,6 +116,72 @@ def test_dask_worker_killed_mid_task_is_retried(dask2, tmp_path):
     seen = dask2.client.run(warmed)
     assert int(marker.read_text()) not in dask2.client.run(os.getpid).values()
     assert len(seen) == 2 and set(seen.values()) == {(os.getpid(), os.getpid())}, seen
+
+
+def kills_its_worker(i: int) -> int:
+    """Task 0 ends its worker process every time it runs (a clip that runs it out of memory)."""
+    if i == 0:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return i * i
+
+
+def test_only_the_clip_that_kills_its_worker_is_blamed():
+    """A one-thread worker was sent two tasks at once (worker saturation 1.1): the clip queued behind one
+    that killed the worker every time was reported as killing it too."""
+    with executor.start(workers=1) as ex:
+        by = {o.key: o for o in ex.run(kills_its_worker, [(i, (i,)) for i in range(4)], progress=False)}
+    assert sorted(by) == [0, 1, 2, 3] and by[0].kind == "worker", by[0]
+    assert all(by[i].ok and by[i].value == i * i for i in (1, 2, 3)), by
+
+
+def death_signal() -> int:
+    """On a worker: the signal Linux sends it when the process that started it dies (0: none)."""
+    import ctypes
+
+    sig = ctypes.c_int(0)
+    ctypes.CDLL(None).prctl(2, ctypes.byref(sig))  # PR_GET_PDEATHSIG
+    return sig.value
+
+
+def test_local_workers_end_with_the_audit_that_started_them(tmp_path, dask2):
+    """After a kill -9 of an audit, its forked workers could compute on for good: Dask watches a pipe from
+    the parent, and two workers forked at once can each hold the other's copy of it. They are told to end
+    with their parent (a death signal, which every worker of a LocalCluster has), and do."""
+    assert set(dask2.client.run(death_signal).values()) == {signal.SIGTERM}
+    import psutil
+
+    from mjmotion import bvh, synth
+
+    root = tmp_path / "clips"
+    root.mkdir()
+    walk = synth.walk(seconds=20.0).motion
+    for i in range(8):  # enough work that the audit is still running when it is killed
+        bvh.write(walk, root / f"walk{i}.bvh")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mjmotion.cli", "audit", str(root), "-o", str(tmp_path / "out"), "--workers", "2"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+    )  # fmt: skip
+    pids: list[int] = []
+    try:
+        deadline = time.monotonic() + 60
+        while len(pids) < 3 and proc.poll() is None and time.monotonic() < deadline:  # the side process and 2 workers
+            with contextlib.suppress(psutil.NoSuchProcess):
+                pids = [c.pid for c in psutil.Process(proc.pid).children()]
+            time.sleep(0.05)
+        time.sleep(0.5)  # (the workers at work)
+    finally:
+        proc.kill()
+        proc.wait(30)
+    assert len(pids) >= 3, pids
+    deadline = time.monotonic() + 30
+    alive = pids
+    while alive and time.monotonic() < deadline:
+        alive = [p for p in pids if psutil.pid_exists(p) and psutil.Process(p).status() != psutil.STATUS_ZOMBIE]
+        time.sleep(0.1)
+    for p in alive:
+        with contextlib.suppress(psutil.NoSuchProcess):
+            psutil.Process(p).kill()
+    assert not alive, f"processes {alive} outlived the audit that started them"
 
 
 def _with_meanwhile(ex: executor.Executor, n: int = 5) -> tuple[list, list]:
