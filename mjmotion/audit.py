@@ -507,8 +507,11 @@ def _same_file(a: Path, b: Path) -> bool:
 
 def rel_text(path: Path, base: Path) -> str:
     """A file's path under ``base`` with ``/``, as the table's text: bytes of a name that are not
-    UTF-8 written as ``\\xNN`` (the CSV and Parquet hold text; the file itself is read by its real path)."""
-    return os.fsencode(path.relative_to(base).as_posix()).decode("utf-8", "backslashreplace")
+    UTF-8 written as ``\\xNN`` and a backslash in a name doubled, so that no two files share a text (the
+    byte 0xFF and a name spelling ``\\xff`` were one row key, and the run stopped on it). The CSV and
+    Parquet hold text; the file itself is read by its real path."""
+    raw = os.fsencode(path.relative_to(base).as_posix()).replace(b"\\", b"\\\\")
+    return raw.decode("utf-8", "backslashreplace")
 
 
 def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = None, files: Sequence[Path] | None = None) -> list[Clip]:

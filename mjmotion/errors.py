@@ -46,6 +46,11 @@ def require_number(label: str, value: object, low: float = 0.0, strict: bool = T
 
 def printable(text: object) -> str:
     """``text`` with every non-printable character (line breaks, terminal escapes, bidi controls)
-    escaped as Python writes it: safe to print whatever a file or a user's argument holds."""
+    escaped as Python writes it: safe to print whatever a file or a user's argument holds. A byte of a
+    file name that is not UTF-8 (held as a lone surrogate by Python) is written ``\\xNN``, the byte."""
     s = str(text)
-    return s if s.isprintable() else "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in s)
+    return s if s.isprintable() else "".join(ch if ch.isprintable() else _escaped(ch) for ch in s)
+
+
+def _escaped(ch: str) -> str:
+    return f"\\x{ord(ch) - 0xDC00:02x}" if "\udc80" <= ch <= "\udcff" else repr(ch)[1:-1]

@@ -32,7 +32,7 @@ from mjmotion import audit, bvh, cli, executor, synth
 from mjmotion import evaluate as ev
 from mjmotion.commands._common import named
 from mjmotion.commands.evaluate import evaluate_file
-from mjmotion.errors import MjmotionError
+from mjmotion.errors import MjmotionError, printable
 from mjmotion.inputs import find_bvh
 from mjmotion.trim import leading_transient
 
@@ -719,28 +719,31 @@ def test_awkward_folders_names_and_options(tmp_path, capsys):
     bvh.write(daz, root / "walk.bvh")
     odd = os.fsdecode(b"caf\xe9.bvh")
     shutil.copy(root / "walk.bvh", root / odd)
+    shutil.copy(root / "walk.bvh", root / "caf\\xe9.bvh")  # spelled as the byte's escape: the same row key, the run stopped
     (root / "a.bvh").symlink_to(root / "b.bvh")
     (root / "b.bvh").symlink_to(root / "a.bvh")
     os.mkfifo(root / "pipe.bvh")
     (root / "gone.bvh").symlink_to(root / "nothing")
-    assert _listed(root) == sorted(["walk.bvh", odd])
+    (root / "\x1b[2Jclear.bvh").symlink_to(root / "nothing")  # a note printed the escape (it cleared the screen)
+    assert _listed(root) == sorted(["walk.bvh", odd, "caf\\xe9.bvh"])
     out = tmp_path / "audit"
     assert cli.main(["audit", str(root), "-o", str(out), "--workers", "1", "--keep-start"]) == 0
     # Names no row is made for are said (they were dropped without a word), and evaluate DIR says the same.
     notes = [line for line in capsys.readouterr().err.splitlines() if line.startswith("note:")]
+    dangling = "a link to nothing (or a link loop)"
     assert notes == [
-        f"note: {root / name}: {why}; not audited"
-        for name, why in (("a.bvh", "a link to nothing (or a link loop)"), ("b.bvh", "a link to nothing (or a link loop)"),
-                          ("gone.bvh", "a link to nothing (or a link loop)"), ("pipe.bvh", "not a regular file"))
+        f"note: {root}/{name}: {why}; not audited"
+        for name, why in (("\\x1b[2Jclear.bvh", dangling), ("a.bvh", dangling), ("b.bvh", dangling), ("gone.bvh", dangling),
+                          ("pipe.bvh", "not a regular file"))
     ]  # fmt: skip
     assert cli.main(["evaluate", str(root), "--keep-start"]) == 0
-    assert capsys.readouterr().err.count("; not evaluated") == 4
+    assert capsys.readouterr().err.count("; not evaluated") == 5
     rows = _rows(out)
-    assert set(rows) == {"walk.bvh", "caf\\xe9.bvh"} and all(r["status"] == "ok" for r in rows.values())
+    assert set(rows) == {"walk.bvh", "caf\\xe9.bvh", "caf\\\\xe9.bvh"} and all(r["status"] == "ok" for r in rows.values())
     want = evaluate_file(str(root / "walk.bvh"), audit.judge_options(keep_start=True))
     assert rows["walk.bvh"]["skipped_frames"] == want["skipped_frames"] == 0
     assert rows["walk.bvh"]["planted_skate_mm_per_s"] == want["report"]["planted_skate_mm_per_s"]
-    assert len(pq.read_table(out / "audit.parquet").to_pylist()) == 2
+    assert len(pq.read_table(out / "audit.parquet").to_pylist()) == 3
     assert cli.main(["audit", str(root), "-o", str(out), "--resume", "--keep-start"]) == 0  # every row kept, nothing crashes
     assert "every file's row is kept" in capsys.readouterr().out
     (out / "audit.csv").write_bytes(b"\xff\xfe")
@@ -802,6 +805,8 @@ def test_summary_cells_hold_any_path():
     # A name's terminal escape is written, not sent to the terminal that shows summary.md (a review)
     assert audit._md_code("\x1b[31mred.bvh") == "`\\x1b[31mred.bvh`"
     assert executor.one_line("x.bvh\x1b[2J: bad\n value") == "x.bvh\\x1b[2J: bad value"
+    # a byte of a name that is not UTF-8 is written as the byte, as in the table (it read \udce9)
+    assert printable(os.fsdecode(b"caf\xe9.bvh")) == "caf\\xe9.bvh"
 
 
 def test_ctrl_c_at_a_terminal_is_one_line_and_leaves_a_table_to_resume(tmp_path):

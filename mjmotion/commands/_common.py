@@ -14,7 +14,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..errors import MjmotionError, OutputExistsError
+from ..errors import MjmotionError, OutputExistsError, printable
 from ..outputs import check_output
 
 if TYPE_CHECKING:
@@ -134,7 +134,7 @@ def note_up(m: Motion, path: str) -> None:
     from ..upright import up_note
 
     for line in up_note(m, path):
-        sys.stderr.write(line + "\n")
+        sys.stderr.write(printable(line) + "\n")
 
 
 def trim_start(m: Motion, path: str, args: argparse.Namespace, note: bool = True) -> tuple[Motion, int]:
@@ -151,7 +151,7 @@ def trim_start(m: Motion, path: str, args: argparse.Namespace, note: bool = True
 def note_skipped(name: str, k: int) -> None:
     """The one note line on stderr for a clip whose first ``k`` frames were left out."""
     shown = "frame 0" if k == 1 else f"frames 0-{k - 1}"
-    sys.stderr.write(f"note: {name}: skipped {shown}, a leading T-pose, transition or glitch (--keep-start keeps them)\n")
+    sys.stderr.write(printable(f"note: {name}: skipped {shown}, a leading T-pose, transition or glitch (--keep-start keeps them)") + "\n")
 
 
 def load(

@@ -7,7 +7,7 @@ import contextlib
 import sys
 from pathlib import Path
 
-from ..errors import MjmotionError
+from ..errors import MjmotionError, printable
 from ._common import add_input_options
 from ._options import number
 
@@ -116,10 +116,10 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path, list[Path]]:
     files = listing(root, unreadable, skipped)
     if not files:
         raise MjmotionError(f"{root}: no .bvh files found (searched recursively)" + (f"; cannot list {unreadable[0]}" if unreadable else ""))
-    for folder in unreadable:
-        sys.stderr.write(f"note: {folder}; the .bvh files in it are not audited\n")
+    for folder in unreadable:  # (a name's line breaks and terminal escapes written out, as in error lines)
+        sys.stderr.write(f"note: {printable(folder)}; the .bvh files in it are not audited\n")
     for name in skipped:
-        sys.stderr.write(f"note: {name}; not audited\n")
+        sys.stderr.write(f"note: {printable(name)}; not audited\n")
     return root, out, files
 
 

@@ -394,7 +394,7 @@ def run(args: argparse.Namespace) -> int:
         skipped: list[str] = []
         files = [str(p) for p in find_bvh(args.path, skipped=skipped)]
         for name in skipped:
-            sys.stderr.write(f"note: {name}; not evaluated\n")
+            sys.stderr.write(f"note: {printable(name)}; not evaluated\n")
         if not files:
             raise MjmotionError(f"{args.path}: no .bvh files found (searched recursively)")
         if args.ball is not None:

@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     notes: list[str] = []
     d = describe(args.file, args, notes)
     for line in notes:
-        sys.stderr.write(line + "\n")
+        sys.stderr.write(_shown(line) + "\n")
     axis = d["standing_axis"]
     if args.json:
         print(json.dumps(d, indent=2))  # (JSON escapes control characters itself)
