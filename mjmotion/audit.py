@@ -433,7 +433,18 @@ class Table:
         header, body = records[0], records[1:]
         if header[: len(META)] != list(META):
             raise MjmotionError(f"{path}: not an audit table of this version (columns {header[:4]}…); use --force to start over")
-        return [{c: _parse(c, v) for c, v in zip(header, rec)} for rec in body if len(rec) == len(header)]
+        rows = []
+        for n, rec in enumerate(body, 2):
+            if len(rec) != len(header):
+                continue
+            row = {}
+            for c, v in zip(header, rec):
+                try:
+                    row[c] = _parse(c, v)
+                except ValueError:  # (an edited or damaged cell was an internal error)
+                    raise MjmotionError(f"{path}: line {n}, column {c}: {printable(v)!r} is not a number; use --force to start over") from None
+            rows.append(row)
+        return rows
 
 
 # --------------------------------------------------------------------------- the audit
@@ -525,7 +536,11 @@ def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = No
         try:
             sha, listed = fingerprint(p)
         except OSError:  # unreadable here: listed without a hash, its worker's row says why (a resume tries it again)
-            out.append(Clip(rel, str(p), 0, "", src, ()))
+            try:
+                size = os.stat(p).st_size  # (a size needs no read permission: it read 0)
+            except OSError:
+                size = 0
+            out.append(Clip(rel, str(p), size, "", src, ()))
             continue
         out.append(Clip(rel, str(p), listed.stat[2], sha, src, tuple(sha256_file(s) for s in src), listed))
     return out
@@ -831,8 +846,9 @@ def write_summary(
     from .executor import here
 
     ok = [r for r in rows if r.get("status") == "ok"]
+    named = root if root.name not in ("", "..") else root.resolve()  # (`audit .` read "Audit of ." and "12 clips of ")
     lines = [
-        f"# Audit of {root}",
+        f"# Audit of {printable(named)}",
         "",
         f"{len(rows)} clips: {len(ok)} ok, {len(rows) - len(ok)} error; {computed} evaluated in this run "
         f"({len(rows) - computed} kept from the previous table) in {seconds:.1f} s on {executor}.",
@@ -858,7 +874,7 @@ def write_summary(
     png = out_dir / "histograms.png"
     drawn: Callable[[], object] = lambda: None
     if headline:
-        title = f"{len(ok)} clips of {root.name}"
+        title = f"{len(ok)} clips of {printable(named.name or named)}"
         digest = histograms_digest(headline, title)
         if plots.png_text(png).get(HISTOGRAMS_KEY) == digest:
             unchanged = (str(png),)
@@ -909,7 +925,7 @@ def write_summary(
         "",
         f"- mjmotion {__version__}; per-clip time limit: {f'{timeout:g} s' if timeout else 'none'}",
         f"- judge options (`mjmotion evaluate`'s defaults unless given): `{opts}`",
-        f"- report thresholds: `{params}`",
+        f"- report thresholds: `{params}`" if params else "- report thresholds: none (no clip was judged)",
         "- metric definitions: docs/METRICS.md in mjmotion's repository (`mjmotion evaluate --help` names each option)",
     ]
     drawn()  # the picture first: summary.md shows it

@@ -543,6 +543,12 @@ def test_bad_input_is_one_error_line(corpus, tmp_path, capsys):
         _refused(["audit", str(corpus), "-o", str(taken), "--force", "--scheduler", address], capsys, "not a Dask scheduler address", why)
         assert time.perf_counter() - t0 < 5.0
     _refused(["audit", str(corpus), "-o", str(tmp_path / "o3"), "--timeout", "-5"], capsys, "--timeout -5")
+    (tmp_path / "loop").symlink_to(tmp_path / "loop")  # an internal error (RuntimeError: Symlink loop)
+    (tmp_path / "dangling").symlink_to(tmp_path / "nowhere")  # it read "File exists"
+    for link in ("loop", "dangling"):
+        _refused(["audit", str(corpus), "-o", str(tmp_path / link)], capsys, f"-o {tmp_path / link}: a symbolic link to nothing")
+    _refused(["audit", "", "-o", str(tmp_path / "o7")], capsys, "DIR '': an empty path")  # (it audited the current folder)
+    _refused(["audit", str(corpus), "-o", "/proc/mjmotion_audit"], capsys, "-o /proc/mjmotion_audit: cannot make the folder")
     for name in ("out.csv", "out.PARQUET", "summary.md"):  # a file's name made a folder of that name
         _refused(["audit", str(corpus), "-o", str(tmp_path / name)], capsys, f"-o {tmp_path / name}: names a", "file; an audit writes a folder")
         assert not (tmp_path / name).exists()
@@ -746,6 +752,17 @@ def test_awkward_folders_names_and_options(tmp_path, capsys):
     assert len(pq.read_table(out / "audit.parquet").to_pylist()) == 3
     assert cli.main(["audit", str(root), "-o", str(out), "--resume", "--keep-start"]) == 0  # every row kept, nothing crashes
     assert "every file's row is kept" in capsys.readouterr().out
+    table = (out / "audit.csv").read_text()
+    lines = table.splitlines(keepends=True)
+    size = lines[0].split(",").index("size")
+    cells = lines[1].split(",")
+    cells[size] = "abc"  # an edited cell was an internal error (ValueError: could not convert string to float)
+    (out / "audit.csv").write_text(lines[0] + ",".join(cells) + "".join(lines[2:]))
+    _refused(["audit", str(root), "-o", str(out), "--resume"], capsys, "audit.csv: line 2, column size: 'abc' is not a number", "--force")
+    (out / "audit.csv").unlink()
+    (out / "audit.csv").mkdir()  # refused before a cluster starts
+    _refused(["audit", str(root), "-o", str(out), "--resume"], capsys, "its audit.csv is not a file", "--force")
+    (out / "audit.csv").rmdir()
     (out / "audit.csv").write_bytes(b"\xff\xfe")
     _refused(["audit", str(root), "-o", str(out), "--resume"], capsys, "cannot be read as an audit table", "--force")
 
@@ -763,7 +780,7 @@ def test_a_file_that_cannot_be_read_is_an_error_row_a_resume_tries_again(tmp_pat
 
     monkeypatch.setattr(audit, "fingerprint", refuse)
     (listed,) = audit.list_clips(tmp_path)
-    assert listed.sha256 == "" and listed.rel == "walk.bvh"
+    assert listed.sha256 == "" and listed.rel == "walk.bvh" and listed.size == clip.stat().st_size  # (it read 0)
     row = audit.audit_clip(listed.path, listed.sha256, audit.judge_options())
     assert row["error_kind"] == "unreadable" and "cannot be read" in row["error"] and "Permission denied" in row["error"]
     monkeypatch.setattr(audit, "fingerprint", real)
@@ -772,6 +789,19 @@ def test_a_file_that_cannot_be_read_is_an_error_row_a_resume_tries_again(tmp_pat
     kept = {"sha256": "", "options": options, "mjmotion_version": audit.__version__, "status": "error", "error_kind": "unreadable"}
     assert not audit.reusable(kept, readable, options)
     assert not audit.reusable({**kept, "sha256": readable.sha256}, readable, options)  # read later: tried again
+
+
+def test_a_summary_of_the_current_folder_names_it_even_when_every_clip_fails(tmp_path, monkeypatch, capsys):
+    """`audit .` wrote "# Audit of ." and a histogram of "12 clips of "; an audit where every file failed
+    wrote "report thresholds: None"."""
+    root = tmp_path / "broken"
+    root.mkdir()
+    (root / "bad.bvh").write_text("HIERARCHY\n")
+    monkeypatch.chdir(root)
+    assert cli.main(["audit", ".", "-o", str(tmp_path / "out"), "--workers", "1"]) == 0
+    summary = (tmp_path / "out" / "summary.md").read_text()
+    assert summary.startswith(f"# Audit of {root.resolve()}\n"), summary[:80]
+    assert "- report thresholds: none (no clip was judged)" in summary and "None" not in summary
 
 
 def test_a_port_that_never_speaks_dask_is_one_error_line(tmp_path, capsys):

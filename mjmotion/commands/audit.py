@@ -92,11 +92,19 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path, list[Path]]:
     the path)."""
     from ..audit import listing
 
+    if not args.dir:  # (Path("") is the current folder)
+        raise MjmotionError("DIR '': an empty path; give the folder to audit")
     root = Path(args.dir)
     if not root.is_dir():
         raise MjmotionError(f"{root}: no such folder" if not root.exists() else f"{root}: not a folder; audit takes a folder of .bvh files")
     out = Path(args.output)
-    if out.resolve() == root.resolve() or out.resolve().is_relative_to(root.resolve()):
+    if out.is_symlink() and not out.exists():  # (a loop raised RuntimeError, a dangling link read "File exists")
+        raise MjmotionError(f"-o {out}: a symbolic link to nothing (or a link loop); give a folder")
+    try:
+        inside = out.resolve() == root.resolve() or out.resolve().is_relative_to(root.resolve())
+    except (OSError, RuntimeError) as e:
+        raise MjmotionError(f"-o {out}: cannot be resolved ({e})") from None
+    if inside:
         raise MjmotionError(f"-o {out}: is inside {root}; nothing is written in the audited folder, choose an output folder outside it")
     if out.exists() and not out.is_dir():
         raise MjmotionError(f"-o {out}: exists and is not a folder; an audit writes a folder of results")
@@ -111,6 +119,8 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path, list[Path]]:
         raise MjmotionError(f"-o {out}: already exists; pass --resume to continue its audit or --force to start over")
     if args.resume and out.exists() and any(out.iterdir()) and not (out / "audit.csv").exists():
         raise MjmotionError(f"-o {out}: holds no audit.csv to resume; give an audit's folder, a new one, or --force to start an audit here")
+    if args.resume and (out / "audit.csv").exists() and not (out / "audit.csv").is_file():
+        raise MjmotionError(f"-o {out}: its audit.csv is not a file; use --force to start over")
     unreadable: list[str] = []
     skipped: list[str] = []
     files = listing(root, unreadable, skipped)
@@ -150,7 +160,10 @@ def run(args: argparse.Namespace) -> int:
         if taken:
             raise MjmotionError(f"--source-map {args.source_map}: is the audit's own {taken} in -o {out}; keep the map outside the output folder")
     made = [d for d in (out, *out.parents) if not d.exists()]  # (deepest first)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise MjmotionError(f"-o {out}: cannot make the folder ({e.strerror or e})") from None
     with audit.holding(out):
         try:
             return _audit(args, root, out, files)
