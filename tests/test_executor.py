@@ -536,6 +536,11 @@ def test_experiment_scripts_take_workers_and_scheduler(tmp_path, monkeypatch, ca
         experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--workers", "0"])
     err = capsys.readouterr().err
     assert refused.value.code == 2 and "error: argument --workers: 0: expected a number of worker processes" in err and "Traceback" not in err
+    # --jobs with Dask was taken and ignored (the usage shows them as alternatives)
+    seen.clear()
+    assert experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path), "--jobs", "2", "--workers", "1"]) == 2
+    assert "error: --jobs 2 with --workers 1: --jobs is the process pool used without Dask" in capsys.readouterr().err and not seen
+    assert experiments.script("hitpoint_grid", None, ["--bundled", "--out", str(tmp_path)]) == 0 and seen["jobs"] == 2
 
 
 def test_the_corruption_and_variations_experiments_run_on_the_executor(tmp_path):

@@ -117,7 +117,7 @@ def script(name: str, doc: str | None, argv: list[str] | None = None) -> int:
     p.add_argument("--out", default=f"results/{name}", metavar="DIR", help=f"output folder (default: results/{name})")
     p.add_argument("--quick", action="store_true", help="the short version `mjmotion demo` runs")
     if takes_jobs:
-        p.add_argument("--jobs", type=int, default=2, metavar="N", help="worker processes (default 2)")
+        p.add_argument("--jobs", type=int, default=None, metavar="N", help="worker processes (default 2)")
     takes_executor = "executor" in inspect.signature(module.run).parameters
     if takes_executor:
         from ..executor import add_options
@@ -131,11 +131,15 @@ def script(name: str, doc: str | None, argv: list[str] | None = None) -> int:
         from ..outputs import check_folder
 
         check_folder(out, "--out")  # before the experiment runs: an --out that cannot be written ended in a traceback
-        if takes_jobs and args.jobs < 1:
+        if takes_jobs and args.jobs is not None and args.jobs < 1:
             raise MjmotionError(f"--jobs {args.jobs}: expected at least 1")
-        extra = {"jobs": args.jobs} if takes_jobs else {}
+        dask = takes_executor and (args.workers is not None or args.scheduler is not None)
+        if dask and takes_jobs and args.jobs is not None:  # (it was taken and ignored)
+            given = f"--workers {args.workers}" if args.workers is not None else f"--scheduler {args.scheduler}"
+            raise MjmotionError(f"--jobs {args.jobs} with {given}: --jobs is the process pool used without Dask; give one of them")
+        extra = {"jobs": 2 if args.jobs is None else args.jobs} if takes_jobs else {}
         with contextlib.ExitStack() as stack:
-            if takes_executor and (args.workers is not None or args.scheduler is not None):
+            if dask:
                 from .. import executor
 
                 extra["executor"] = stack.enter_context(executor.start(workers=args.workers, scheduler=args.scheduler))
