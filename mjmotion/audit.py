@@ -597,14 +597,25 @@ def plan(
     files: Sequence[Path] | None = None,
 ) -> Plan:
     """List (unless given the :func:`listing` as ``files``) and hash the clips under ``root`` and, with
-    ``resume``, read ``out_dir/audit.csv`` to keep the rows that still answer. Reads only (so it can run
-    while the workers start)."""
+    ``resume``, read ``out_dir/audit.csv`` to keep the rows that still answer: a clip's own row, or for a
+    file renamed or moved (or copied), an ok row of the same bytes and options under another path. Reads
+    only (so it can run while the workers start)."""
     started = time.perf_counter()
     opts = opts if opts is not None else judge_options()
     clips = list_clips(root, source_map, files)
     previous = {r["path"]: r for r in Table.read(out_dir / "audit.csv")} if resume and (out_dir / "audit.csv").is_file() else {}
     options = {c.rel: options_text(opts, c) for c in clips}
-    kept = [previous[c.rel] for c in clips if c.rel in previous and reusable(previous[c.rel], c, options[c.rel])]
+    # A file renamed or moved is found by its bytes (an ok row: an error's message names the old path).
+    by_content = {(r.get("sha256"), r.get("options")): r for r in previous.values() if r.get("status") == "ok" and r.get("sha256")}
+    kept = []
+    for c in clips:
+        row = previous.get(c.rel)
+        if row is not None and reusable(row, c, options[c.rel]):
+            kept.append(row)
+            continue
+        moved = by_content.get((c.sha256, options[c.rel])) if c.sha256 else None
+        if moved is not None and reusable(moved, c, options[c.rel]):
+            kept.append({**moved, "path": c.rel, "size": c.size, "source_files": json.dumps(list(c.sources)) if c.sources else None})
     done = {r["path"] for r in kept}
     todo = sorted((c for c in clips if c.rel not in done), key=lambda c: -c.size)
     return Plan(clips, options, kept, todo, started)

@@ -300,6 +300,22 @@ def test_resume_recomputes_only_what_changed(corpus, tmp_path, dask2):
     cut = audit.run(root, out, dask2, resume=True, progress=False)
     assert cut.computed == 1 and len(cut.rows) == len(first.rows)
     assert sorted(_rows(out)) == _listed(root)
+    # Files moved and copied keep their rows by their bytes (all were evaluated again); a moved error row
+    # is evaluated again (its message names the old path).
+    before = _rows(out)
+    (root / "moved").mkdir()
+    shutil.move(root / "bundled" / "WALK.BVH", root / "moved" / "walk.bvh")
+    shutil.copy(root / "moved" / "walk.bvh", root / "moved" / "copy.bvh")
+    errors = [p for p, r in before.items() if r["status"] == "error" and (root / p).is_file() and not (root / p).is_symlink()]
+    shutil.move(root / errors[0], root / "moved" / "bad.bvh")
+    moved = audit.run(root, out, dask2, resume=True, progress=False)
+    assert moved.computed == 1, [r["path"] for r in moved.rows]
+    after = _rows(out)
+    assert sorted(after) == _listed(root) and "bundled/WALK.BVH" not in after
+    for name in ("moved/walk.bvh", "moved/copy.bvh"):
+        assert after[name]["sha256"] == before["bundled/WALK.BVH"]["sha256"]
+        assert after[name]["planted_skate_mm_per_s"] == before["bundled/WALK.BVH"]["planted_skate_mm_per_s"]
+    assert "moved/bad.bvh" in after["moved/bad.bvh"]["error"]
 
 
 def test_resume_recomputes_rows_of_another_judge_revision(tmp_path, dask2, monkeypatch):
