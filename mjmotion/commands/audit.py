@@ -41,7 +41,8 @@ every file has its row, error rows included.
 
 With --resume, rows whose file (SHA-256), judge options, sources, judge revision and mjmotion
 version are unchanged are kept and not recomputed (errors that might go away -- a time limit, a
-lost worker, a file that could not be read -- are retried); a changed or new file is evaluated. When nothing is left to evaluate, no
+lost worker, a file that could not be read -- are retried); a file renamed, moved or copied keeps
+the ok row of its bytes under its new path; a changed or new file is evaluated. When nothing is left to evaluate, no
 workers are started (and no --scheduler contacted), and histograms.png is kept when what it draws is
 unchanged (a digest of its values is stored in the PNG).
 
