@@ -26,7 +26,7 @@ import re
 import socket
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -546,11 +546,29 @@ def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = No
     return out
 
 
-def listing(root: Path, unreadable: list[str] | None = None, skipped: list[str] | None = None) -> list[Path]:
+def listing(root: Path, unreadable: list[str] | None = None, skipped: list[tuple[Path, str]] | None = None) -> list[Path]:
     """The ``.bvh`` files under ``root`` (:func:`mjmotion.inputs.find_bvh`, which notes the folders it cannot
-    list and the names it skips), under its resolved path: the paths the workers open, wherever they run."""
+    list and the names it skips, with why), under its resolved path: the paths the workers open, wherever they run."""
     base = root.resolve()  # (once: a realpath per file walked the path's links again for each)
-    return [base / p.relative_to(root) for p in find_bvh(root, unreadable, skipped)]
+    names: list[tuple[Path, str]] = []
+    files = [base / p.relative_to(root) for p in find_bvh(root, unreadable, names)]
+    if skipped is not None:
+        skipped += [(base / p.relative_to(root), why) for p, why in names]
+    return files
+
+
+def no_file_row(path: Path, why: str, base: Path, opts: Mapping[str, Any]) -> dict[str, Any]:
+    """The error row of a name ending in ``.bvh`` under ``base`` that is no file to read (a pipe, a
+    dangling link, a link loop): the table has a row for every such name, as for a file that cannot be read."""
+    try:
+        size = os.lstat(path).st_size
+    except OSError:
+        size = 0
+    clip = Clip(rel_text(path, base), str(path), size, "", (), ())
+    return {
+        "path": clip.rel, "size": size, "sha256": "", "status": "error", "error": one_line(f"{path}: {why}"), "error_kind": "unreadable",
+        "options": options_text(opts, clip), "mjmotion_version": __version__,
+    }  # fmt: skip
 
 
 def options_text(opts: Mapping[str, Any], clip: Clip) -> str:
@@ -585,6 +603,7 @@ class Plan:
     kept: list[dict[str, Any]]
     todo: list[Clip]
     started: float
+    no_files: list[dict[str, Any]] = field(default_factory=list)
 
 
 def plan(
@@ -595,13 +614,18 @@ def plan(
     source_map: Mapping[str, tuple[str, ...]] | None = None,
     opts: dict[str, Any] | None = None,
     files: Sequence[Path] | None = None,
+    skipped: Sequence[tuple[Path, str]] = (),
 ) -> Plan:
     """List (unless given the :func:`listing` as ``files``) and hash the clips under ``root`` and, with
     ``resume``, read ``out_dir/audit.csv`` to keep the rows that still answer: a clip's own row, or for a
     file renamed or moved (or copied), an ok row of the same bytes and options under another path. Reads
-    only (so it can run while the workers start)."""
+    only (so it can run while the workers start). ``skipped``: names that are no file to read, with why
+    (:func:`listing`; without ``files`` they are found here), each an error row (:func:`no_file_row`)."""
     started = time.perf_counter()
     opts = opts if opts is not None else judge_options()
+    if files is None:
+        found: list[tuple[Path, str]] = []
+        files, skipped = listing(root, skipped=found), found
     clips = list_clips(root, source_map, files)
     previous = {r["path"]: r for r in Table.read(out_dir / "audit.csv")} if resume and (out_dir / "audit.csv").is_file() else {}
     options = {c.rel: options_text(opts, c) for c in clips}
@@ -618,7 +642,8 @@ def plan(
             kept.append({**moved, "path": c.rel, "size": c.size, "source_files": json.dumps(list(c.sources)) if c.sources else None})
     done = {r["path"] for r in kept}
     todo = sorted((c for c in clips if c.rel not in done), key=lambda c: -c.size)
-    return Plan(clips, options, kept, todo, started)
+    base = root.resolve()
+    return Plan(clips, options, kept, todo, started, [no_file_row(p, why, base, opts) for p, why in skipped])
 
 
 @dataclass(frozen=True)
@@ -714,14 +739,16 @@ def run(
     progress: bool = True,
     planned: Plan | None = None,
     aside: Aside | None = None,
+    unlisted: Sequence[str] = (),
 ) -> Result:
     """Audit every clip under ``root`` into ``out_dir`` on the executor ``ex`` (see the module doc);
     ``planned``: the :func:`plan` of the same arguments, made already (e.g. while the workers started);
-    ``aside``: a side process that draws the histograms (made with :func:`warm_drawing` as its preload)."""
+    ``aside``: a side process that draws the histograms (made with :func:`warm_drawing` as its preload);
+    ``unlisted``: folders under ``root`` that could not be listed (each with why), named in the summary."""
     opts = opts if opts is not None else judge_options()
     work = planned if planned is not None else plan(root, out_dir, resume=resume, source_map=source_map, opts=opts)
     out_dir.mkdir(parents=True, exist_ok=True)
-    table = Table(out_dir, work.kept)
+    table = Table(out_dir, work.kept + work.no_files)
     todo, options = work.todo, work.options
     by_rel = {c.rel: c for c in todo}
     tasks = [(c.rel, (c.path, c.sha256, opts, c.sources, c.listed)) for c in todo]
@@ -755,7 +782,9 @@ def run(
     seconds = time.perf_counter() - work.started
     where = ex.describe() if todo else "no workers (nothing new to evaluate)"
     files = [str(table.csv), str(table.parquet)]
-    written, unchanged = write_summary(out_dir, rows, root=root, executor=where, computed=len(todo), seconds=seconds, timeout=timeout, aside=aside)
+    written, unchanged = write_summary(
+        out_dir, rows, root=root, executor=where, computed=len(todo), seconds=seconds, timeout=timeout, aside=aside, unlisted=unlisted
+    )
     return Result(rows, len(todo), seconds, where, files + written, unchanged)
 
 
@@ -846,6 +875,7 @@ def write_summary(
     seconds: float,
     timeout: float | None,
     aside: Aside | None = None,
+    unlisted: Sequence[str] = (),
 ) -> tuple[list[str], tuple[str, ...]]:
     """``summary.md`` and ``histograms.png``: counts by flavour, distributions, worst clips, errors, parameters.
     Returns the files written and the files kept: ``histograms.png`` is drawn again only when what it
@@ -928,6 +958,9 @@ def write_summary(
         lines += [
             f"| {_md_code(r['path'])} | {r.get('error_kind')} | {_md_cell(_message_in_row(str(r.get('error')), base / r['path']))} |" for r in errors
         ]
+    if unlisted:
+        lines += ["", "## Folders not listed", "", "Their .bvh files, if any, are not in the table:", ""]
+        lines += [f"- {_md_cell(folder)}" for folder in unlisted]
     params = next((r["params"] for r in ok if r.get("params")), None)
     opts = next((r["options"] for r in rows if r.get("options")), None)
     lines += [

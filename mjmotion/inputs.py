@@ -156,13 +156,13 @@ def once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def find_bvh(root: str | os.PathLike[str], unreadable: list[str] | None = None, skipped: list[str] | None = None) -> list[Path]:
+def find_bvh(root: str | os.PathLike[str], unreadable: list[str] | None = None, skipped: list[tuple[Path, str]] | None = None) -> list[Path]:
     """Every ``.bvh`` file under the folder ``root`` (any case), sorted, as paths under ``root`` as given.
     Linked folders are not entered, and a linked file counts only if it resolves inside ``root`` (a
     link loop is no file): a folder a user names is all that is read (audit, evaluate, studio and
     demo list folders through this). Folders that cannot be listed are appended to ``unreadable``;
     names ending in ``.bvh`` that are no file to read (a dangling link or a link loop, a pipe, a
-    socket, a device) to ``skipped``, each with why."""
+    socket, a device) to ``skipped`` as ``(path, why)``."""
     given = Path(root)
     base = given.resolve()
     out = []
@@ -182,11 +182,11 @@ def find_bvh(root: str | os.PathLike[str], unreadable: list[str] | None = None, 
                     continue  # a link out of the folder: documented, not followed
                 if not p.is_file():
                     if skipped is not None:
-                        skipped.append(f"{p}: not a regular file")
+                        skipped.append((p, "not a regular file"))
                     continue
             except (OSError, RuntimeError):  # a dangling link or a link loop
                 if skipped is not None:
-                    skipped.append(f"{p}: a link to nothing (or a link loop)")
+                    skipped.append((p, "a link to nothing (or a link loop)"))
                 continue
             out.append(p)
     if skipped is not None:

@@ -750,22 +750,28 @@ def test_awkward_folders_names_and_options(tmp_path, capsys):
     assert _listed(root) == sorted(["walk.bvh", odd, "caf\\xe9.bvh"])
     out = tmp_path / "audit"
     assert cli.main(["audit", str(root), "-o", str(out), "--workers", "1", "--keep-start"]) == 0
-    # Names no row is made for are said (they were dropped without a word), and evaluate DIR says the same.
-    notes = [line for line in capsys.readouterr().err.splitlines() if line.startswith("note:")]
+    # Names that are no file to read are error rows (they were dropped without a word, then only noted),
+    # and evaluate DIR notes them; a name's escapes are written out.
     dangling = "a link to nothing (or a link loop)"
-    assert notes == [
-        f"note: {root}/{name}: {why}; not audited"
-        for name, why in (("\\x1b[2Jclear.bvh", dangling), ("a.bvh", dangling), ("b.bvh", dangling), ("gone.bvh", dangling),
-                          ("pipe.bvh", "not a regular file"))
-    ]  # fmt: skip
+    odd_names = (("\\x1b[2Jclear.bvh", dangling), ("a.bvh", dangling), ("b.bvh", dangling), ("gone.bvh", dangling),
+                 ("pipe.bvh", "not a regular file"))  # fmt: skip
+    assert not [line for line in capsys.readouterr().err.splitlines() if line.startswith("note:")]
     assert cli.main(["evaluate", str(root), "--keep-start"]) == 0
-    assert capsys.readouterr().err.count("; not evaluated") == 5
+    notes = [line for line in capsys.readouterr().err.splitlines() if line.startswith("note:")]
+    assert notes == [f"note: {root}/{name}: {why}; not evaluated" for name, why in odd_names]
     rows = _rows(out)
-    assert set(rows) == {"walk.bvh", "caf\\xe9.bvh", "caf\\\\xe9.bvh"} and all(r["status"] == "ok" for r in rows.values())
+    ok = {"walk.bvh", "caf\\xe9.bvh", "caf\\\\xe9.bvh"}
+    assert set(rows) == ok | {"\x1b[2Jclear.bvh", "a.bvh", "b.bvh", "gone.bvh", "pipe.bvh"}
+    assert all(rows[p]["status"] == "ok" for p in ok)
+    for name, why in odd_names:
+        row = rows[name.replace("\\x1b", "\x1b")]
+        assert row["status"] == "error" and row["error_kind"] == "unreadable" and row["error"].endswith(f"{name}: {why}"), row
+    assert "| `\\x1b[2Jclear.bvh` | unreadable |" in (out / "summary.md").read_text()
+    rows = {p: r for p, r in rows.items() if p in ok}
     want = evaluate_file(str(root / "walk.bvh"), audit.judge_options(keep_start=True))
     assert rows["walk.bvh"]["skipped_frames"] == want["skipped_frames"] == 0
     assert rows["walk.bvh"]["planted_skate_mm_per_s"] == want["report"]["planted_skate_mm_per_s"]
-    assert len(pq.read_table(out / "audit.parquet").to_pylist()) == 3
+    assert len(pq.read_table(out / "audit.parquet").to_pylist()) == 8
     assert cli.main(["audit", str(root), "-o", str(out), "--resume", "--keep-start"]) == 0  # every row kept, nothing crashes
     assert "every file's row is kept" in capsys.readouterr().out
     table = (out / "audit.csv").read_text()

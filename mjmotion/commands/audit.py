@@ -34,8 +34,8 @@ row with status=error and its message; a worker that dies is replaced by its nan
 rerun by Dask (a cluster left with no worker for 120 s, or a scheduler that goes away, ends the
 audit with an error, the rows so far kept; a cluster that has had no worker yet is waited for, with
 a note); a clip running longer than --timeout is an error row, and
-so is a file that cannot be read (a folder that cannot be listed, and a name ending in .bvh that is
-no file -- a dangling link, a pipe -- is named in a note). Nothing in DIR is written; OUT_DIR is
+so is a file that cannot be read and a name ending in .bvh that is no file to read (a dangling link,
+a link loop, a pipe); a folder that cannot be listed is named in a note and in summary.md. Nothing in DIR is written; OUT_DIR is
 locked while the audit runs (a second audit into it at once is refused). The exit status is 0 when
 every file has its row, error rows included.
 
@@ -88,9 +88,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_input_options(p)
 
 
-def check_paths(args: argparse.Namespace) -> tuple[Path, Path, list[Path]]:
-    """DIR, OUT_DIR and DIR's :func:`~mjmotion.audit.listing`, checked before any work (each error names
-    the path)."""
+def check_paths(args: argparse.Namespace) -> tuple[Path, Path, list[Path], list[tuple[Path, str]], list[str]]:
+    """DIR, OUT_DIR, DIR's :func:`~mjmotion.audit.listing`, the names in it that are no file to read (each an
+    error row) and the folders that cannot be listed, checked before any work (each error names the path)."""
     from ..audit import listing
 
     if not args.dir:  # (Path("") is the current folder)
@@ -123,15 +123,13 @@ def check_paths(args: argparse.Namespace) -> tuple[Path, Path, list[Path]]:
     if args.resume and (out / "audit.csv").exists() and not (out / "audit.csv").is_file():
         raise MjmotionError(f"-o {out}: its audit.csv is not a file; use --force to start over")
     unreadable: list[str] = []
-    skipped: list[str] = []
+    skipped: list[tuple[Path, str]] = []
     files = listing(root, unreadable, skipped)
     if not files:
         raise MjmotionError(f"{root}: no .bvh files found (searched recursively)" + (f"; cannot list {unreadable[0]}" if unreadable else ""))
     for folder in unreadable:  # (a name's line breaks and terminal escapes written out, as in error lines)
-        sys.stderr.write(f"note: {printable(folder)}; the .bvh files in it are not audited\n")
-    for name in skipped:
-        sys.stderr.write(f"note: {printable(name)}; not audited\n")
-    return root, out, files
+        sys.stderr.write(f"note: {printable(folder)}; the .bvh files in it are not audited (summary.md lists it)\n")
+    return root, out, files, skipped, unreadable
 
 
 def run(args: argparse.Namespace) -> int:
@@ -152,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError(
             f"--dashboard with --scheduler {args.scheduler}: the cluster's scheduler runs its own dashboard (if any); --dashboard is for --workers"
         )
-    root, out, files = check_paths(args)
+    root, out, files, skipped, unlisted = check_paths(args)
     if args.source_map:
         from ._common import check_same_file
 
@@ -167,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError(f"-o {out}: cannot make the folder ({e.strerror or e})") from None
     with audit.holding(out):
         try:
-            return _audit(args, root, out, files)
+            return _audit(args, root, out, files, skipped, unlisted)
         finally:
             # A start refused before anything was written leaves no folder behind (removed while this
             # audit still holds it: another one refused the lock removes nothing).
@@ -176,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
                     d.rmdir()  # (only when empty)
 
 
-def _audit(args: argparse.Namespace, root: Path, out: Path, files: list[Path]) -> int:
+def _audit(args: argparse.Namespace, root: Path, out: Path, files: list[Path], skipped: list[tuple[Path, str]], unlisted: list[str]) -> int:
     import atexit
     import gc
     from concurrent.futures import ThreadPoolExecutor
@@ -197,7 +195,7 @@ def _audit(args: argparse.Namespace, root: Path, out: Path, files: list[Path]) -
     # hashing and reading release the interpreter's lock, the start-up is mostly imports and forks.
     try:
         with ThreadPoolExecutor(1, thread_name_prefix="audit-plan") as pool:
-            planned = pool.submit(audit.plan, root, out, resume=args.resume, source_map=source_map, opts=opts, files=files)
+            planned = pool.submit(audit.plan, root, out, resume=args.resume, source_map=source_map, opts=opts, files=files, skipped=skipped)
             # A resume first learns whether anything is left to evaluate: an unchanged folder starts no workers
             # (and contacts no scheduler), so it costs a fraction of the first run.
             idle = args.resume and not planned.result().todo
@@ -213,7 +211,7 @@ def _audit(args: argparse.Namespace, root: Path, out: Path, files: list[Path]) -
                     print(f"auditing {root} on {ex.describe()}" + (f"; dashboard {ex.dashboard}" if ex.dashboard else ""), flush=True)
                 if args.dashboard and ex.dashboard is None and args.scheduler is None and not idle:
                     print("note: --dashboard: Dask started no dashboard (it needs bokeh: pip install bokeh)", flush=True)
-                res = audit.run(root, out, ex, timeout=args.timeout, opts=opts, planned=planned.result(), aside=aside)
+                res = audit.run(root, out, ex, timeout=args.timeout, opts=opts, planned=planned.result(), aside=aside, unlisted=unlisted)
     finally:
         if aside is not None:
             aside.close()

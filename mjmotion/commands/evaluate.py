@@ -391,10 +391,10 @@ def run(args: argparse.Namespace) -> int:
     check_options(args)
     opts = {k: v for k, v in vars(args).items() if not k.startswith("_")}
     if os.path.isdir(args.path):
-        skipped: list[str] = []
-        files = [str(p) for p in find_bvh(args.path, skipped=skipped)]
-        for name in skipped:
-            sys.stderr.write(f"note: {printable(name)}; not evaluated\n")
+        no_files: list[tuple[Path, str]] = []
+        files = [str(p) for p in find_bvh(args.path, skipped=no_files)]
+        for path, why in no_files:
+            sys.stderr.write(f"note: {printable(path)}: {why}; not evaluated\n")
         if not files:
             raise MjmotionError(f"{args.path}: no .bvh files found (searched recursively)")
         if args.ball is not None:
