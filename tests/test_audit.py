@@ -941,3 +941,26 @@ def test_the_folder_lock_is_not_inherited_by_forked_processes(tmp_path):
 def _hold_until(ready, stop) -> None:
     ready.set()
     stop.wait(60)
+
+
+def test_a_folder_that_cannot_be_listed_is_named_in_a_note_and_the_summary(tmp_path, monkeypatch, capsys):
+    """A folder that could not be listed was said only in a note: summary.md said "15 clips" with nothing
+    about the clips that might be in it."""
+    root = tmp_path / "clips"
+    (root / "locked").mkdir(parents=True)
+    bvh.write(synth.walk(seconds=0.8).motion, root / "walk.bvh")
+    bvh.write(synth.walk(seconds=0.8).motion, root / "locked" / "hidden.bvh")
+    real = os.scandir
+
+    def scandir(path="."):
+        if not isinstance(path, int) and os.fspath(path).endswith("locked"):
+            raise PermissionError(13, "Permission denied", os.fspath(path))
+        return real(path)
+
+    monkeypatch.setattr(os, "scandir", scandir)
+    assert cli.main(["audit", str(root), "-o", str(tmp_path / "out"), "--workers", "1"]) == 0
+    err = capsys.readouterr().err
+    assert f"note: {root / 'locked'}: Permission denied; the .bvh files in it are not audited (summary.md lists it)" in err
+    summary = (tmp_path / "out" / "summary.md").read_text()
+    assert "## Folders not listed" in summary and f"- {root / 'locked'}: Permission denied" in summary
+    assert list(_rows(tmp_path / "out")) == ["walk.bvh"]
