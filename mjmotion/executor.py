@@ -130,15 +130,27 @@ def _connect(client_class: Any, scheduler: str, timeout: float) -> Any:
     """A Dask client of the scheduler at ``scheduler``, or one ``MjmotionError`` naming it after ``timeout``
     seconds. Dask's own ``timeout`` bounds the TCP connect only: a port that accepts and never speaks
     Dask (another server) held ``audit`` for good, so the whole start runs with a deadline (:func:`_within`)."""
+
+    def quiet_del(self: Any) -> None:
+        # A client that never connected has nothing to close: Dask's __del__ waited ~10 s for it at exit.
+        if getattr(self, "status", None) == "running":
+            client_class.__del__(self)
+
+    made = type(client_class.__name__, (client_class,), {"__del__": quiet_del})
+    spoke = False
     try:
-        client = _within(timeout + 2.0, lambda: client_class(scheduler, timeout=timeout, set_as_default=False))
+        client = _within(timeout + 2.0, lambda: made(scheduler, timeout=timeout, set_as_default=False))
         why = "no Dask handshake"
-    except Exception as e:  # OSError, TimeoutError, ValueError for a malformed address
+    except (OSError, TimeoutError) as e:  # (asyncio's and Dask's timeouts are TimeoutErrors)
         client, why = None, type(e).__name__
+    except Exception as e:  # something answered, and not as Dask does (a web server's reply read as a frame)
+        client, why, spoke = None, type(e).__name__, True
     if client is not None:
         return client
     # The half-made client is abandoned; its clean-up at exit would only print a traceback.
     sys.unraisablehook = lambda _: None
+    if spoke:
+        raise MjmotionError(f"--scheduler {scheduler}: something answered there, not a Dask scheduler ({why} reading its reply)")
     raise MjmotionError(f"--scheduler {scheduler}: no Dask scheduler answered within {timeout:g} s ({why})")
 
 

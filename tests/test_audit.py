@@ -849,6 +849,35 @@ def test_a_port_that_never_speaks_dask_is_one_error_line(tmp_path, capsys):
     server.close()
 
 
+def test_a_port_that_answers_garbage_is_named_as_such_and_the_exit_is_prompt(tmp_path):
+    """A web server's reply read as a Dask frame (a MemoryError) was reported as "no Dask scheduler answered
+    within 5 s", and the process then took 11 s to exit (Dask's clean-up of the client that never connected)."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    port = server.getsockname()[1]
+
+    def reply() -> None:
+        for _ in range(8):
+            conn, _ = server.accept()
+            with contextlib.suppress(OSError):
+                conn.recv(100)
+                conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n" * 50)
+
+    threading.Thread(target=reply, daemon=True).start()
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    shutil.copy(BAD / "empty.bvh", clips / "x.bvh")
+    t0 = time.perf_counter()
+    argv = ["audit", str(clips), "-o", str(tmp_path / "o"), "--scheduler", f"tcp://127.0.0.1:{port}", "--connect-timeout", "5"]
+    proc = subprocess.run([sys.executable, "-m", "mjmotion.cli", *argv], capture_output=True, text=True, timeout=60)
+    took = time.perf_counter() - t0
+    server.close()
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert f"--scheduler tcp://127.0.0.1:{port}: something answered there, not a Dask scheduler" in proc.stderr
+    assert took < 8.0, took  # (a hang check: the clean-up waited twice the connect timeout, 10 s)
+
+
 def test_summary_cells_hold_any_path():
     """summary.md's tables broke on paths holding a pipe, a backtick or a line break (found by a review)."""
     assert audit._md_code("a|b.bvh") == "`a\\|b.bvh`"
