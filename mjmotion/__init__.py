@@ -70,6 +70,33 @@ _LAZY = {
     "read": ("bvh", "read"),
     "write": ("bvh", "write"),
     **{m: (m, None) for m in ("blend", "cleanup", "evaluate", "registration", "render", "synth")},
+    # every module the list above names, as ``mjmotion.trim.…`` after ``import mjmotion`` (the README's
+    # ``mjmotion.trim.skip_leading_transient`` raised AttributeError)
+    **{
+        m: (m, None)
+        for m in (
+            "audit",
+            "bvh",
+            "executor",
+            "experiments",
+            "feet",
+            "floor",
+            "hitpoint",
+            "ik",
+            "kinematics",
+            "limits",
+            "mjcf",
+            "physics",
+            "plots",
+            "skeleton",
+            "skin",
+            "stream",
+            "studio",
+            "style",
+            "trim",
+            "variations",
+        )
+    },  # fmt: skip
 }
 
 
