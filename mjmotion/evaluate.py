@@ -493,6 +493,12 @@ def evaluate(
         )
     if hit_frame is not None and ball is None:
         raise MjmotionError(f"hit_frame={hit_frame} without a ball: the hit frame is where the effector meets ball=mjcf.Ball(...)")
+    if ball is not None:
+        if hit_frame is None:
+            raise MjmotionError("a ball needs a hit frame (--frame H)")
+        if isinstance(hit_frame, bool) or not isinstance(hit_frame, (int, np.integer)):
+            raise MjmotionError(f"hit_frame={hit_frame!r}: expected a whole frame number")
+        mjcf.check_vector("ball_velocity", ball_velocity, 3, "m/s")
     require_frames(motion.n_frames)
     check_sources(motion, sources)
     compiled = judge_model(motion.skeleton, props)
@@ -513,8 +519,7 @@ def evaluate(
         worst, joint = worst_joint_speed_ratio(motion, sources, params.speed_floor)
     hit = None
     if ball is not None:
-        if hit_frame is None:
-            raise MjmotionError("a ball needs a hit frame (--frame H)")
+        assert hit_frame is not None  # (checked above)
         hit = physics.hit_metrics(captured, ball, hit_frame, props=tuple(props), launch=launch, ball_velocity=ball_velocity)
     con = contacts(track, params.h_c, params.v_c, params.hysteresis)
     sens = skate_sensitivity(track, params.h_c_sensitivity, params.v_c, params.hysteresis, params.skate_window)

@@ -16,6 +16,7 @@ each other. The world has a checker floor (z = 0), lights and a camera tracking 
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from dataclasses import dataclass, field
 from xml.etree import ElementTree
@@ -78,6 +79,23 @@ class Prop:
     sweet_spot: float = 0.9
     mass: float = 0.4
 
+    def __post_init__(self) -> None:
+        # (a negative length or a zero quaternion was taken; a NaN one failed in MuJoCo's compiler)
+        if not isinstance(self.name, str) or not self.name or not isinstance(self.joint, str) or not self.joint:
+            raise MjmotionError(f"Prop: name and joint must be non-empty strings, got {self.name!r} and {self.joint!r}")
+        check_vector(f"Prop {self.name} pos", self.pos, 3, "metres")
+        check_vector(f"Prop {self.name} quat", self.quat, 4, "wxyz")
+        if float(np.linalg.norm(np.asarray(self.quat, dtype=float))) < 1e-9:
+            raise MjmotionError(f"Prop {self.name} quat: expected a rotation (a non-zero quaternion), got {self.quat!r}")
+        for label, value, unit in (("length", self.length, "metres"), ("radius", self.radius, "metres"), ("mass", self.mass, "kg")):
+            _check_positive(f"Prop {self.name} {label}", value, unit)
+        if (
+            isinstance(self.sweet_spot, bool)
+            or not isinstance(self.sweet_spot, (int, float, np.integer, np.floating))
+            or not math.isfinite(self.sweet_spot)
+        ):
+            raise MjmotionError(f"Prop {self.name} sweet_spot: expected a finite distance from the grip (metres), got {self.sweet_spot!r}")
+
     @property
     def site(self) -> str:
         """Name of the sweet-spot site (the effector)."""
@@ -98,6 +116,27 @@ class Ball:
     position: tuple[float, float, float] = (1.0, 0.0, 0.5)
     radius: float = 0.036
     mass: float = 0.16
+
+    def __post_init__(self) -> None:
+        # (a NaN position gave NaN hit metrics read as a hit, and 100,000 MuJoCo warnings in MUJOCO_LOG.TXT)
+        check_vector("Ball position", self.position, 3, "metres")
+        _check_positive("Ball radius", self.radius, "metres")
+        _check_positive("Ball mass", self.mass, "kg")
+
+
+def check_vector(label: str, value: object, n: int, unit: str) -> None:
+    """Refuse ``value`` unless it is ``n`` finite numbers (an ``MjmotionError`` naming ``label`` and ``unit``)."""
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        v = np.zeros(0)
+    if v.shape != (n,) or not np.all(np.isfinite(v)):
+        raise MjmotionError(f"{label}: expected {n} finite numbers ({unit}), got {value!r}")
+
+
+def _check_positive(label: str, value: object, unit: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not (math.isfinite(value) and value > 0):
+        raise MjmotionError(f"{label}: expected a finite number > 0 ({unit}), got {value!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -371,8 +410,15 @@ def compile(
             soles calibrated on a clip: :func:`mjmotion.feet.judged_model`).
     """
     check_model_size(skeleton)
+    if not all(isinstance(p, Prop) for p in props) or isinstance(props, Prop):
+        raise MjmotionError(f"props: expected a list of mjcf.Prop, got {props!r}")
+    names = [p.name for p in props]
+    if len(set(names)) != len(names):  # (MuJoCo's "repeated name 'club'")
+        raise MjmotionError(f"props: two props named {next(n for n in names if names.count(n) > 1)!r}; give each prop its own name")
+    if ball is not None and not isinstance(ball, Ball):
+        raise MjmotionError(f"ball: expected an mjcf.Ball, got {ball!r}")
     # "world": MuJoCo's own body 0, which every model has.
-    reserved = {"world", FLOOR, BALL} | {p.name for p in props}
+    reserved = {"world", FLOOR, BALL} | set(names)
     clash = reserved.intersection(skeleton.names)
     if clash:
         raise MjmotionError(

@@ -245,3 +245,40 @@ def test_foot_boxes_given_replace_the_rest_pose_boxes_and_bad_ones_are_refused()
     for bad, joint in (("shoe/left", ankle), ("foot/middle", ankle), ("foot/left", 0)):
         with pytest.raises(MjmotionError, match="foot box"):
             mjcf.compile(skel, foot_boxes={joint: {bad: box}})
+
+
+def test_a_ball_or_prop_that_is_no_thing_is_refused_where_it_is_made():
+    """A NaN ball gave NaN hit metrics read as a hit (and 100,000 MuJoCo warnings in MUJOCO_LOG.TXT); a
+    negative prop length or a zero quaternion was taken; two props of one name failed in MuJoCo's compiler."""
+    nan = float("nan")
+    for kwargs, message in (
+        (dict(position=(nan, 0.5, 0.2)), "Ball position: expected 3 finite numbers"),
+        (dict(position=(1.0, 0.0)), "Ball position: expected 3 finite numbers"),
+        (dict(radius=0.0), "Ball radius: expected a finite number > 0"),
+        (dict(mass=nan), "Ball mass: expected a finite number > 0"),
+    ):
+        with pytest.raises(MjmotionError, match=message):
+            mjcf.Ball(**kwargs)
+    for kwargs, message in (
+        (dict(length=-1.0), "Prop club length"),
+        (dict(length=nan), "Prop club length"),
+        (dict(quat=(0.0, 0.0, 0.0, 0.0)), "Prop club quat: expected a rotation"),
+        (dict(pos=(nan, 0.0, 0.0)), "Prop club pos"),
+        (dict(mass=-1.0), "Prop club mass"),
+        (dict(sweet_spot=float("inf")), "Prop club sweet_spot"),
+    ):
+        with pytest.raises(MjmotionError, match=message):
+            mjcf.Prop("club", "RightHand", **kwargs)
+    from mjmotion import evaluate, synth
+
+    drive = synth.drive()
+    skel = drive.motion.skeleton
+    with pytest.raises(MjmotionError, match="two props named 'bat'"):
+        mjcf.compile(skel, (drive.prop, drive.prop))
+    for kwargs, message in (
+        (dict(hit_frame=66.5), r"hit_frame=66\.5: expected a whole frame number"),
+        (dict(hit_frame=66, ball_velocity=(nan, 0.0, 0.0)), "ball_velocity: expected 3 finite numbers"),
+        (dict(hit_frame=66, ball_velocity=(0.0, 0.0)), "ball_velocity: expected 3 finite numbers"),
+    ):
+        with pytest.raises(MjmotionError, match=message):
+            evaluate.evaluate(drive.motion, props=[drive.prop], ball=mjcf.Ball((0.3, 0.5, 0.2)), **kwargs)
