@@ -57,6 +57,9 @@ class Skeleton:
         end_offsets: ``(E, 3)`` metres, End Site offsets (zero-length ones kept).
         scale: metres per file unit (``0.01`` for centimetres).
         up: the file's up axis, ``"y"`` or ``"z"``.
+
+    The arrays are read-only copies: clips and the results made from them share a skeleton, so edit a
+    copy (``skeleton.offsets.copy()``) and make a new one with ``dataclasses.replace``.
     """
 
     names: tuple[str, ...]
@@ -86,6 +89,12 @@ class Skeleton:
         if len(set(self.names)) != n:
             dup = sorted({x for x in self.names if self.names.count(x) > 1})
             raise MjmotionError(f"duplicate joint names: {', '.join(dup)}")
+        # Read-only copies (small): clips and results share their skeleton, so an edit in place of one
+        # clip's offsets changed a blend made from it earlier. Edit a copy and make a new skeleton.
+        for key in ("parents", "offsets", "end_parents", "end_offsets"):
+            a = np.array(getattr(self, key))
+            a.flags.writeable = False
+            object.__setattr__(self, key, a)
 
     def __repr__(self) -> str:
         """``Skeleton(31 joints, root 'root', 7 End Sites, 0.01 m per file unit, up y)``: no arrays."""

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from conftest import random_motion, random_skeleton
@@ -175,6 +177,15 @@ def test_a_motion_checks_its_values_and_keeps_its_arrays_read_only():
     with pytest.raises(ValueError, match="read-only"):
         moved.root_positions[:, 2] += 1.0
     assert type(walk.replace(fps=np.float64(29.97)).fps) is float
+    # The skeleton too: clips and their results share it (an edit of a walk's offsets changed a jog
+    # blended from it earlier), and it keeps its own copy of the arrays it was made from.
+    for key in ("parents", "offsets", "end_parents", "end_offsets"):
+        with pytest.raises(ValueError, match="read-only"):
+            getattr(moved.skeleton, key)[0] = getattr(moved.skeleton, key)[0]
+    given = walk.skeleton.offsets.copy()
+    own = dataclasses.replace(walk.skeleton, offsets=given)
+    given[3] *= 2.0
+    np.testing.assert_array_equal(own.offsets, walk.skeleton.offsets)
 
 
 def test_api_misuse_is_a_clear_error_not_a_traceback():
