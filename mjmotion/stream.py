@@ -44,6 +44,7 @@ the locomotion's pace and ends at its own. :attr:`MotionStream.transitions` repo
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, overload
@@ -71,7 +72,9 @@ class Command:
 
 @dataclass(frozen=True)
 class Script:
-    """A parsed stream script (see the module docstring)."""
+    """A parsed stream script (see the module docstring). Made directly (the Studio, the experiments), its
+    values are checked as :func:`parse_script` checks a file's, and clips at another rate than ``fps``
+    are resampled to it (a 60 fps walk in a 30 fps script walked at half its speed)."""
 
     clips: dict[str, Motion]
     locomotion: tuple[str, ...]
@@ -79,6 +82,28 @@ class Script:
     duration: float
     fps: float
     loop_blend: float = 0.4
+
+    def __post_init__(self) -> None:
+        for label, value in (("fps", self.fps), ("duration", self.duration), ("loop_blend", self.loop_blend)):
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not math.isfinite(value):
+                raise MjmotionError(f"Script.{label}: expected a finite number, got {value!r}")
+        if not 1.0 <= self.fps <= 10_000.0:
+            raise MjmotionError(f"Script.fps {self.fps:g}: expected 1 to 10000 frames per second")
+        if self.duration < 1.0 / self.fps or self.loop_blend < 0:
+            raise MjmotionError(f"Script.duration {self.duration:g}, loop_blend {self.loop_blend:g}: expected at least one frame and a blend ≥ 0")
+        if not isinstance(self.clips, dict) or not self.clips or not all(isinstance(m, Motion) for m in self.clips.values()):
+            raise MjmotionError("Script.clips: expected a dict of name → Motion")
+        loco = tuple(self.locomotion)
+        if not loco or any(n not in self.clips for n in loco):
+            raise MjmotionError(f"Script.locomotion {loco!r}: expected clip names of Script.clips ({', '.join(self.clips)})")
+        for k, c in enumerate(self.commands):
+            if c.kind == "play" and c.clip not in self.clips:
+                raise MjmotionError(f"Script.commands[{k}]: plays {c.clip!r}, no clip of Script.clips")
+            if c.weights is not None and (np.shape(c.weights) != (len(loco),) or not np.all(np.isfinite(c.weights))):
+                raise MjmotionError(f"Script.commands[{k}].weights: expected {len(loco)} finite weights, one per locomotion clip")
+        object.__setattr__(self, "locomotion", loco)
+        object.__setattr__(self, "commands", tuple(self.commands))
+        object.__setattr__(self, "clips", {k: (m if same_rate(m.fps, self.fps) else m.resample(self.fps)) for k, m in self.clips.items()})
 
 
 @dataclass(frozen=True)

@@ -304,3 +304,27 @@ def test_a_grid_too_large_is_refused_in_the_scripts_words(tmp_path, monkeypatch,
     assert err.startswith(f"error: {script}: registering its locomotion clips at 60 fps needs a") and err.count("\n") == 1, err
     assert 'lower the script\'s "fps" at least 4×' in err and "--fps" not in err and "--frames" not in err
     assert not (tmp_path / "o.bvh").exists()
+
+
+def test_a_script_made_directly_is_checked_and_its_clips_take_its_rate(tmp_path):
+    """The Studio and the experiments make a Script without parse_script: a 60 fps walk in a 30 fps
+    Script streamed at half its speed, and a negative duration or an unknown clip were raw errors."""
+    import dataclasses
+
+    from mjmotion import synth
+
+    walk = synth.walk(seconds=2.0).motion.replace(name="walk")
+    script = S.Script({"walk": walk}, ("walk",), (S.Command(0.0, "weights", np.array([1.0])),), 1.5, walk.fps)
+    at_30 = dataclasses.replace(script, fps=30.0)
+    assert at_30.clips["walk"].fps == 30.0
+    speed = [np.linalg.norm(m.root_positions[-1, :2] - m.root_positions[0, :2]) / m.duration for m in (S.stream(script), S.stream(at_30))]
+    assert speed[1] == pytest.approx(speed[0], rel=0.05), speed
+    for change, message in (
+        (dict(duration=-1.0), "Script.duration -1"),
+        (dict(fps=float("nan")), "Script.fps: expected a finite number"),
+        (dict(locomotion=("nope",)), r"Script.locomotion \('nope',\): expected clip names"),
+        (dict(commands=(S.Command(0.0, "play", clip="kick"),)), r"Script.commands\[0\]: plays 'kick'"),
+        (dict(commands=(S.Command(0.0, "weights", np.array([1.0, 0.0])),)), r"Script.commands\[0\].weights: expected 1 finite"),
+    ):
+        with pytest.raises(MjmotionError, match=message):
+            dataclasses.replace(script, **change)
