@@ -110,6 +110,32 @@ def test_the_studio_reads_clips_with_units_and_up_as_the_verbs_do(tmp_path, caps
     np.testing.assert_allclose(up.motion.root_positions, walk.root_positions, atol=1e-6)
 
 
+def test_studio_check_says_what_the_verbs_say_of_the_same_clips(tmp_path, capsys):
+    """--check said "1 clips ready" of a skeleton too deep for any model, printed a name's terminal escape,
+    gave no note for a wrong --up or --units, and passed a --host the server then refused."""
+    from mjmotion import synth
+    from mjmotion.cli import main
+
+    walk = tmp_path / "we\x1b[31mird.bvh"
+    bvh.write(synth.walk(seconds=1.0).motion, walk)
+    assert main(["studio", str(walk), "--check"]) == 0
+    out = capsys.readouterr().out
+    assert out.strip() == "mjmotion studio: 1 clip ready: we\\x1b[31mird", out
+    assert main(["studio", str(walk), "--check", "--up", "z"]) == 0
+    assert "not +Z as --up z reads them" in capsys.readouterr().err
+    assert main(["studio", str(walk), "--check", "--units", "m"]) == 0
+    assert "stature 1" in capsys.readouterr().err  # (a centimetre walk read in metres: a person 170 m tall)
+    n = 300  # deeper than MuJoCo models go here
+    text = "HIERARCHY\nROOT J0\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+    text += "".join(f"JOINT J{i}\n{{\nOFFSET 0.1 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n" for i in range(1, n))
+    text += "End Site\n{\nOFFSET 0.1 0 0\n}\n" + "}\n" * n + "MOTION\nFrames: 3\nFrame Time: 0.0333333\n" + ("0 0 0 " * (n + 1) + "\n") * 3
+    (tmp_path / "deep.bvh").write_text(text)
+    assert main(["studio", str(tmp_path / "deep.bvh"), "--check"]) == 2
+    assert "joints deep" in capsys.readouterr().err
+    assert main(["studio", str(walk), "--check", "--host", "not a host!"]) == 2
+    assert "--host not a host!: not an address" in capsys.readouterr().err
+
+
 def test_the_tabs_first_pair_is_of_one_skeleton(mocap):
     """A folder of two skeletons opens with a pair the Blend and Stream tabs can use (it opened on a walk of one
     skeleton and a run of another: an error before the user did anything)."""

@@ -128,6 +128,23 @@ def load_first(
     return trim_start(m, path, args, note)
 
 
+#: Statures (m) outside this range are no person's: the clip's units were read wrong (a note says so).
+HUMAN_STATURE_M = (0.5, 3.0)
+
+
+def stature_note(motion: Motion, units: str) -> list[str]:
+    """A note when ``motion``'s stature is no person's: ``--units m`` on a centimetre clip read 178 m and
+    every ground metric empty, without a word of why."""
+    s = motion.skeleton.stature()
+    lo, hi = HUMAN_STATURE_M
+    if lo <= s <= hi:
+        return []
+    return [
+        f"note: {motion.name}: stature {s:.3g} m, no person's ({lo:g}-{hi:g} m): its units are probably not what "
+        f"--units {units} reads (mjmotion info shows the stature each --units gives)"
+    ]
+
+
 def note_up(m: Motion, path: str) -> None:
     """The ``note:`` line on stderr for a clip whose body stands along another file axis than ``--up``
     reads (:func:`mjmotion.upright.up_note`), if it does."""

@@ -27,6 +27,7 @@ from ._common import (
     named,
     naming,
     prop_option,
+    stature_note,
 )
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, COORD, FRAME, VELOCITY, Given, UniqueProps, integer, number
 
@@ -213,21 +214,6 @@ def load_sources(args: argparse.Namespace, result_path: str, result, what: str =
 
 #: A delivered ball (--ball-release) must pass within this many metres of --ball, where it meets the bat.
 DELIVERY_MISS = 0.5
-#: Statures (m) outside this range are no person's: the clip's units were read wrong (a note says so).
-HUMAN_STATURE_M = (0.5, 3.0)
-
-
-def stature_note(motion: Motion, units: str) -> list[str]:
-    """A note when ``motion``'s stature is no person's: ``--units m`` on a centimetre clip read 178 m and
-    every ground metric empty, without a word of why."""
-    s = motion.skeleton.stature()
-    lo, hi = HUMAN_STATURE_M
-    if lo <= s <= hi:
-        return []
-    return [
-        f"note: {motion.name}: stature {s:.3g} m, no person's ({lo:g}-{hi:g} m): its units are probably not what "
-        f"--units {units} reads (mjmotion info shows the stature each --units gives)"
-    ]
 
 
 def evaluate_file(path: str, opts: dict[str, Any]) -> dict[str, Any]:

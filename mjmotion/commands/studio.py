@@ -47,24 +47,31 @@ DEFAULT_OUT = "studio_output"
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import MjmotionError
+    from ..errors import MjmotionError, printable
     from ..outputs import check_folder
-    from ..studio.app import LOCAL_HOSTS, Studio
+    from ..studio.app import LOCAL_HOSTS, Studio, check_port
     from ..studio.clips import ClipLibrary
-    from ._common import note_skipped, units_scale
+    from ._common import check_model, note_skipped, note_up, stature_note, units_scale
 
     if not 0 <= args.port <= 65535:
         raise MjmotionError(f"--port {args.port}: expected 0-65535")
+    check_port(args.host, args.port)  # (--check said "ready" for a --host the server then refused)
     if args.out is not None:  # a folder given that takes no files is said now, not at the first save
         check_folder(args.out, "--out")
     else:  # the default: the studio still serves from a folder it cannot write in; saving says why it fails
         args.out = DEFAULT_OUT
     library = ClipLibrary.from_paths(args.files, args.data, keep_start=args.keep_start, scale=units_scale(args.units), up=args.up)
     for clip in map(library.get, library.names()):
+        if clip.source is not None:  # as every verb reads a file: a skeleton no model takes, the wrong axis or units
+            check_model(clip.motion, str(clip.source))
+            note_up(clip.motion, str(clip.source))
+            for line in stature_note(clip.motion, args.units or "auto"):
+                sys.stderr.write(printable(line) + "\n")
         if clip.skipped:
             note_skipped(str(clip.source or clip.name), clip.skipped)
     if args.check:
-        print(f"mjmotion studio: {len(library.names())} clips ready: {', '.join(library.names())}")
+        n = len(library.names())
+        print(f"mjmotion studio: {n} clip{'s' * (n != 1)} ready: {printable(', '.join(library.names()))}")
         return 0
     studio = Studio(library, args.host, args.port, args.out)
     if args.host not in LOCAL_HOSTS:
