@@ -62,6 +62,11 @@ from .ik import analytic
 from .skeleton import Motion
 from .thresholds import H_C, HYSTERESIS, SPEED_WINDOW, V_C
 
+#: Longest time (s) a cleanup parameter may give (``blend``, ``min_plant``, ``max_gap``, ``root_window``,
+#: ``lift_ramp``): as ``mjmotion cleanup --blend`` allows.
+MAX_SECONDS = 10.0
+_SECONDS = ("min_plant", "max_gap", "blend", "root_window", "lift_ramp")
+
 
 @dataclass(frozen=True)
 class CleanupParams:
@@ -94,9 +99,11 @@ class CleanupParams:
         for name, low, strict in (("h_c", 0.0, True), ("v_c", 0.0, True), ("min_plant", 0.0, False), ("max_gap", 0.0, False),
                                   ("blend", 0.0, False), ("reach", 0.0, True), ("root_window", 0.0, False), ("lift_ramp", 0.0, False),
                                   ("stiffness", 0.0, False)):  # fmt: skip
-            require_number(f"CleanupParams.{name} =", getattr(self, name), low, strict, 1.0 if name == "reach" else None)
+            # (times at most MAX_SECONDS, as the CLI's --blend: a lift_ramp of 1e6 s ran for minutes)
+            high = 1.0 if name == "reach" else MAX_SECONDS if name in _SECONDS else None
+            require_number(f"CleanupParams.{name} =", getattr(self, name), low, strict, high)
         if self.clearance is not None:
-            require_number("CleanupParams.clearance =", self.clearance, 0.0, False, None)
+            require_number("CleanupParams.clearance =", self.clearance, 0.0, False, 1.0)
         if self.floor is not None and not (isinstance(self.floor, numbers.Real) and math.isfinite(self.floor)):
             raise MjmotionError(f"CleanupParams.floor = {self.floor!r}: expected a finite floor height in metres")
         require_number("CleanupParams.hysteresis =", self.hysteresis, 0.0, False, 0.999)

@@ -546,6 +546,8 @@ def _stance(track: FootTrack) -> tuple[np.ndarray, np.ndarray]:
 def check_sources(motion: Motion, sources: Sequence[Motion]) -> None:
     """Refuse a source the judge cannot measure ``motion`` against: another skeleton, another
     frame rate, or the result itself (``evaluate``, ``cleanup`` and ``render`` share the rule)."""
+    if isinstance(sources, Motion) or not all(isinstance(s, Motion) for s in sources):
+        raise MjmotionError("sources: expected a list of Motions (the clips this one was made from), e.g. sources=[walk, run]")
     for i, s in enumerate(sources):
         label = f"source {i + 1} ({s.name or 'unnamed'})"
         if not motion.skeleton.same_topology(s.skeleton):

@@ -362,6 +362,19 @@ def test_invalid_parameters_are_refused_by_name(option, value, field, tmp_path, 
     assert not out.exists()
 
 
+def test_api_parameters_have_the_clis_bounds_and_sources_must_be_a_list():
+    """A lift_ramp of 1e6 s ran past two minutes (1e4: 13 s), and cleanup(walk, sources=walk) was a raw
+    TypeError where evaluate says what it expected."""
+    for field in ("lift_ramp", "blend", "min_plant", "max_gap", "root_window"):
+        with pytest.raises(cl.MjmotionError, match=f"CleanupParams.{field} = 1e\\+06: expected a finite number in .0, 10\\]"):
+            cl.CleanupParams(**{field: 1e6})
+    with pytest.raises(cl.MjmotionError, match="CleanupParams.clearance = 2"):
+        cl.CleanupParams(clearance=2.0)
+    walk = shared_clip("cmu_cgspeed_daz/09_06.bvh")[4:40]
+    with pytest.raises(cl.MjmotionError, match="sources: expected a list of Motions"):
+        cl.cleanup(walk, sources=walk)
+
+
 def test_contact_paths_keep_the_lowest_point_still_while_a_toe_flexes():
     """A foot held level whose toe box flexes down then up through a plant: the lowest point
     switches from the heel corner to the toe tip and back, and whichever is lowest does not
