@@ -145,6 +145,17 @@ def test_aborted_path_follows_then_reaches_the_rest_scores(swing01):
     assert np.linalg.norm(v_out - v_in) <= src_acc < np.linalg.norm(straight - v_in) * 10
     with pytest.raises(MjmotionError, match="abort frame"):
         V.aborted_path(base, src.n_frames + 5)
+    # refused before anything is allocated (10**9 frames got the process killed for its memory; 2e6 made a
+    # clip over the frame cap); a fractional frame or a rate that is no rate was a raw error
+    for kwargs, message in (
+        (dict(n_frames=10**9), "more than the limit of 1,000,000 frames"),
+        (dict(n_frames=2_000_000), "more than the limit of 1,000,000 frames"),
+        (dict(fps=1e9), "fps 1000000000.0: expected a frame rate"),
+        (dict(fps=float("nan")), "fps nan: expected a frame rate"),
+        (dict(frame=60.5), "abort frame 60.5: expected a whole frame number"),
+    ):
+        with pytest.raises(MjmotionError, match=message):
+            V.aborted_path(base, **{"frame": 280, **kwargs}, space=space)
 
 
 def test_explicit_paths_from_npy_and_csv(swing01, tmp_path):

@@ -18,6 +18,7 @@ own path:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -25,6 +26,7 @@ import numpy as np
 
 from .. import kinematics, limits, mjcf
 from .. import rotations as rot
+from ..caps import MAX_FPS, check_motion_size
 from ..errors import MjmotionError
 from ..skeleton import Motion
 from ..style import PoseSpace
@@ -215,6 +217,17 @@ def aborted_path(
     with a run-up or a step does not glide back to where the source ended.
     """
     t = path.n_frames
+    for label, value in (("abort frame", frame), ("rest frame", rest_frame)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise MjmotionError(f"{label} {value!r}: expected a whole frame number")
+    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) or not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
+        raise MjmotionError(f"fps {fps!r}: expected a frame rate in (0, {MAX_FPS:g}]")
+    if n_frames is not None:
+        if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)):
+            raise MjmotionError(f"abort frames {n_frames!r}: expected a whole number of frames")
+        # (before anything is allocated: 10**9 frames got the process killed for its memory)
+        joints = space.template.skeleton.n_joints if space is not None else 1
+        check_motion_size(frame + 1 + int(n_frames), joints, f"an abort at {frame} over {n_frames} frames")
     if not (0 < frame < t - 1):
         raise MjmotionError(f"abort frame must be between 1 and {t - 2} for a {t}-frame clip, got {frame}")
     rest = rest_frame + t if rest_frame < 0 else rest_frame
