@@ -26,6 +26,7 @@ The pipeline, one pure function :func:`adapt` over a source :class:`Motion`:
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -438,6 +439,16 @@ def setup(
     """Build the :class:`HitProblem` (see :func:`adapt` for the arguments)."""
     if (target is None) == (offset is None):
         raise MjmotionError("give exactly one of a target position or an offset")
+    # (a NaN or negative margin returned "unreachable" having moved nothing; a NaN edge or frame was a raw
+    # ValueError; a fractional frame was cut to a whole one)
+    for label, value, low in (("margin", margin, 0.0), ("edge", edge, 0.0), ("falloff", falloff, 0.0)):
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not (math.isfinite(value) and value >= low):
+            raise MjmotionError(f"{label}={value!r}: expected a finite number ≥ {low:g}")
+    if frame is not None and (isinstance(frame, bool) or not isinstance(frame, (int, np.integer))):
+        raise MjmotionError(f"frame={frame!r}: expected a whole frame number (or None: the moment of contact)")
+    for label, vec in (("target", target), ("offset", offset)):
+        if vec is not None:
+            mjcf.check_vector(label, vec, 3, "metres")
     skel = motion.skeleton
     eff, prop = resolve_effector(motion, effector, prop)
     compiled = mjcf.compile(skel, (prop,) if prop is not None else ())
@@ -872,6 +883,12 @@ def adapt(
     far short (``short_by_m``) and the result is written as the best effort.
     """
     _check_solver(solver)
+    if (
+        isinstance(smoothness, bool)
+        or not isinstance(smoothness, (int, float, np.integer, np.floating))
+        or not (math.isfinite(smoothness) and smoothness >= 0)
+    ):
+        raise MjmotionError(f"smoothness={smoothness!r}: expected a finite number ≥ 0")
     problem = setup(
         motion, target, offset, frame, effector, falloff, wrist, lock, margin, weights, edge, chain_start, prop, source_ball, joint_limits
     )

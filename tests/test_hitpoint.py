@@ -456,3 +456,24 @@ def test_a_lock_or_wrist_the_chain_has_no_joint_for_is_refused_and_one_it_has_lo
     held = hitpoint.adapt(kick, offset=np.array([0.1, 0.0, 0.0]), effector="right_foot", solver="dls", style=False, lock=[chain[-2]])
     assert not np.allclose(free.motion.rotations[:, knee], kick.rotations[:, knee])
     assert np.allclose(held.motion.rotations[:, knee], kick.rotations[:, knee])
+
+
+def test_adapt_refuses_numbers_that_are_no_setting():
+    """A NaN or negative margin returned "unreachable" having moved nothing; a NaN edge or frame, or a
+    target of text, was a raw ValueError; a fractional frame was cut to a whole one."""
+    from mjmotion import synth
+
+    drive = synth.drive()
+    nan = float("nan")
+    for kwargs, message in (
+        (dict(margin=nan), "margin=nan: expected a finite number"),
+        (dict(margin=-10.0), "margin=-10.0: expected a finite number ≥ 0"),
+        (dict(edge=nan), "edge=nan"),
+        (dict(frame=nan), "frame=nan: expected a whole frame number"),
+        (dict(frame=65.7), "frame=65.7: expected a whole frame number"),
+        (dict(smoothness=-1.0), "smoothness=-1.0"),
+    ):
+        with pytest.raises(MjmotionError, match=message):
+            hitpoint.adapt(drive.motion, offset=[0.0, 0.0, 0.1], prop=drive.prop, solver="dls", **kwargs)
+    with pytest.raises(MjmotionError, match="target: expected 3 finite numbers"):
+        hitpoint.adapt(drive.motion, target="abc", prop=drive.prop, solver="dls")
