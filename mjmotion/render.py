@@ -15,6 +15,7 @@ If EGL does not work, OSMesa is tried; if neither works a :class:`MjmotionError`
 
 from __future__ import annotations
 
+import math
 import os
 
 # Before anything imports PyOpenGL: pick the headless backend unless the user chose one.
@@ -32,6 +33,7 @@ import numpy as np
 
 from . import kinematics, mjcf
 from . import rotations as rot
+from .caps import MAX_ACTORS, MAX_VIDEO_FPS, MIN_VIDEO_FPS
 from .errors import MjmotionError
 from .outputs import atomic_path
 from .skeleton import Motion
@@ -74,6 +76,18 @@ class Actor:
     trail: str | None = None
     skin: bool = False
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.motion, Motion):
+            raise MjmotionError(f"Actor: expected a Motion, got {type(self.motion).__name__}")
+        if not isinstance(self.label, str):
+            raise MjmotionError(f"Actor label: expected text, got {self.label!r}")
+        if self.color is not None:
+            mjcf.check_vector("Actor color", self.color, 3, "RGB 0-1")
+            if not all(0.0 <= float(c) <= 1.0 for c in self.color):
+                raise MjmotionError(f"Actor color: expected 3 numbers from 0 to 1 (RGB), got {self.color!r}")
+        if isinstance(self.props, mjcf.Prop) or not all(isinstance(pr, mjcf.Prop) for pr in self.props):
+            raise MjmotionError(f"Actor props: expected a tuple of mjcf.Prop, got {self.props!r}")
+
 
 @dataclass(frozen=True)
 class View:
@@ -93,6 +107,22 @@ class View:
     distance: float | None = None
     smoothing: float = 0.5
     fovy: float = 45.0
+
+    def __post_init__(self) -> None:
+        # (a NaN distance or a zero field of view gave an all-black video; a smoothing of 1e9 s asked for 1.75 TiB)
+        for label, value, low, high, optional in (
+            ("azimuth", self.azimuth, -1e6, 1e6, True), ("elevation", self.elevation, -90.0, 90.0, False),
+            ("distance", self.distance, 0.0, 1e6, True), ("smoothing", self.smoothing, 0.0, 60.0, False),
+            ("fovy", self.fovy, 0.0, 180.0, False),
+        ):  # fmt: skip
+            if value is None and optional:
+                continue
+            ok = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value)
+            x = float(value) if ok else math.nan  # type: ignore[arg-type]
+            above = low < x if label in ("distance", "fovy") else low <= x  # (a distance or field of view of 0 is none)
+            below = x < high if label == "fovy" else x <= high
+            if not (ok and above and below):
+                raise MjmotionError(f"View {label}={value!r}: expected a finite number from {low:g} to {high:g}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -235,10 +265,16 @@ def build_scene(
             levelled, every character with it). Every character moves by the same amount, so one
             floating over another's floor still shows.
     """
+    if isinstance(actors, Actor) or not all(isinstance(a, Actor) for a in actors):
+        raise MjmotionError("render: expected a list of render.Actor (e.g. [Actor(walk, 'walk')])")
     if not actors:
         raise MjmotionError("render: no characters to render")
-    if not (np.isfinite(fps) and fps > 0):
-        raise MjmotionError(f"render: fps must be a positive number, got {fps}")
+    if len(actors) > MAX_ACTORS:
+        raise MjmotionError(f"render: {len(actors)} characters; at most {MAX_ACTORS} in one video")
+    if not (np.isfinite(fps) and MIN_VIDEO_FPS <= fps <= MAX_VIDEO_FPS):
+        raise MjmotionError(f"render: fps {fps}: expected a video frame rate from {MIN_VIDEO_FPS:g} to {MAX_VIDEO_FPS:g}")
+    if not isinstance(view, View):
+        raise MjmotionError(f"render: view: expected a render.View, got {view!r}")
     if not (np.isfinite(spacing) and spacing >= 0):
         raise MjmotionError(f"render: spacing must be a non-negative number of metres, got {spacing}")
     if floor is None:
@@ -506,8 +542,15 @@ class Renderer:
         shadow_size: int = 1024,
         trail_seconds: float = 0.6,
     ) -> None:
+        for label, value in (("width", width), ("height", height), ("samples", samples), ("shadow_size", shadow_size)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise MjmotionError(f"render: {label} {value!r}: expected a whole number")
         if width < 16 or height < 16 or width > 4096 or height > 4096:
             raise MjmotionError(f"render: image size {width}x{height} out of range (16–4096 pixels)")
+        if not 0 <= samples <= 16 or not 16 <= shadow_size <= 8192:
+            raise MjmotionError(f"render: samples {samples} (expected 0 to 16) or shadow_size {shadow_size} (16 to 8192) out of range")
+        if isinstance(trail_seconds, bool) or not isinstance(trail_seconds, (int, float, np.integer, np.floating)) or not 0 <= trail_seconds <= 60:
+            raise MjmotionError(f"render: trail_seconds {trail_seconds!r}: expected a number of seconds from 0 to 60")
         self.scene = scene
         self.width, self.height = int(width), int(height)
         self.draw_labels = labels

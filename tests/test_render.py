@@ -309,3 +309,36 @@ def test_the_bundled_walk_is_drawn_with_its_planted_feet_on_the_floor():
             low[t, f] = min(data.geom_xpos[k, 2] - np.abs(data.geom_xmat[k].reshape(3, 3)[2]) @ scene.model.geom_size[k] for k in g)
     assert np.abs(low[clip.contacts]).max() < 5e-4, np.abs(low[clip.contacts]).max()
     assert low.min() > -5e-4
+
+
+def test_render_settings_that_are_no_setting_are_refused_before_drawing():
+    """A NaN camera distance or a zero field of view gave an all-black video, a smoothing of 1e9 s a
+    MemoryError, a bad colour or width a raw TypeError/ValueError, samples=-1 MuJoCo's FatalError, and a
+    Motion passed for an Actor an AttributeError; 17 characters and 1000 fps were taken."""
+    from mjmotion import synth
+
+    walk = synth.walk(seconds=0.5).motion
+    nan = float("nan")
+    for kwargs, message in (
+        (dict(distance=nan), "View distance=nan"),
+        (dict(distance=0.0), "View distance=0.0"),
+        (dict(fovy=0.0), "View fovy=0.0"),
+        (dict(smoothing=1e9), "View smoothing=1000000000.0"),
+        (dict(elevation=120.0), "View elevation=120.0"),
+    ):
+        with pytest.raises(MjmotionError, match=message):
+            render.View(**kwargs)
+    with pytest.raises(MjmotionError, match="Actor color: expected 3 finite numbers"):
+        render.Actor(walk, color=(2.0, 0.0))
+    with pytest.raises(MjmotionError, match="Actor color: expected 3 numbers from 0 to 1"):
+        render.Actor(walk, color=(2.0, 0.0, 0.0))
+    with pytest.raises(MjmotionError, match="expected a list of render.Actor"):
+        render.build_scene([walk])
+    with pytest.raises(MjmotionError, match="17 characters; at most 16"):
+        render.build_scene([render.Actor(walk)] * 17)
+    with pytest.raises(MjmotionError, match="fps 1000: expected a video frame rate from 1 to 240"):
+        render.build_scene([render.Actor(walk)], fps=1000)
+    scene = render.build_scene([render.Actor(walk)], fps=10)
+    for kwargs, message in ((dict(width=nan), "width nan"), (dict(samples=-1), "samples -1"), (dict(trail_seconds=nan), "trail_seconds nan")):
+        with pytest.raises(MjmotionError, match=message):
+            render.Renderer(scene, **kwargs)

@@ -23,7 +23,7 @@ import re
 from collections.abc import Callable
 from typing import Any
 
-from ..caps import MAX_ACTORS, MAX_FPS, MAX_FRAMES, MIN_FPS, check_motion_size
+from ..caps import MAX_ACTORS, MAX_FPS, MAX_FRAMES, MAX_VIDEO_FPS, MIN_FPS, MIN_VIDEO_FPS, check_motion_size
 from ..errors import MjmotionError
 from ..skeleton import Motion
 
@@ -197,7 +197,7 @@ class UniqueProps(argparse.Action):
 #: A clip frame rate (resampling): the frame rates a BVH file may declare.
 FPS = number(MIN_FPS, MAX_FPS, what="a frame rate in frames per second")
 #: A video frame rate.
-VIDEO_FPS = number(1.0, 240.0, what="a video frame rate in frames per second")
+VIDEO_FPS = number(MIN_VIDEO_FPS, MAX_VIDEO_FPS, what="a video frame rate in frames per second")
 #: A world coordinate in metres (balls, hit targets and offsets).
 COORD = number(-1000.0, 1000.0, what="a coordinate in metres")
 #: A velocity component in m/s (a ball: a fast bowl is 45 m/s).
