@@ -32,6 +32,8 @@ MIN_FPS, MAX_FPS = 0.1, 10_000.0
 MAX_COORD_M = 1e5
 #: Most characters in one render.
 MAX_ACTORS = 16
+#: Widest point cloud a registration takes, in frames (2L+1: ``register --window``; half-windows up to 500).
+MAX_WINDOW = 1001
 #: Video frame rates a render takes (``render --fps``, :func:`mjmotion.render.build_scene`).
 MIN_VIDEO_FPS, MAX_VIDEO_FPS = 1.0, 240.0
 #: Most principal-component scores per frame of a score file.

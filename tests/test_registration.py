@@ -557,3 +557,22 @@ def test_cli_area_threshold_reaches_the_dp_optimum_and_method_options_go_with_th
         err = capsys.readouterr().err
         assert err.startswith(f"error: {says}") and err.count("\n") == 1, err
     assert not (tmp_path / "x.json").exists() and not (tmp_path / "t.json").exists()
+
+
+def test_register_refuses_a_window_start_or_positions_that_are_no_setting():
+    """A window of 10**6 asked for 159 GiB (2.5: a raw TypeError), a start of (500, 0) was "argmin of an
+    empty sequence" and (-1, 0) wrapped to the last row, and NaN positions read "no path joins the corners"."""
+    from mjmotion import registration, synth
+
+    walk, run = synth.walk(seconds=1.0).motion, synth.run(seconds=1.0).motion
+    for kwargs, message in (
+        (dict(window=10**6), "window=1000000: expected a half-window L"),
+        (dict(window=2.5), "window=2.5: expected a half-window L"),
+        (dict(start=(500, 0)), r"start=\(500, 0\): expected a cell \(i, j\) of the 61×61 grid"),
+        (dict(start=(-1, 0)), r"start=\(-1, 0\): expected a cell"),
+        (dict(start=(0, 0, 0)), r"start=\(0, 0, 0\): expected a cell"),
+        (dict(positions=(np.full((61, 22, 3), np.nan), np.zeros((61, 22, 3)))), r"positions\[0\]: expected finite joint positions"),
+        (dict(positions=(np.zeros((61, 22, 3)), np.zeros((5, 3)))), r"positions\[1\]: expected finite joint positions of shape \(61, 22, 3\)"),
+    ):
+        with pytest.raises(MjmotionError, match=message):
+            registration.register(walk, run, **kwargs)

@@ -7,6 +7,7 @@ import json
 import sys
 from pathlib import Path
 
+from ..caps import MAX_WINDOW
 from ..errors import MjmotionError
 from ..outputs import check_output, together, write_text_atomic
 from . import _joint_weights as joint_weights
@@ -80,7 +81,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plot", metavar="GRID.png", help="also draw the grid (A along x, B along y; dark = similar) with the path and the curve, as PNG")
     p.add_argument(
         "--window",
-        type=integer(1, 1001, what="an odd number of frames"),
+        type=integer(1, MAX_WINDOW, what="an odd number of frames"),
         default=5,
         metavar="N",
         help="frames per point cloud, odd, at most the shorter clip's frames (default 5)",

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..caps import MAX_WINDOW
 from ..errors import MjmotionError
 from ..fk import joint_positions
 from ..skeleton import Motion
@@ -120,8 +121,18 @@ def register(
     if min(a.n_frames, b.n_frames) < 2:
         short = [m.name or ("the first clip", "the second clip")[k] for k, m in enumerate((a, b)) if m.n_frames < 2]
         raise MjmotionError(f"{' and '.join(short)}: 1 frame as read; registration needs clips of at least 2 frames")
+    # (a window of 10**6 asked for 159 GiB, 2.5 was a raw TypeError; NaN positions read "no path joins the corners")
+    if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or not 0 <= window <= MAX_WINDOW // 2:
+        raise MjmotionError(f"window={window!r}: expected a half-window L (clouds of 2L+1 frames), a whole number from 0 to {MAX_WINDOW // 2}")
     check_grid_size(a.n_frames, b.n_frames, max_cells)
     w = joint_weights(a.skeleton, weights)
+    if positions is not None:
+        for k, (m, pos) in enumerate(zip((a, b), positions)):
+            shape = np.shape(pos)
+            if shape != (m.n_frames, a.skeleton.n_joints, 3) or not np.all(np.isfinite(pos)):
+                raise MjmotionError(
+                    f"positions[{k}]: expected finite joint positions of shape {(m.n_frames, a.skeleton.n_joints, 3)} (frames, joints, xyz), got {shape}"
+                )
     pa, pb = positions if positions is not None else (positions_of(a), positions_of(b))
     t0 = time.perf_counter()
     grid = distance_grid(pa, pb, w, window, max_cells)

@@ -664,6 +664,9 @@ def find_path(
         if start != "auto":
             raise MjmotionError(f"start must be a cell (i, j) or 'auto', got {start!r}")
         start = (0, 0) if loop else auto_start(c)
+    ok = isinstance(start, (tuple, list)) and len(start) == 2 and all(isinstance(x, (int, np.integer)) and not isinstance(x, bool) for x in start)
+    if not ok or not (0 <= start[0] < c.shape[0] and 0 <= start[1] < c.shape[1]):  # (-1 wrapped to the last row)
+        raise MjmotionError(f"start={start!r}: expected a cell (i, j) of the {c.shape[0]}×{c.shape[1]} grid, or 'auto'")
     cell = (int(start[0]), int(start[1]))
     if loop and cell != (0, 0):
         raise MjmotionError("a looping (fixed-corner) registration starts at the corner (0, 0)")
