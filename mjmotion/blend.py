@@ -45,8 +45,8 @@ def check_weights(weights: np.ndarray | list[float], n: int, what: str = "weight
         w = np.asarray(weights, dtype=float)
     except (TypeError, ValueError):
         raise MjmotionError(f"{what}: expected {n} numbers (one per clip), got {weights!r}") from None
-    if w.shape != (n,):
-        raise MjmotionError(f"{what}: expected {n} weights (one per clip), got {w.size}")
+    if w.shape != (n,):  # (a nested list of 2 read "expected 2 weights, got 2")
+        raise MjmotionError(f"{what}: expected {n} weights (one per clip, a flat list), got {weights!r}")
     if not np.all(np.isfinite(w)) or np.any(w < 0):
         raise MjmotionError(f"{what}: weights must be non-negative numbers, got {w.tolist()}")
     if abs(w.sum() - 1.0) > 1e-6:
@@ -270,6 +270,8 @@ def blend(
     span the registration covers (``registration``, or one :func:`mjmotion.registration.register_many`
     makes with ``joint_weights``). ``linear``: the baseline, frame ``n`` of every clip averaged.
     """
+    if isinstance(motions, Motion) or not all(isinstance(m, Motion) for m in motions):  # (len() of a Motion: TypeError)
+        raise MjmotionError("blend: expected a list of Motions, e.g. blend([walk, run], [0.5, 0.5])")
     if len(motions) < 1:
         raise MjmotionError("blend needs at least one clip")
     motions = common_rate(list(motions))

@@ -77,6 +77,9 @@ def read(
     judge, use ``mjmotion.trim.skip_leading_transient(read(path))[0]``.
     """
     p = str(path)
+    if scale is not None and (isinstance(scale, (str, bool)) or not isinstance(scale, (int, float, np.integer, np.floating))):
+        # (scale="cm" was a TypeError; the unit error's own advice is "scale= in mjmotion.read")
+        raise MjmotionError(f"scale={scale!r}: expected metres per file unit as a number (0.01 for centimetres), or None to detect it")
     try:
         raw = read_input(p, MAX_FILE_BYTES if max_bytes is None else max_bytes, "a .bvh file")
     except InputError as e:

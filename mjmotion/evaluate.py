@@ -483,6 +483,8 @@ def evaluate(
     references. ``floor``: the floor height (m). With ``ball`` and ``hit_frame``: the hitting metrics
     too (effector: the first prop's sweet spot, else the foot or hand geom nearest the ball).
     """
+    if not isinstance(motion, Motion):  # (a path gave "'str' object has no attribute 'fps'")
+        raise MjmotionError(f"evaluate: expected a Motion (mjmotion.read(path) reads one), got {type(motion).__name__}")
     if isinstance(sources, Motion) or not all(isinstance(s, Motion) for s in sources):
         raise MjmotionError("sources: expected a list of Motions (the clips this one was made from), e.g. sources=[walk, run]")
     sources = list(sources)

@@ -199,7 +199,10 @@ def test_api_misuse_is_a_clear_error_not_a_traceback():
         (lambda: registration.register_many([walk, run], reference=5), r"reference 5: expected the index of one of the 2 clips"),
         (lambda: registration.register_many([walk, run], reference=-1), "reference -1"),
         (lambda: blend.blend([walk, run], "0.5,0.5"), "expected 2 numbers"),
-        (lambda: blend.blend([walk, run], [[0.5, 0.5]]), "expected 2 weights"),
+        (lambda: blend.blend([walk, run], [[0.5, 0.5]]), r"expected 2 weights \(one per clip, a flat list\), got \[\[0.5, 0.5\]\]"),
+        (lambda: blend.blend(walk, [1.0]), "blend: expected a list of Motions"),
+        (lambda: evaluate.evaluate("walk.bvh"), "evaluate: expected a Motion .* got str"),
+        (lambda: bvh.read("walk.bvh", scale="cm"), "scale='cm': expected metres per file unit as a number"),
         (lambda: evaluate.evaluate(walk, sources=walk), "a list of Motions"),
         (lambda: bvh.write("walk", "never.bvh"), "expected a Motion to write, got str"),
         (lambda: blend.WeightCurve(((0.0, 0.0, np.array([1.0, 0.0])), (1.0, -0.5, np.array([0.0, 1.0])))), r"weight key 1: .* ramp ≥ 0"),
@@ -209,7 +212,7 @@ def test_api_misuse_is_a_clear_error_not_a_traceback():
     cases.append(
         (
             lambda: hitpoint.adapt(drive.motion, offset=np.array([0.1, 0.0]), frame=drive.hit_frame, prop=drive.prop, style=False),
-            "the offset must be three",
+            "offset: expected 3 finite numbers",
         )
     )
     for call, message in cases:
