@@ -300,3 +300,21 @@ def test_a_character_too_small_to_mesh_is_refused():
     tiny = Skeleton(skel.names, skel.parents, skel.offsets * 0.05, skel.channels, skel.end_parents, skel.end_offsets * 0.05, 1.0, "z")
     with pytest.raises(MjmotionError, match="too small for a skin"):
         skin.build(mjcf.compile(tiny))
+
+
+def test_settings_that_make_no_surface_are_refused_by_name():
+    """A voxel of 0 or NaN, a negative margin and a NaN blend were "negative dimensions", a 10 m voxel a
+    scikit-image error, influences of 0 or 9 a bare ValueError."""
+    nan = float("nan")
+    for kwargs, message in (
+        (dict(voxel=0.0), "voxel=0.0: expected metres from 0.002 to 0.2"),
+        (dict(voxel=nan), "voxel=nan"),
+        (dict(voxel=10.0), "voxel=10.0"),
+        (dict(margin=-1.0), "margin=-1.0"),
+        (dict(blend=nan), "blend=nan"),
+        (dict(influences=0), "influences=0: expected a whole number from 1 to 4"),
+        (dict(influences=9), "influences=9"),
+        (dict(smoothing=2.5), "smoothing=2.5"),
+    ):
+        with pytest.raises(MjmotionError, match=f"skin.Settings {message}"):
+            skin.Settings(**kwargs)

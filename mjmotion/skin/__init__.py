@@ -57,6 +57,16 @@ class Settings:
     smoothing: int = 3
     influences: int = 4
 
+    def __post_init__(self) -> None:
+        # (a voxel of 0 or NaN, a negative margin, a NaN blend were "negative dimensions"; 10 m a scikit-image error)
+        for label, value, low, high in (("voxel", self.voxel, 0.002, 0.2), ("blend", self.blend, 0.0, 0.2),
+                                        ("margin", self.margin, 0.0, 0.1), ("falloff", self.falloff, 0.001, 0.5)):  # fmt: skip
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not low <= value <= high:
+                raise MjmotionError(f"skin.Settings {label}={value!r}: expected metres from {low:g} to {high:g}")
+        for label, value, low, high in (("smoothing", self.smoothing, 0, 100), ("influences", self.influences, 1, 4)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+                raise MjmotionError(f"skin.Settings {label}={value!r}: expected a whole number from {low} to {high}")
+
 
 @dataclass(frozen=True, eq=False)
 class Skin:
