@@ -830,7 +830,9 @@ def _write_hierarchy(
 
 
 def write(motion: Motion, path: str | os.PathLike[str]) -> None:
-    """Write ``motion`` as BVH to ``path`` (atomically: a temporary file renamed into place)."""
+    """Write ``motion`` as BVH to ``path`` (atomically: a temporary file renamed into place). An existing
+    file at ``path`` is replaced, as ``os.replace`` would (never a folder, FIFO or device:
+    :mod:`mjmotion.outputs`); the verbs refuse that without ``--force``."""
     from .outputs import write_text_atomic
 
     write_text_atomic(path, format_motion(motion))

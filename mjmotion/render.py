@@ -861,8 +861,9 @@ def render(
     progress: bool = True,
     **renderer_options: object,
 ) -> Path:
-    """Render ``scene`` (video frames ``frames``, default all) to an MP4 or GIF at ``path``;
-    ``progress``: a frame bar on standard error when it is a terminal (never in a pipe or a log)."""
+    """Render ``scene`` (video frames ``frames``, default all) to an MP4 or GIF at ``path``, replacing a file
+    there (as :func:`mjmotion.bvh.write` does; the verbs refuse that without ``--force``); ``progress``: a
+    frame bar on standard error when it is a terminal (never in a pipe or a log)."""
     indices = range(scene.n_frames)[frames or slice(None)]
     if len(indices) == 0:
         raise MjmotionError("render: no frames selected")
