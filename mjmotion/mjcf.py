@@ -847,15 +847,17 @@ def add_actuators(
     return _recompiled(compiled, spec)
 
 
-def add_keyframe(compiled: CompiledModel, qpos: np.ndarray, name: str = "start") -> CompiledModel:
+def add_keyframe(compiled: CompiledModel, qpos: np.ndarray, name: str = "start", drop: bool = True) -> CompiledModel:
     """The pose ``qpos: (nq,)`` as a keyframe, moved up or down so its lowest character geom is on
-    the floor; with servos, its controls hold that pose (``mj_resetDataKeyframe`` loads both)."""
+    the floor (``drop=False``: where it is, e.g. already placed on a judged floor); with servos, its
+    controls hold that pose (``mj_resetDataKeyframe`` loads both)."""
     m = compiled.model
     q = np.array(qpos, dtype=float)
     d = mujoco.MjData(m)
     d.qpos[:] = q
     mujoco.mj_kinematics(m, d)
-    q[2] -= lowest_point(m, d, character_geoms(m, int(compiled.body_ids[0])))
+    if drop:
+        q[2] -= lowest_point(m, d, character_geoms(m, int(compiled.body_ids[0])))
     spec = compiled.spec.copy()
     key = spec.add_key(name=name, qpos=q.tolist())
     if m.nu:

@@ -7,6 +7,7 @@ import argparse
 from ._common import add_input_options, check_model, note_up, output_path, prop_option, read_motion, trim_start
 from ._options import UniqueProps
 from ._progress import steps
+from .evaluate import add_judge_options, check_floor, load_sources
 
 NAME = "compile"
 HELP = "compile a BVH skeleton to a MuJoCo model (.xml)"
@@ -18,9 +19,11 @@ tracking camera. The file loads with mujoco.MjModel.from_xml_path to the same ki
 
 Its initial pose (qpos0) is the rest pose standing on the floor, and it carries a keyframe
 "first_frame": the clip's first frame after a leading T-pose or transition (--keep-start: the
-file's first frame), moved so its lowest geom touches the floor (load it in MuJoCo's viewer with
-the Key slider, or mujoco.mj_resetDataKeyframe). A one-word --prop is fitted to the hands on the
-same frames.
+file's first frame), placed on the floor the judge uses, as render draws it (docs/METRICS.md "The
+floor": --floor METRES, else the --source clips' stance floor, else the clip's own; a tilted stance
+floor is levelled), with the feet the judge calibrates on the clip (load it in MuJoCo's viewer with
+the Key slider, or mujoco.mj_resetDataKeyframe). A clip without feet has its first frame's lowest
+geom on the floor. A one-word --prop is fitted to the hands on the same frames.
 
 --skin adds the character's skinned surface (a MuJoCo <skin>: a closed mesh around the geoms
 in a standing T-pose, up to four bone weights per vertex by bind-pose distance; MuJoCo deforms
@@ -50,11 +53,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ball", action="store_true", help="add a free ball (cricket-ball size)")
     p.add_argument("--skin", action="store_true", help="add the character's skinned surface (a MuJoCo <skin>)")
     p.add_argument("--actuators", action="store_true", help="add a position servo per joint degree of freedom")
+    add_judge_options(
+        p,
+        floor_help="the clip's floor height (world z, m, within ±100), put at the model's floor (default: from --source, else detected on the clip)",
+        source_help="a clip this one was made from (repeatable; same skeleton and frame rate): its stance floor is the one used",
+    )
     add_input_options(p)
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import kinematics, mjcf
+    from .. import feet, kinematics, mjcf
     from ..errors import MjmotionError
 
     out = output_path(args, args.file, suffix=".xml")
@@ -67,7 +75,19 @@ def run(args: argparse.Namespace) -> int:
         clip = trim_start(m, args.file, args)[0]  # the frames a pose is taken from (the skin binds on the whole file)
         step("compile")
         props = tuple(prop_option(clip, text) for text in args.prop)
-        compiled = mjcf.compile(m.skeleton, props, mjcf.Ball() if args.ball else None)
+        boxes, fl = None, None
+        if m.skeleton.feet() and clip.n_frames > 1:
+            # The judge's feet and floor (as render draws them): a keyframe on the rest-pose boxes stood
+            # 6 cm off the floor the judge finds for golf 64_04.
+            check_floor(args)
+            sources = load_sources(args, args.file, clip) if args.source else []
+            fl = feet.judged_floor(clip, sources, args.floor)
+            clip = feet.level_motion(fl.level, clip)
+            plain = mjcf.compile(m.skeleton, props)
+            boxes = feet.sole_boxes(m.skeleton, feet.calibrate_soles(m.skeleton, [(kinematics.forward(plain, clip), clip.fps)]))
+        elif args.source:
+            raise MjmotionError(f"--source: {args.file} has no feet found by name (or one frame); its floor cannot be judged")
+        compiled = mjcf.compile(m.skeleton, props, mjcf.Ball() if args.ball else None, foot_boxes=boxes)
         try:
             if args.skin or args.actuators:
                 from ..skin import attach, bind, build
@@ -76,7 +96,12 @@ def run(args: argparse.Namespace) -> int:
                 neutral = bind.bind_rotations(m.skeleton, m)
                 if args.actuators:
                     compiled = mjcf.add_actuators(compiled, neutral)
-            compiled = mjcf.add_keyframe(compiled, kinematics.qpos(compiled, clip[:1])[0], name="first_frame")
+            first = kinematics.qpos(compiled, clip[:1])[0]
+            if fl is not None:
+                first[2] -= fl.height  # (the judge's floor at the model's z = 0)
+            elif args.floor is not None:
+                first[2] -= float(args.floor)
+            compiled = mjcf.add_keyframe(compiled, first, name="first_frame", drop=fl is None and args.floor is None)
             if args.skin:
                 step("skin")
                 compiled = attach(compiled, build(compiled, reference=m))
@@ -91,5 +116,8 @@ def run(args: argparse.Namespace) -> int:
             f", {model.nu} actuators" if model.nu else "",
         ]
     )
-    print(f"wrote {out}: {model.nbody - 1} bodies, nq={model.nq}, nv={model.nv}, mass {model.body_mass.sum():.1f} kg{extra}, keyframe first_frame")
+    where = f" on the floor {fl.text()}" if fl is not None else ""
+    print(
+        f"wrote {out}: {model.nbody - 1} bodies, nq={model.nq}, nv={model.nv}, mass {model.body_mass.sum():.1f} kg{extra}, keyframe first_frame{where}"
+    )
     return 0
