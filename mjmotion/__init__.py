@@ -36,6 +36,7 @@ neither NumPy nor MuJoCo.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from typing import TYPE_CHECKING, Any
 
 from .errors import BvhError, MjmotionError
@@ -70,33 +71,6 @@ _LAZY = {
     "read": ("bvh", "read"),
     "write": ("bvh", "write"),
     **{m: (m, None) for m in ("blend", "cleanup", "evaluate", "registration", "render", "synth")},
-    # every module the list above names, as ``mjmotion.trim.…`` after ``import mjmotion`` (the README's
-    # ``mjmotion.trim.skip_leading_transient`` raised AttributeError)
-    **{
-        m: (m, None)
-        for m in (
-            "audit",
-            "bvh",
-            "executor",
-            "experiments",
-            "feet",
-            "floor",
-            "hitpoint",
-            "ik",
-            "kinematics",
-            "limits",
-            "mjcf",
-            "physics",
-            "plots",
-            "skeleton",
-            "skin",
-            "stream",
-            "studio",
-            "style",
-            "trim",
-            "variations",
-        )
-    },  # fmt: skip
 }
 
 
@@ -106,6 +80,12 @@ def __getattr__(name: str) -> Any:
         mod = importlib.import_module(f".{module}", __name__)
         value = mod if attribute is None else getattr(mod, attribute)
         globals()[name] = value  # loaded once: the next access does not come here
+        return value
+    # Any module of the package, as ``mjmotion.trim.…`` after ``import mjmotion`` (the README's
+    # ``mjmotion.trim.skip_leading_transient`` raised AttributeError).
+    if name.isidentifier() and not name.startswith("_") and importlib.util.find_spec(f"{__name__}.{name}") is not None:
+        value = importlib.import_module(f".{name}", __name__)
+        globals()[name] = value
         return value
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 

@@ -783,8 +783,9 @@ def run(
     where = ex.describe() if todo else "no workers (nothing new to evaluate)"
     files = [str(table.csv), str(table.parquet)]
     written, unchanged = write_summary(
-        out_dir, rows, root=root, executor=where, computed=len(todo), seconds=seconds, timeout=timeout, aside=aside, unlisted=unlisted
-    )
+        out_dir, rows, root=root, executor=where, computed=len(todo), seconds=seconds, timeout=timeout, aside=aside, unlisted=unlisted,
+        no_files=len(work.no_files),
+    )  # fmt: skip
     return Result(rows, len(todo), seconds, where, files + written, unchanged)
 
 
@@ -876,6 +877,7 @@ def write_summary(
     timeout: float | None,
     aside: Aside | None = None,
     unlisted: Sequence[str] = (),
+    no_files: int = 0,
 ) -> tuple[list[str], tuple[str, ...]]:
     """``summary.md`` and ``histograms.png``: counts by flavour, distributions, worst clips, errors, parameters.
     Returns the files written and the files kept: ``histograms.png`` is drawn again only when what it
@@ -892,7 +894,9 @@ def write_summary(
         f"# Audit of {printable(named)}",
         "",
         f"{len(rows)} clips: {len(ok)} ok, {len(rows) - len(ok)} error; {computed} evaluated in this run "
-        f"({len(rows) - computed} kept from the previous table) in {seconds:.1f} s on {executor}.",
+        f"({len(rows) - computed - no_files} kept from the previous table"
+        + (f", {no_files} name{'s' * (no_files != 1)} ending in .bvh that {'are' if no_files != 1 else 'is'} no file to read" if no_files else "")
+        + f") in {seconds:.1f} s on {executor}.",
         "",
         "## Clips by skeleton flavour",
         "",

@@ -1161,8 +1161,13 @@ def test_render_refuses_before_the_progress_bar(tmp_path, human, capsys):
         refused(rc, err, phrase)
         assert "frame/s" not in err and "%|" not in err, err  # no progress bar: nothing was rendered
     rc, _, err = run(["render", *[src] * 17, "-o", str(tmp_path / "v.mp4")], capsys)
-    refused(rc, err, "more than the limit of 16 characters")
+    refused(rc, err, "17 characters, more than the limit of 16")
     assert "frame/s" not in err and os.listdir(tmp_path) == []
+    # --skin both draws each clip twice: 9 clips are 18 characters, refused before any clip is read
+    # (the scene refused them after reading every clip, naming --skin)
+    rc, _, err = run(["render", *[src] * 9, "--skin", "both", "-o", str(tmp_path / "v.mp4")], capsys)
+    refused(rc, err, "--skin both of 9 clips (2 characters each): 18 characters, more than the limit of 16")
+    assert os.listdir(tmp_path) == []
 
 
 def test_demo_keeps_an_existing_results_folder(tmp_path, capsys):

@@ -99,7 +99,7 @@ def test_frames_and_actors_are_checked_against_the_clip():
     assert O.check_frame(-1, 10, "--rest-frame", allow_negative=True) == 9
     with pytest.raises(MjmotionError, match=r"--frame 10: outside the clip's frames 0..9"):
         O.check_frame(10, 10, "--frame")
-    with pytest.raises(MjmotionError, match="17 clips, more than the limit of 16"):
+    with pytest.raises(MjmotionError, match="17 characters, more than the limit of 16"):
         O.check_actors(17)
 
 

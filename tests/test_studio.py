@@ -134,6 +134,12 @@ def test_studio_check_says_what_the_verbs_say_of_the_same_clips(tmp_path, capsys
     assert "joints deep" in capsys.readouterr().err
     assert main(["studio", str(walk), "--check", "--host", "not a host!"]) == 2
     assert "--host not a host!: not an address" in capsys.readouterr().err
+    import socket
+
+    with socket.socket() as busy:  # a studio already running there: --check binds nothing, so it checks the clips
+        busy.bind(("127.0.0.1", 0))
+        busy.listen(1)
+        assert main(["studio", str(walk), "--check", "--port", str(busy.getsockname()[1])]) == 0
 
 
 def test_the_tabs_first_pair_is_of_one_skeleton(mocap):

@@ -236,4 +236,4 @@ def check_frame(frame: int, n_frames: int, option: str, allow_negative: bool = F
 def check_actors(n: int, option: str = "the clips to render") -> None:
     """At most :data:`mjmotion.caps.MAX_ACTORS` characters in one scene."""
     if n > MAX_ACTORS:
-        raise MjmotionError(f"{option}: {n} clips, more than the limit of {MAX_ACTORS} characters in one render")
+        raise MjmotionError(f"{option}: {n} characters, more than the limit of {MAX_ACTORS} in one render")

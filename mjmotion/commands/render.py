@@ -45,7 +45,8 @@ finds on the floor touches the floor drawn.
 
 --skin draws each character as its skinned surface (the mesh and weights `mjmotion compile --skin`
 writes, deformed by MuJoCo's vertex blending) instead of capsules; --skin both draws every clip
-twice, skinned and as capsules, side by side in one colour. Either works with --fast.
+twice, skinned and as capsules, side by side in one colour (so at most 8 clips: a video holds 16
+characters). Either works with --fast.
 """
 
 
@@ -146,7 +147,10 @@ def run(args: argparse.Namespace) -> int:
         raise MjmotionError(f"--width {args.width} --height {args.height}: MP4 (yuv420p) needs an even width and height")
     if args.labels is not None and len(args.labels) != len(args.files):
         raise MjmotionError(f"--labels: got {len(args.labels)} labels for {len(args.files)} clips; give one per clip")
-    check_actors(len(args.files))
+    if args.skin == "both":  # each clip drawn twice, skinned and as capsules: refused before any clip is read
+        check_actors(2 * len(args.files), f"--skin both of {len(args.files)} clips (2 characters each)")
+    else:
+        check_actors(len(args.files))
     labels = args.labels or [printable(os.path.splitext(os.path.basename(f))[0]) for f in args.files]  # drawn: one printable line
     actors = []
     for i, (path, label) in enumerate(zip(args.files, labels)):

@@ -49,13 +49,18 @@ DEFAULT_OUT = "studio_output"
 def run(args: argparse.Namespace) -> int:
     from ..errors import MjmotionError, printable
     from ..outputs import check_folder
-    from ..studio.app import LOCAL_HOSTS, Studio, check_port
+    from ..studio.app import LOCAL_HOSTS, Studio, check_host, check_port
     from ..studio.clips import ClipLibrary
     from ._common import check_model, note_skipped, note_up, stature_note, units_scale
 
     if not 0 <= args.port <= 65535:
         raise MjmotionError(f"--port {args.port}: expected 0-65535")
-    check_port(args.host, args.port)  # (--check said "ready" for a --host the server then refused)
+    # (--check said "ready" for a --host the server then refused; the port is bound only by the server:
+    # a check while a studio runs on it is fine)
+    if args.check:
+        check_host(args.host)
+    else:
+        check_port(args.host, args.port)
     if args.out is not None:  # a folder given that takes no files is said now, not at the first save
         check_folder(args.out, "--out")
     else:  # the default: the studio still serves from a folder it cannot write in; saving says why it fails
