@@ -21,7 +21,7 @@ Its initial pose (qpos0) is the rest pose standing on the floor, and it carries 
 "first_frame": the clip's first frame after a leading T-pose or transition (--keep-start: the
 file's first frame), placed on the floor the judge uses, as render draws it (docs/METRICS.md "The
 floor": --floor METRES, else the --source clips' stance floor, else the clip's own; a tilted stance
-floor is levelled), with the feet the judge calibrates on the clip (load it in MuJoCo's viewer with
+floor at its height under the first frame), with the feet the judge calibrates on the clip (load it in MuJoCo's viewer with
 the Key slider, or mujoco.mj_resetDataKeyframe). A clip without feet has its first frame's lowest
 geom on the floor. A one-word --prop is fitted to the hands on the same frames.
 
@@ -62,6 +62,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from .. import feet, kinematics, mjcf
     from ..errors import MjmotionError
 
@@ -82,7 +84,6 @@ def run(args: argparse.Namespace) -> int:
             check_floor(args)
             sources = load_sources(args, args.file, clip) if args.source else []
             fl = feet.judged_floor(clip, sources, args.floor)
-            clip = feet.level_motion(fl.level, clip)
             plain = mjcf.compile(m.skeleton, props)
             boxes = feet.sole_boxes(m.skeleton, feet.calibrate_soles(m.skeleton, [(kinematics.forward(plain, clip), clip.fps)]))
         elif args.source:
@@ -97,8 +98,10 @@ def run(args: argparse.Namespace) -> int:
                 if args.actuators:
                     compiled = mjcf.add_actuators(compiled, neutral)
             first = kinematics.qpos(compiled, clip[:1])[0]
-            if fl is not None:
-                first[2] -= fl.height  # (the judge's floor at the model's z = 0)
+            if fl is not None:  # the judge's floor at the model's z = 0: a tilted one where the first frame stands
+                lv = fl.level
+                under = 0.0 if lv.flat else float(np.dot(lv.rise, clip.root_positions[0, :2] - np.asarray(lv.pivot[:2])))
+                first[2] -= fl.height + under
             elif args.floor is not None:
                 first[2] -= float(args.floor)
             compiled = mjcf.add_keyframe(compiled, first, name="first_frame", drop=fl is None and args.floor is None)
