@@ -33,10 +33,20 @@ class AlreadyExistsError(OutputExistsError):
     """An output path is an existing file that ``--force`` would replace (not an input, not a folder)."""
 
 
+def is_real(value: object) -> bool:
+    """Whether ``value`` is a finite real number (Python's or NumPy's; ``True`` is not one)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def is_whole(value: object) -> bool:
+    """Whether ``value`` is a whole number (Python's or NumPy's; ``True`` is not one, nor ``3.0``)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
 def require_number(label: str, value: object, low: float = 0.0, strict: bool = True, high: float | None = None, what: str = "") -> None:
     """Refuse anything but a finite real number above ``low`` (``strict``) or at least ``low``, and at
     most ``high``; the message names ``label`` (an option or a field) and, if given, ``what`` it is."""
-    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+    ok = is_real(value)
     ok = ok and (value > low if strict else value >= low) and (high is None or value <= high)  # type: ignore[operator]
     if not ok:
         bound = f"in ({low:g}, {high:g}]" if high is not None else f"{'>' if strict else '≥'} {low:g}"

@@ -37,7 +37,7 @@ import numpy as np
 from . import floor as floors
 from . import kinematics, mjcf, physics
 from . import rotations as rot
-from .errors import MjmotionError
+from .errors import MjmotionError, is_whole
 from .feet import (
     FootTrack,
     box_corners,
@@ -485,8 +485,7 @@ def evaluate(
     """
     if not isinstance(motion, Motion):  # (a path gave "'str' object has no attribute 'fps'")
         raise MjmotionError(f"evaluate: expected a Motion (mjmotion.read(path) reads one), got {type(motion).__name__}")
-    if isinstance(sources, Motion) or not all(isinstance(s, Motion) for s in sources):
-        raise MjmotionError("sources: expected a list of Motions (the clips this one was made from), e.g. sources=[walk, run]")
+    check_sources(motion, sources)  # (a list of Motions of its skeleton and rate, not itself)
     sources = list(sources)
     if motion.fps > MAX_JUDGED_FPS:
         raise MjmotionError(
@@ -498,11 +497,10 @@ def evaluate(
     if ball is not None:
         if hit_frame is None:
             raise MjmotionError("a ball needs a hit frame (--frame H)")
-        if isinstance(hit_frame, bool) or not isinstance(hit_frame, (int, np.integer)):
+        if not is_whole(hit_frame):
             raise MjmotionError(f"hit_frame={hit_frame!r}: expected a whole frame number")
         mjcf.check_vector("ball_velocity", ball_velocity, 3, "m/s")
     require_frames(motion.n_frames)
-    check_sources(motion, sources)
     compiled = judge_model(motion.skeleton, props)
     pose = kinematics.forward(compiled, motion)
     track, soles, fl = judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], floor, params.speed_window)

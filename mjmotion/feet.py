@@ -402,15 +402,15 @@ def sole_boxes(skeleton: Skeleton, soles: Soles) -> mjcf.FootBoxes:
     return out
 
 
-def judged_model(motion: Motion, props: Sequence[mjcf.Prop] = ()) -> CompiledModel:
-    """``mjcf.compile(motion.skeleton, props)`` with the feet drawn on the soles the judge calibrates
-    on ``motion`` itself (:func:`calibrate_soles`, :func:`sole_boxes`): what ``render`` and the
-    studio draw. A skeleton without feet gets the plain model."""
-    plain = mjcf.compile(motion.skeleton, tuple(props))
+def judged_model(motion: Motion, props: Sequence[mjcf.Prop] = (), ball: mjcf.Ball | None = None) -> CompiledModel:
+    """``mjcf.compile(motion.skeleton, props, ball)`` with the feet drawn on the soles the judge calibrates
+    on ``motion`` itself (:func:`calibrate_soles`, :func:`sole_boxes`): what ``render``, the studio and
+    ``compile`` use. A skeleton without feet gets the plain model."""
+    plain = mjcf.compile(motion.skeleton, tuple(props), ball)
     if not motion.skeleton.feet() or motion.n_frames < 1:
         return plain
     soles = calibrate_soles(motion.skeleton, [(kinematics.forward(plain, motion), motion.fps)])
-    return mjcf.compile(motion.skeleton, tuple(props), foot_boxes=sole_boxes(motion.skeleton, soles))
+    return mjcf.compile(motion.skeleton, tuple(props), ball, foot_boxes=sole_boxes(motion.skeleton, soles))
 
 
 # --------------------------------------------------------------------------- tracks

@@ -26,7 +26,6 @@ The pipeline, one pure function :func:`adapt` over a source :class:`Motion`:
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -36,7 +35,7 @@ import numpy as np
 
 from . import kinematics, limits, mjcf
 from . import rotations as rot
-from .errors import MjmotionError
+from .errors import MjmotionError, is_real, is_whole
 from .ik.chains import DEFAULT_MARGIN, Chain, Effector, _coords, build_chain, factor_rates, joint_role, rotation_angle
 from .ik.reach import envelope, nearest_reachable, paced_walk
 from .ik.twohand import FrameSolution, TwoHandIK
@@ -442,11 +441,11 @@ def setup(
     # (a NaN or negative margin returned "unreachable" having moved nothing; a NaN edge or frame was a raw
     # ValueError; a fractional frame was cut to a whole one)
     for label, value, low in (("margin", margin, 0.0), ("edge", edge, 0.0), ("falloff", falloff, 0.0)):
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not (math.isfinite(value) and value >= low):
+        if not (is_real(value) and value >= low):
             raise MjmotionError(f"{label}={value!r}: expected a finite number ≥ {low:g}")
-    if frame is not None and (isinstance(frame, bool) or not isinstance(frame, (int, np.integer))):
+    if frame is not None and not is_whole(frame):
         raise MjmotionError(f"frame={frame!r}: expected a whole frame number (or None: the moment of contact)")
-    for label, vec in (("target", target), ("offset", offset)):
+    for label, vec in (("target", target), ("offset", offset), ("the source's ball", source_ball)):
         if vec is not None:
             mjcf.check_vector(label, vec, 3, "metres")
     skel = motion.skeleton
@@ -458,8 +457,6 @@ def setup(
     e_fk = np.einsum("tab,b->ta", tip_frames[:, :3, :3], np.asarray(eff.offset)) + tip_frames[:, :3, 3]
     if source_ball is not None:
         source_ball = np.asarray(source_ball, dtype=float)
-        if source_ball.shape != (3,) or not np.all(np.isfinite(source_ball)):
-            raise MjmotionError(f"the source's ball must be three finite numbers (metres), got {source_ball}")
     if frame is not None:
         hit, rule = int(frame), "given"
     else:
@@ -474,9 +471,8 @@ def setup(
             else f"a clip of {motion.n_frames} frame{'s' if motion.n_frames > 1 else ''}"
         )
         raise MjmotionError(f"{said} is not inside {inner}; the edit keeps the first and last frames as captured")
-    tgt = _check_target(
-        np.asarray(target, dtype=float) if target is not None else e_fk[hit] + _check_target(np.asarray(offset, dtype=float), "offset")
-    )
+    # (target and offset were checked above, before any work)
+    tgt = np.asarray(target, dtype=float) if target is not None else e_fk[hit] + np.asarray(offset, dtype=float)
     blend = blend_weights(e_fk, hit, falloff, motion.fps, edge)
     tip_rot = tip_frames[:, :3, :3].copy()
     goals = _goals(e_fk, tip_rot, blend, hit, tgt)
@@ -883,11 +879,7 @@ def adapt(
     far short (``short_by_m``) and the result is written as the best effort.
     """
     _check_solver(solver)
-    if (
-        isinstance(smoothness, bool)
-        or not isinstance(smoothness, (int, float, np.integer, np.floating))
-        or not (math.isfinite(smoothness) and smoothness >= 0)
-    ):
+    if not (is_real(smoothness) and smoothness >= 0):
         raise MjmotionError(f"smoothness={smoothness!r}: expected a finite number ≥ 0")
     problem = setup(
         motion, target, offset, frame, effector, falloff, wrist, lock, margin, weights, edge, chain_start, prop, source_ball, joint_limits

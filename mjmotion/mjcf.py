@@ -16,7 +16,6 @@ each other. The world has a checker floor (z = 0), lights and a camera tracking 
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 from dataclasses import dataclass, field
 from xml.etree import ElementTree
@@ -27,7 +26,7 @@ import numpy as np
 from . import limits
 from . import rotations as rot
 from .caps import MAX_MODEL_JOINTS
-from .errors import MjmotionError
+from .errors import MjmotionError, is_real
 from .skeleton import Skeleton
 
 #: Names of the elements mjmotion adds; a skeleton may not use them for its joints.
@@ -89,11 +88,7 @@ class Prop:
             raise MjmotionError(f"Prop {self.name} quat: expected a rotation (a non-zero quaternion), got {self.quat!r}")
         for label, value, unit in (("length", self.length, "metres"), ("radius", self.radius, "metres"), ("mass", self.mass, "kg")):
             _check_positive(f"Prop {self.name} {label}", value, unit)
-        if (
-            isinstance(self.sweet_spot, bool)
-            or not isinstance(self.sweet_spot, (int, float, np.integer, np.floating))
-            or not math.isfinite(self.sweet_spot)
-        ):
+        if not is_real(self.sweet_spot):
             raise MjmotionError(f"Prop {self.name} sweet_spot: expected a finite distance from the grip (metres), got {self.sweet_spot!r}")
 
     @property
@@ -135,7 +130,7 @@ def check_vector(label: str, value: object, n: int, unit: str) -> None:
 
 
 def _check_positive(label: str, value: object, unit: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not (math.isfinite(value) and value > 0):
+    if not (is_real(value) and value > 0):  # type: ignore[operator]
         raise MjmotionError(f"{label}: expected a finite number > 0 ({unit}), got {value!r}")
 
 

@@ -34,7 +34,7 @@ import numpy as np
 from . import kinematics, mjcf
 from . import rotations as rot
 from .caps import MAX_ACTORS, MAX_VIDEO_FPS, MIN_VIDEO_FPS
-from .errors import MjmotionError
+from .errors import MjmotionError, is_real, is_whole
 from .outputs import atomic_path
 from .skeleton import Motion
 
@@ -117,7 +117,7 @@ class View:
         ):  # fmt: skip
             if value is None and optional:
                 continue
-            ok = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value)
+            ok = is_real(value)
             x = float(value) if ok else math.nan  # type: ignore[arg-type]
             above = low < x if label in ("distance", "fovy") else low <= x  # (a distance or field of view of 0 is none)
             below = x < high if label == "fovy" else x <= high
@@ -543,13 +543,13 @@ class Renderer:
         trail_seconds: float = 0.6,
     ) -> None:
         for label, value in (("width", width), ("height", height), ("samples", samples), ("shadow_size", shadow_size)):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            if not is_whole(value):
                 raise MjmotionError(f"render: {label} {value!r}: expected a whole number")
         if width < 16 or height < 16 or width > 4096 or height > 4096:
             raise MjmotionError(f"render: image size {width}x{height} out of range (16–4096 pixels)")
         if not 0 <= samples <= 16 or not 16 <= shadow_size <= 8192:
             raise MjmotionError(f"render: samples {samples} (expected 0 to 16) or shadow_size {shadow_size} (16 to 8192) out of range")
-        if isinstance(trail_seconds, bool) or not isinstance(trail_seconds, (int, float, np.integer, np.floating)) or not 0 <= trail_seconds <= 60:
+        if not (is_real(trail_seconds) and 0 <= trail_seconds <= 60):
             raise MjmotionError(f"render: trail_seconds {trail_seconds!r}: expected a number of seconds from 0 to 60")
         self.scene = scene
         self.width, self.height = int(width), int(height)

@@ -44,7 +44,6 @@ the locomotion's pace and ends at its own. :attr:`MotionStream.transitions` repo
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, overload
@@ -54,7 +53,7 @@ import numpy as np
 from . import registration as reg
 from . import script as script_schema
 from .blend import Track, WeightCurve, bezier_ease, check_weights, compose
-from .errors import MjmotionError
+from .errors import MjmotionError, is_real
 from .skeleton import Motion, same_rate
 
 
@@ -85,7 +84,7 @@ class Script:
 
     def __post_init__(self) -> None:
         for label, value in (("fps", self.fps), ("duration", self.duration), ("loop_blend", self.loop_blend)):
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not math.isfinite(value):
+            if not is_real(value):
                 raise MjmotionError(f"Script.{label}: expected a finite number, got {value!r}")
         if not 1.0 <= self.fps <= 10_000.0:
             raise MjmotionError(f"Script.fps {self.fps:g}: expected 1 to 10000 frames per second")

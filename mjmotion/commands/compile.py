@@ -77,18 +77,19 @@ def run(args: argparse.Namespace) -> int:
         clip = trim_start(m, args.file, args)[0]  # the frames a pose is taken from (the skin binds on the whole file)
         step("compile")
         props = tuple(prop_option(clip, text) for text in args.prop)
-        boxes, fl = None, None
+        ball = mjcf.Ball() if args.ball else None
+        fl = None
         if m.skeleton.feet() and clip.n_frames > 1:
             # The judge's feet and floor (as render draws them): a keyframe on the rest-pose boxes stood
             # 6 cm off the floor the judge finds for golf 64_04.
             check_floor(args)
             sources = load_sources(args, args.file, clip) if args.source else []
             fl = feet.judged_floor(clip, sources, args.floor)
-            plain = mjcf.compile(m.skeleton, props)
-            boxes = feet.sole_boxes(m.skeleton, feet.calibrate_soles(m.skeleton, [(kinematics.forward(plain, clip), clip.fps)]))
+            compiled = feet.judged_model(clip, props, ball)
         elif args.source:
             raise MjmotionError(f"--source: {args.file} has no feet found by name (or one frame); its floor cannot be judged")
-        compiled = mjcf.compile(m.skeleton, props, mjcf.Ball() if args.ball else None, foot_boxes=boxes)
+        else:
+            compiled = mjcf.compile(m.skeleton, props, ball)
         try:
             if args.skin or args.actuators:
                 from ..skin import attach, bind, build

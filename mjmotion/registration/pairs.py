@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..caps import MAX_WINDOW
-from ..errors import MjmotionError
+from ..errors import MjmotionError, is_whole
 from ..fk import joint_positions
 from ..skeleton import Motion
 from .align import alignment_curve
@@ -122,7 +122,7 @@ def register(
         short = [m.name or ("the first clip", "the second clip")[k] for k, m in enumerate((a, b)) if m.n_frames < 2]
         raise MjmotionError(f"{' and '.join(short)}: 1 frame as read; registration needs clips of at least 2 frames")
     # (a window of 10**6 asked for 159 GiB, 2.5 was a raw TypeError; NaN positions read "no path joins the corners")
-    if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or not 0 <= window <= MAX_WINDOW // 2:
+    if not (is_whole(window) and 0 <= window <= MAX_WINDOW // 2):
         raise MjmotionError(f"window={window!r}: expected a half-window L (clouds of 2L+1 frames), a whole number from 0 to {MAX_WINDOW // 2}")
     check_grid_size(a.n_frames, b.n_frames, max_cells)
     w = joint_weights(a.skeleton, weights)

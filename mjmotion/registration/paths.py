@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from .. import compiled
-from ..errors import MjmotionError
+from ..errors import MjmotionError, is_whole
 
 METHODS = ("dp", "greedy", "threshold", "brute")
 #: The NumPy DP's time per grid cell (``benchmarks/bench_compiled.py``: 80–100 ns at slope limit 2).
@@ -664,7 +664,7 @@ def find_path(
         if start != "auto":
             raise MjmotionError(f"start must be a cell (i, j) or 'auto', got {start!r}")
         start = (0, 0) if loop else auto_start(c)
-    ok = isinstance(start, (tuple, list)) and len(start) == 2 and all(isinstance(x, (int, np.integer)) and not isinstance(x, bool) for x in start)
+    ok = isinstance(start, (tuple, list)) and len(start) == 2 and all(is_whole(x) for x in start)
     if not ok or not (0 <= start[0] < c.shape[0] and 0 <= start[1] < c.shape[1]):  # (-1 wrapped to the last row)
         raise MjmotionError(f"start={start!r}: expected a cell (i, j) of the {c.shape[0]}×{c.shape[1]} grid, or 'auto'")
     cell = (int(start[0]), int(start[1]))

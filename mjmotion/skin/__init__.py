@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import mjcf
-from ..errors import MjmotionError
+from ..errors import MjmotionError, is_real, is_whole
 from ..skeleton import Motion
 from . import bind, mesh
 from . import deform as _deform
@@ -61,10 +61,10 @@ class Settings:
         # (a voxel of 0 or NaN, a negative margin, a NaN blend were "negative dimensions"; 10 m a scikit-image error)
         for label, value, low, high in (("voxel", self.voxel, 0.002, 0.2), ("blend", self.blend, 0.0, 0.2),
                                         ("margin", self.margin, 0.0, 0.1), ("falloff", self.falloff, 0.001, 0.5)):  # fmt: skip
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not low <= value <= high:
+            if not (is_real(value) and low <= value <= high):
                 raise MjmotionError(f"skin.Settings {label}={value!r}: expected metres from {low:g} to {high:g}")
         for label, value, low, high in (("smoothing", self.smoothing, 0, 100), ("influences", self.influences, 1, 4)):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+            if not (is_whole(value) and low <= value <= high):
                 raise MjmotionError(f"skin.Settings {label}={value!r}: expected a whole number from {low} to {high}")
 
 

@@ -18,7 +18,6 @@ own path:
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -27,7 +26,7 @@ import numpy as np
 from .. import kinematics, limits, mjcf
 from .. import rotations as rot
 from ..caps import MAX_FPS, check_motion_size
-from ..errors import MjmotionError
+from ..errors import MjmotionError, is_real, is_whole
 from ..skeleton import Motion
 from ..style import PoseSpace
 
@@ -218,12 +217,12 @@ def aborted_path(
     """
     t = path.n_frames
     for label, value in (("abort frame", frame), ("rest frame", rest_frame)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        if not is_whole(value):
             raise MjmotionError(f"{label} {value!r}: expected a whole frame number")
-    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) or not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
+    if not (is_real(fps) and 0 < fps <= MAX_FPS):
         raise MjmotionError(f"fps {fps!r}: expected a frame rate in (0, {MAX_FPS:g}]")
     if n_frames is not None:
-        if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)):
+        if not is_whole(n_frames):
             raise MjmotionError(f"abort frames {n_frames!r}: expected a whole number of frames")
         # (before anything is allocated: 10**9 frames got the process killed for its memory)
         joints = space.template.skeleton.n_joints if space is not None else 1
