@@ -1,11 +1,11 @@
 """Cleanup's pinned paths: the banded solve against the same least-squares problem assembled sparse.
 
 ``mjmotion.cleanup.pinned_paths`` holds each plant's touching point still as the judge measures
-it, one least-squares problem per plant and its blend window (Huber-reweighted). Its normal
+it, one least-squares problem per plant and its blend window. Its normal
 equations are banded (steps couple neighbouring frames, accelerations three), and it solves them
 with ``scipy.linalg.solveh_banded``. The baseline here is the way it was first written: every
-term a row of a ``scipy.sparse`` matrix, the normal equations formed and factored by ``spsolve``
-each Huber pass. Both run on the calls a real cleanup makes (the linear blend of the daz walk
+term a row of a ``scipy.sparse`` matrix, the normal equations formed and factored by ``spsolve``.
+Both run on the calls a real cleanup makes (the linear blend of the daz walk
 07_01 and run 09_01), rounds interleaved; the table gives the median time of all calls per
 round and the largest difference between the two answers.
 
@@ -32,7 +32,7 @@ from mjmotion.trim import leading_transient
 
 def sparse_pinned_paths(plants, exact, ankles_xy, reach, fps, window, stiffness, blend_s, fades=None):
     """The objective of :func:`mjmotion.cleanup.pinned_paths`, one sparse row per term, solved by
-    ``spsolve`` on the normal equations each Huber pass (the baseline)."""
+    ``spsolve`` on the normal equations (the baseline)."""
     import scipy.sparse as sp
     from scipy.sparse.linalg import spsolve
 
@@ -73,16 +73,8 @@ def sparse_pinned_paths(plants, exact, ankles_xy, reach, fps, window, stiffness,
         aw = anchor_w[lo_s:hi_s]
         base = d2u.T @ d2u + d2u.T @ held @ d2u + sp.diags(aw)
         base_rhs = d2u.T @ (d2u @ a_u) - d2u.T @ (held @ (d2k @ a_k)) + aw[:, None] * anchor
-        weight = np.ones(len(target))
-        x = anchor
-        for _ in range(cl.HUBER_PASSES):
-            lhs = (still.T @ sp.diags(weight) @ still + base).tocsc()
-            x = np.asarray(spsolve(lhs, still.T @ (weight[:, None] * target) + base_rhs)).reshape(m, 2)
-            if not len(target):
-                break
-            need = np.linalg.norm(still @ x - target, axis=1)
-            weight = np.minimum(1.0, cl.HUBER_SPEED / np.maximum(need, 1e-12))
-        out[lo_s:hi_s] = x
+        lhs = (still.T @ still + base).tocsc()
+        out[lo_s:hi_s] = np.asarray(spsolve(lhs, still.T @ target + base_rhs)).reshape(m, 2)
     return out
 
 

@@ -7,11 +7,11 @@ planned and §4 left undone. Feet, floor and contacts are the judge's (:mod:`mjm
    dropped. Then, up to ``refine`` times, the result is labelled again and every contact frame
    that is not held still grows the plant beside it or starts one (:func:`grow_plants`).
 2. **Fix each plant**: the point that touches the floor — the lowest sole point, heel, ball or
-   toe tip — stays where it is while the foot turns as captured (:func:`contact_paths`: the
-   ankle rolls about it), held as the judge measures it: over the judge's 0.1 s speed window,
-   with the ankle's acceleration (and that of what the cleanup adds to the leg) penalised
-   (``stiffness``), so the leg does not carry the capture's marker jitter nor chase a glitching
-   frame (:func:`pinned_paths`, one sparse least-squares problem per plant). ``hold_orientation``
+   toe tip — stays where it is while the foot turns as captured, low-passed
+   (:data:`FOOT_CUTOFF_HZ`; :func:`contact_paths`: the ankle rolls about it), held as the judge
+   measures it: over the judge's 0.1 s speed window, with the ankle's acceleration (and that of
+   what the cleanup adds to the leg) penalised (``stiffness``), so the leg does not carry the
+   capture's marker jitter (:func:`pinned_paths`, one banded least-squares problem per plant). ``hold_orientation``
    holds one world orientation through each plant instead (its middle frame's; stiller feet,
    but the leg must then stretch at toe-off and the knee pops, measured). A plant standing below
    the floor (the median of its lowest sole point) is raised onto it frame by frame (faded in and
@@ -57,10 +57,10 @@ from . import floor as floors
 from . import kinematics, mjcf
 from . import rotations as rot
 from .errors import MjmotionError, require_number
-from .filters import lowpass, moving_median, smooth_cover
+from .filters import lowpass, lowpass_quaternions, moving_median, smooth_cover
 from .ik import analytic
 from .skeleton import Motion
-from .thresholds import H_C, HYSTERESIS, SPEED_WINDOW, V_C
+from .thresholds import CUTOFF_HZ, H_C, HYSTERESIS, SPEED_WINDOW, V_C
 
 #: Longest time (s) a cleanup parameter may give (``blend``, ``min_plant``, ``max_gap``, ``root_window``,
 #: ``lift_ramp``): as ``mjmotion cleanup --blend`` allows.
@@ -491,18 +491,19 @@ def contact_paths(plants: list[Plant], ankles_xy: np.ndarray, reach: np.ndarray)
     return out
 
 
-#: Pinned paths: a held step counts in least squares while its speed (m/s) over the square root of
-#: its window's step count (its share of the window's mean) is below this, linearly above (Huber,
-#: a few reweighted passes): a glitch in the captured foot's rotation is not chased by the leg.
-HUBER_SPEED = 0.2
 #: Through a plant, the hip-to-ankle distance the legs are solved to is low-passed at this cutoff (Hz):
 #: a held foot cannot follow a one-frame jerk of the captured pelvis, and the knee would take it as a pop.
 LEG_CUTOFF_HZ = 10.0
-HUBER_PASSES = 3
 #: The sole points are held in the ankle's frame low-passed at this cutoff (Hz): a rigid foot's are
 #: constant; a toe joint's flex is marker noise above it. Held as captured, a toe snapping 15° straight
 #: in two frames at toe-off (ASF 16_16) pushed the ankle 1 cm per frame and spun the hip to 1.5x its peak.
 TOE_CUTOFF_HZ = 10.0
+#: Through a plant (faded in and out over ``blend``) the foot's captured world orientation is held
+#: low-passed at the judge's cutoff (Winter's for walking marker data): a one-frame jerk of the body
+#: turned the held foot with it, and its touching point, 10-15 cm from the ankle, jumped 1-2 cm and
+#: back (a linear blend of daz 08_05 and 02_03: planted skate cut 60 %, now 80 %). The legs used to
+#: leave such a frame unheld (a Huber weight on the step) rather than chase it.
+FOOT_CUTOFF_HZ = CUTOFF_HZ
 
 
 def stretches(
@@ -556,7 +557,7 @@ def pinned_paths(
 
     ``W_t`` the judge's speed window around t (``window`` seconds within the plant,
     :func:`mjmotion.feet.planted_speeds`), ``Δp_s`` the velocity (m/s) between frames s and s+1
-    of the point lowest at t (Huber, :data:`HUBER_SPEED`); ``X''`` the ankle's acceleration
+    of the point lowest at t; ``X''`` the ankle's acceleration
     (m/s², ``stiffness`` in seconds) and ``X'' − A''`` that of what the cleanup adds to the leg,
     which must also vanish where the stretch meets the capture: the foot leaves a plant and
     catches the captured swing up along the smoothest path, its velocity continuous.
@@ -565,7 +566,7 @@ def pinned_paths(
     capture (the pelvis's, the foot's, the toe's rotation: the knee pops cancelling marker noise),
     and two level points taking turns being lowest each slide while the other is held; held over
     the judge's window, neither happens. The normal equations of each stretch are banded (steps
-    couple neighbouring frames, accelerations three): one banded Cholesky solve per Huber pass.
+    couple neighbouring frames, accelerations three): one banded Cholesky solve per stretch.
     Elsewhere ``ankles_xy``. Returns ``(T, 2)``.
     """
     from scipy.linalg import solveh_banded
@@ -618,25 +619,12 @@ def pinned_paths(
         band[2] += anchor_w[lo_s:hi_s]  # the anchor
         anchor = np.where(planted[lo_s:hi_s, None], exact[lo_s:hi_s], ankles_xy[lo_s:hi_s])
         rhs += anchor_w[lo_s:hi_s, None] * anchor
-        weight = np.ones(len(t_row))
-        x = anchor
-        for _ in range(HUBER_PASSES):
-            ab = band.copy()
-            b_vec = rhs.copy()
-            c = w2 * weight
-            np.add.at(ab[2], s_loc, c)
-            np.add.at(ab[2], s_loc + 1, c)
-            np.add.at(ab[1], s_loc + 1, -c)
-            np.add.at(b_vec, s_loc, c[:, None] * step)
-            np.add.at(b_vec, s_loc + 1, -c[:, None] * step)
-            x = solveh_banded(ab, b_vec)
-            if not len(t_row):
-                break
-            # Huber: a step that would need more than HUBER_SPEED to hold counts linearly, so one
-            # glitching frame of the captured foot's rotation is not chased by the whole leg.
-            need = np.linalg.norm(x[s_loc + 1] - x[s_loc] + step, axis=1) * np.sqrt(w2)
-            weight = np.minimum(1.0, HUBER_SPEED / np.maximum(need, 1e-12))
-        out[lo_s:hi_s] = x
+        np.add.at(band[2], s_loc, w2)
+        np.add.at(band[2], s_loc + 1, w2)
+        np.add.at(band[1], s_loc + 1, -w2)
+        np.add.at(rhs, s_loc, w2[:, None] * step)
+        np.add.at(rhs, s_loc + 1, -w2[:, None] * step)
+        out[lo_s:hi_s] = solveh_banded(band, rhs)
     return out
 
 
@@ -793,6 +781,9 @@ def _pin(
         if params.hold_orientation:
             held, w_rot = hold_orientations(mine, foot_rot[:, f], motion.fps, params.blend)
             foot_rot[:, f] = rot.slerp(foot_rot[:, f], held, w_rot)
+        elif mine:
+            w_rot = pin_offsets(mine, ankles[:, f, :2], motion.fps, params.blend)[1]
+            foot_rot[:, f] = rot.slerp(foot_rot[:, f], lowpass_quaternions(foot_rot[:, f], motion.fps, FOOT_CUTOFF_HZ), w_rot)
         # The point that touches the floor stays put (not the ankle): roll about it.
         reach = rot.rotate(foot_rot[:, f, None, :].repeat(local.shape[2], axis=1), local[:, f])
         exact = contact_paths(mine, ankles[:, f, :2], reach)

@@ -37,7 +37,8 @@ def test_head_sway_reads_a_known_sideways_shake():
 def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path, monkeypatch):
     """The audit's cleanup line counts the clips within 1.3x their own joint peaks, gives the
     largest, and names the rest: two clean ASF walks pass (16_16's hip reached 1.54x at its first
-    toe-off before the toe was low-passed; it reads 1.25), one read as 1.6x does not, and a file
+    toe-off before the toe was low-passed, 1.25 before the held foot's turn was; the largest is now
+    16_15's 1.02), one read as 1.6x does not, and a file
     cleanup cannot read is named as failed, not dropped."""
     from conftest import require_data
 
@@ -46,10 +47,12 @@ def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path, monkeypatch
     bad.write_text("HIERARCHY\nROOT x\n")
     walks = [str(d / "16_15.bvh"), str(d / "16_16.bvh")]
     (line,) = pa.cleanup_of_clips_line([*walks, str(bad)], jobs=1)
-    assert "(2 clips," in line and "≤ 1.3 on 2 of 2 (largest 1.2" in line and "16_16 lfemur)" in line, line
+    assert "(2 clips," in line and "≤ 1.3 on 2 of 2 (largest 1.02, asfamc_converted 16_15 ltibia)" in line, line
     assert "above it" not in line and "; failed: " in line and "broken: " in line, line
     real = pa.cleanup_of_clip
-    monkeypatch.setattr(pa, "cleanup_of_clip", lambda p: {**real(p), "worst_joint_speed_ratio": 1.6} if p.endswith("16_16.bvh") else real(p))
+    monkeypatch.setattr(
+        pa, "cleanup_of_clip", lambda p: {**real(p), "worst_joint_speed_ratio": 1.6, "worst_joint": "lfemur"} if p.endswith("16_16.bvh") else real(p)
+    )
     (line,) = pa.cleanup_of_clips_line(walks, jobs=1)
     assert "≤ 1.3 on 1 of 2 (largest 1.60, asfamc_converted 16_16 lfemur), above it: asfamc_converted 16_16 1.60 (lfemur)" in line, line
     # The rows made once (run() shares them with the clean walks' lines) give the same note, and the

@@ -18,7 +18,8 @@ HELP = "remove footskate: hold foot plants on the floor, two-bone leg IK, root a
 MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Find foot plants with the judge's contact labels (docs/METRICS.md: sole within --h-c of the
 floor and slower than --v-c, with hysteresis), hold the point each plant touches the floor with
-still while the foot turns as captured, raise a plant that stands below the floor onto it (by
+still while the foot turns as captured (low-passed at 6 Hz, so a one-frame jerk of the body does
+not jerk the held foot), raise a plant that stands below the floor onto it (by
 the median depth of its lowest sole point over the plant), lift any foot still in the floor,
 solve the legs with analytic two-bone IK (bone lengths unchanged), move the root where a leg
 cannot reach, and ease every adjustment in and out (--blend seconds) so no joint pops. Only

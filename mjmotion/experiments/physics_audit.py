@@ -74,6 +74,8 @@ def _bundled_linear_blend() -> tuple[tuple[Motion, Motion], Motion, CleanupResul
 BLEND_PAIRS = (
     ("cmu_cgspeed_daz/07_01.bvh", "cmu_cgspeed_daz/09_01.bvh"),
     ("cmu_iclone_ccrig/002_01.bvh", "cmu_iclone_ccrig/002_03.bvh"),
+    ("cmu_cgspeed_max/131_01.bvh", "cmu_cgspeed_max/102_01.bvh"),
+    ("cmu_cgspeed_daz/08_05.bvh", "cmu_cgspeed_daz/02_03.bvh"),  # one plant in 170 frames, the body jerking in it
     ("cmu_cgspeed_daz/08_01.bvh", "cmu_cgspeed_daz/09_11.bvh"),  # last: the one drawn
 )
 
