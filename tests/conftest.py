@@ -25,6 +25,18 @@ def data_dir() -> Path | None:
     return cand if cand.is_dir() else None
 
 
+@pytest.fixture
+def ctrl_c() -> Iterator[None]:
+    """Python's own Ctrl-C handler in place for the test, as in a terminal. A test run started in the
+    background of a shell script (`pytest &`) inherits SIGINT ignored, and Python then keeps it ignored:
+    the tests that send themselves a Ctrl-C failed with "DID NOT RAISE KeyboardInterrupt"."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
 def require_data() -> Path:
     """The data directory, or skip (fail when ``MJMOTION_REQUIRE_DATA=1``, as in CI)."""
     d = data_dir()

@@ -621,7 +621,7 @@ def _sleep(seconds: float) -> float:
     return seconds
 
 
-def test_a_process_pool_ignores_ctrl_c_in_its_workers_and_ends_them_on_it():
+def test_a_process_pool_ignores_ctrl_c_in_its_workers_and_ends_them_on_it(ctrl_c):
     """`evaluate DIR` printed "interrupted" after Ctrl-C and then hung (4 runs in 15): the terminal's SIGINT
     reached the pool's workers too, and a worker interrupted mid-task broke the pool. The workers ignore it,
     as Dask's do, and a Ctrl-C in this process ends them rather than waiting for their clips."""

@@ -221,7 +221,7 @@ def test_an_overconstrained_frame_goes_straight_to_the_best_effort_without_casad
     assert out.exists()
 
 
-def test_ctrl_c_during_a_solve_is_raised_once_it_returns():
+def test_ctrl_c_during_a_solve_is_raised_once_it_returns(ctrl_c):
     """CasADi catches the KeyboardInterrupt Python raises inside IPOPT's callback and returns from the solve
     (`hit --solver nlp-shot` ran on for 20 s after Ctrl-C and wrote its result). A stand-in solver that
     swallows the interrupt as CasADi does: nlp._solve raises it once the solver returns."""
