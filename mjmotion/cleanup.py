@@ -35,12 +35,13 @@ planned and §4 left undone. Feet, floor and contacts are the judge's (:mod:`mjm
    the knee bends in its captured plane — turning towards its own hinge where the captured knee
    is nearly straight (:data:`STRAIGHT_KNEE_DEG`), whose plane is marker noise — and the hip
    swings the ankle onto the target; the ankle's local rotation then gives the foot its
-   orientation. Bone lengths are unchanged. A joint's correction turns no faster in one frame
+   orientation. A leg stretches no further than ``reach`` (or than captured, if straighter),
+   approaching that limit smoothly (:func:`soft_reach`). Bone lengths are unchanged. A joint's correction turns no faster in one frame
    than the joint was captured turning (:func:`_despiked`): the legs cancel a one-frame jerk of
    the captured pelvis only that far, and the foot jerks with the body by the rest.
 
 Frames outside every plant's blend window (and the root window) where no foot is lifted keep
-their joint angles exactly; only hips, knees and ankles (and the root) ever change.
+their joint angles exactly; only hips, knees, ankles, toes (:func:`_held_toes`) and the root ever change.
 """
 
 from __future__ import annotations
@@ -501,7 +502,7 @@ TOE_CUTOFF_HZ = 10.0
 #: Through a plant (faded in and out over ``blend``) the foot's captured world orientation is held
 #: low-passed at the judge's cutoff (Winter's for walking marker data): a one-frame jerk of the body
 #: turned the held foot with it, and its touching point, 10-15 cm from the ankle, jumped 1-2 cm and
-#: back (a linear blend of daz 08_05 and 02_03: planted skate cut 60 %, now 80 %). The legs used to
+#: back (a linear blend of daz 08_05 and 02_03: planted skate cut 60 %, now 81 %). The legs used to
 #: leave such a frame unheld (a Huber weight on the step) rather than chase it.
 FOOT_CUTOFF_HZ = CUTOFF_HZ
 
@@ -690,6 +691,7 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
         if knee <= 0 or hip <= 0:
             raise MjmotionError(f"{motion.name}: the {side} foot {skel.names[ankle]!r} needs a knee and a hip above it")
         legs.append((hip, knee, ankle))
+    toes = [feet[side][1] for side in track.sides]
     ankles = pose.joint_positions[:, [a for _, _, a in legs]]
     # Every sole point in its ankle's frame (T, F, P, 3): constant for a rigid foot, moving with a toe joint.
     a_rot = pose.joint_rotations[:, [a for _, _, a in legs]]
@@ -701,7 +703,7 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
     ground = _Ground(fl.height, soles)
     old_low = np.minimum(ground.feet(pose), 0.0)
     for it in range(params.refine + 1):
-        out, shift, unreached, lift, raised = _pin(compiled, motion, pose, legs, track.sides, ankles, local, plants, ground, old_low, params)
+        out, shift, unreached, lift, raised = _pin(compiled, motion, pose, legs, track.sides, ankles, local, plants, ground, old_low, params, toes)
         if it == params.refine:
             break
         # Plants as the judge sees the result: any contact frame not held still grows or starts a plant.
@@ -763,6 +765,7 @@ def _pin(
     ground: _Ground,
     old_low: np.ndarray,
     params: CleanupParams,
+    toes: Sequence[int | None] = (),
 ) -> tuple[Motion, np.ndarray, int, np.ndarray, int]:
     """One pass of steps 2–6 for the given plants: the cleaned motion, root shift ``(T, 3)``,
     unreached frames, the swing lift ``(T, F)`` (m) and how many plants were raised onto the floor."""
@@ -858,7 +861,7 @@ def _pin(
     root = motion.root_positions + shift
     moved = motion.replace(root_positions=root)
     pose2 = kinematics.forward(compiled, moved) if np.any(shift) else pose
-    out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
+    out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift, params.reach)
     # No sole below the floor (plants on it): lift those targets, spread smoothly over a few frames
     # (a max filter and a Hann window cover every frame's need), and re-solve.
     n_lift = max(1, round(params.lift_ramp * motion.fps))
@@ -871,7 +874,7 @@ def _pin(
         targets[:, :, 2] += lift
         lifts += lift
         support |= lift > 1e-9
-        out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
+        out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift, params.reach)
     # A knee bent lower (a pinned foot under a crouch) may go below the floor: raise the root there
     # (smoothed like the reach shift) and solve the legs again, the feet staying on their targets.
     low_src = np.minimum(ground.body(compiled, pose), 0.0)
@@ -885,8 +888,25 @@ def _pin(
         shift[:, 2] += up
         moved = motion.replace(root_positions=motion.root_positions + shift)
         pose2 = kinematics.forward(compiled, moved)
-        out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift)
+        out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift, params.reach)
+    out = _held_toes(out, legs, toes, held_w)
     return out, shift, unreached, lifts, raised
+
+
+def _held_toes(motion: Motion, legs: list[tuple[int, int, int]], toes: Sequence[int | None], held_w: np.ndarray) -> Motion:
+    """``motion`` with each toe joint's local rotation low-passed at :data:`TOE_CUTOFF_HZ` where its foot
+    is held (``held_w: (T, F)``, blended in and out): the plant held the toe tip where the toe's flex,
+    low-passed, puts it; the toe kept its captured jitter, and the judge saw the tip move (ASF blends)."""
+    q = motion.rotations
+    for f, toe in enumerate(toes):
+        if toe is None or not held_w[:, f].any():
+            continue
+        if q is motion.rotations:
+            q = q.copy()
+        smooth = lowpass_quaternions(motion.rotations[:, toe], motion.fps, TOE_CUTOFF_HZ)
+        blended = rot.slerp(motion.rotations[:, toe], smooth, held_w[:, f])
+        q[:, toe] = np.where((held_w[:, f] > 0)[:, None], blended, motion.rotations[:, toe])
+    return motion if q is motion.rotations else motion.replace(rotations=q)
 
 
 def _solve_legs(
@@ -899,8 +919,11 @@ def _solve_legs(
     foot_rot: np.ndarray,
     support: np.ndarray,
     shift: np.ndarray,
+    reach: float = 1.0,
 ) -> tuple[Motion, int]:
-    """Two-bone IK of every leg onto ``targets (T, F, 3)`` with feet at ``foot_rot (T, F, 4)``."""
+    """Two-bone IK of every leg onto ``targets (T, F, 3)`` with feet at ``foot_rot (T, F, 4)``; a leg
+    stretches no further than ``reach`` × its length, or than captured where that is further
+    (:func:`soft_reach`)."""
     skel = moved.skeleton
     rots = moved.rotations.copy()
     wr = pose2.joint_rotations
@@ -912,13 +935,13 @@ def _solve_legs(
             continue
         hinge = knee_hinge_axis(pose, h, k, a)
         top, mid, end = jp[act, h], jp[act, k], jp[act, a]
+        target, short = soft_reach(top, mid, end, targets[act, f], reach)
+        unreached += int((short > 1e-9).sum())
         if hinge is None:
-            axis = analytic.bend_axes(top, mid, end, fallback=np.cross(mid - top, targets[act, f] - top))
+            axis = analytic.bend_axes(top, mid, end, fallback=np.cross(mid - top, target - top))
         else:
             axis = _knee_axes(top, mid, end, rot.rotate(wr[act, h], np.broadcast_to(hinge, (int(act.sum()), 3))))
-        r_hip, r_knee, short = analytic.two_bone(top, mid, end, targets[act, f], axis)
-        ok = short <= 1e-9
-        unreached += int((~ok).sum())
+        r_hip, r_knee, _ = analytic.two_bone(top, mid, end, target, axis)
         w_hip = rot.multiply(r_hip, wr[act, h])
         w_knee = rot.multiply(r_hip, rot.multiply(r_knee, wr[act, k]))
         w_parent = wr[act, int(skel.parents[h])]
@@ -933,6 +956,33 @@ def _solve_legs(
         for j in (h, k, a):
             rots[:, j] = _despiked(moved.rotations[:, j], rots[:, j], moved.fps)
     return moved.replace(rotations=rots), unreached
+
+
+#: Where a leg would stretch past its limit (:func:`soft_reach`), the last this share of its length is
+#: approached smoothly: the knee slows to its limit instead of stopping there in one frame.
+SOFT_REACH = 0.03
+
+
+def soft_reach(top: np.ndarray, mid: np.ndarray, end: np.ndarray, target: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """``target (T, 3)`` pulled towards the hip ``top`` so the leg stretches no further than its limit:
+    ``reach`` × its length ``L`` (``top, mid, end (T, 3)``: hip, knee, ankle as captured), or the captured
+    hip-to-ankle distance where that is longer (a knee captured straight stays as straight, no straighter).
+    The last :data:`SOFT_REACH` · L below the limit is a soft clamp, ``d ↦ s + w (1 − e^{−(d − s)/w})``
+    (value and slope continuous): held past its reach, a leg snapped straight in one frame (0.995 L to L,
+    the knee 11° to 0°; a plant held into a blend's last frames spun the shin to 2.6x its peak). Returns the
+    target ``(T, 3)`` and how far each stays from the one asked (m, 0 where reached)."""
+    length = np.linalg.norm(mid - top, axis=-1) + np.linalg.norm(end - mid, axis=-1)
+    captured = np.linalg.norm(end - top, axis=-1)
+    limit = np.maximum(captured, reach * length)
+    start = np.maximum(captured, limit - SOFT_REACH * length)
+    width = limit - start
+    vec = target - top
+    d = np.linalg.norm(vec, axis=-1)
+    # (only frames past the start use it: there the exponent is ≤ 0)
+    soft = start + width * -np.expm1(-np.maximum(d - start, 0.0) / np.where(width > 0, width, 1.0))
+    used = np.where(d <= start, d, np.where(width > 0, soft, limit))
+    scale = np.where(d > 1e-12, used / np.maximum(d, 1e-12), 1.0)
+    return top + vec * scale[:, None], d - used
 
 
 #: A leg correction's one-frame spike is removed when alone it is as sharp as this percentile of the

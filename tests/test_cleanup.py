@@ -430,7 +430,7 @@ def library_blends():
 
 def test_cleanup_cuts_planted_skate_of_library_linear_blends(library_blends):
     """Blends as the lab makes them (the bundled pair, a toe-less and a toe-jointed rig), judged
-    against their inputs (issue 13's bar): planted skate falls by 80 % (measured 92, 93, 84, 80 %; the
+    against their inputs (issue 13's bar): planted skate falls by 80 % (measured 92, 93, 84, 81 %; the
     last, whose one plant jerks with the body, 60 % while the held foot turned as captured); no
     foot left in the floor; no joint faster than 1.3x its inputs' peak and no new pop; frames far
     from plants and floor lifts exact."""
@@ -672,6 +672,70 @@ def test_a_held_foot_does_not_turn_with_a_one_frame_wobble_of_its_capture():
     mid = rot.slerp(world[f - 1 : f], world[f + 1 : f + 2], np.array([0.5]))[0]
     left = np.degrees(rot.norm(rot.log(rot.multiply(rot.conjugate(mid), world[f]))))
     assert left < 2.4, left
+
+
+def test_a_held_foots_toe_flexes_low_passed():
+    """A toe joint wobbling 4° for one frame mid-plant: the plant holds the toe tip where the toe's flex,
+    low-passed (TOE_CUTOFF_HZ), puts it, and the result's toe now flexes so (the judge measures the tip
+    it sees); the toe kept all 4° of the wobble."""
+    m = synth.walk(seconds=3.0).motion
+    res0 = cl.cleanup(m, sources=[m.replace()])
+    plant = next(p for p in res0.plants if p.side == "right" and p.stop - p.start > 15 and p.start > 0)
+    f = (plant.start + plant.stop) // 2
+    toe = m.skeleton.index("RightToe")
+    q = m.rotations.copy()
+    q[f, toe] = rot.multiply(q[f, toe], rot.exp(np.radians(4.0) * np.array([1.0, 0.0, 0.0])))
+    wobbly = m.replace(rotations=q)
+    res = cl.cleanup(wobbly, sources=[wobbly.replace()])
+    out = res.motion.rotations[:, toe]
+    mid = rot.slerp(out[f - 1 : f], out[f + 1 : f + 2], np.array([0.5]))[0]
+    left = np.degrees(rot.norm(rot.log(rot.multiply(rot.conjugate(mid), out[f]))))
+    assert left < 1.0, left
+    assert not np.array_equal(out, wobbly.rotations[:, toe])
+    before = ev.evaluate(wobbly, sources=[wobbly.replace()])
+    after = ev.evaluate(res.motion, sources=[wobbly.replace()])
+    assert after.worst_joint_speed_ratio <= 1.3 and after.pop_frames <= before.pop_frames
+
+
+def test_soft_reach_stretches_a_leg_smoothly_to_its_limit_and_no_further():
+    """Below the soft zone the target is kept; past it the distance rises smoothly (value and slope
+    continuous) towards the limit, ``reach`` × the leg's length, never past it; a leg captured straighter
+    than that may stay as straight as captured, no straighter."""
+    n = 400
+    top = np.zeros((n, 3))
+    mid = np.tile([0.0, 0.0, -0.4], (n, 1))
+    end = np.tile([0.0, 0.25, -0.65], (n, 1))  # captured bent: 0.92 of the leg's length
+    length = 0.4 + float(np.linalg.norm(end[0] - mid[0]))
+    assert np.linalg.norm(end[0]) < 0.995 * length - cl.SOFT_REACH * length
+    d = np.linspace(0.5, 1.2, n)
+    target = np.stack([np.zeros(n), 0.3 * d, -np.sqrt(0.91) * d], axis=1)  # unit direction times d
+    got, short = cl.soft_reach(top, mid, end, target, reach=0.995)
+    used = np.linalg.norm(got, axis=1)
+    start = 0.995 * length - cl.SOFT_REACH * length
+    assert np.allclose(got[d <= start], target[d <= start])
+    assert used.max() < 0.995 * length and used[-1] > 0.995 * length - 1e-4
+    assert np.all(np.diff(used) >= 0) and np.allclose(short, d - used)
+    slope = np.diff(used) / np.diff(d)
+    assert np.abs(np.diff(slope)).max() < 0.1  # no kink (a hard clamp: a step of 1): the knee slows to its limit
+    # captured straighter than the reach: kept as captured, no further
+    straight = np.tile([0.0, 0.0, -0.8], (n, 1))  # hip, knee and ankle in line: 0.8 m, the whole leg
+    got, _ = cl.soft_reach(top, mid, straight, target, reach=0.995)
+    assert np.linalg.norm(got, axis=1).max() == pytest.approx(0.8) and np.allclose(got[d <= 0.8], target[d <= 0.8])
+
+
+def test_a_plant_held_while_the_body_walks_away_does_not_snap_the_knee_straight():
+    """A linear blend of daz walks 07_02 and 08_11: a plant is held while the blended body walks on, the
+    hip-to-foot distance passes the leg's reach, and the knee snapped straight in one frame (the shin at
+    2.4x its inputs' peak, one new pop frame). It now slows to its limit (:func:`mjmotion.cleanup.soft_reach`)."""
+    from mjmotion import blend
+
+    a, b = shared_clip("cmu_cgspeed_daz/07_02.bvh"), shared_clip("cmu_cgspeed_daz/08_11.bvh")
+    a, b = a[leading_transient(a) :], b[leading_transient(b) :]
+    lin = blend.blend([a, b], [0.5, 0.5], method="linear")
+    res = cl.cleanup(lin, sources=[a, b])
+    before, after = ev.evaluate(lin, sources=[a, b]), ev.evaluate(res.motion, sources=[a, b])
+    assert after.worst_joint_speed_ratio <= 1.3 and after.pop_frames <= before.pop_frames, (after.worst_joint_speed_ratio, after.worst_joint)
+    assert after.planted_skate_mm_per_s <= 0.2 * before.planted_skate_mm_per_s
 
 
 def test_despiking_scales_only_sharp_spikes_of_corrected_frames():

@@ -38,7 +38,7 @@ def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path, monkeypatch
     """The audit's cleanup line counts the clips within 1.3x their own joint peaks, gives the
     largest, and names the rest: two clean ASF walks pass (16_16's hip reached 1.54x at its first
     toe-off before the toe was low-passed, 1.25 before the held foot's turn was; the largest is now
-    16_15's 1.02), one read as 1.6x does not, and a file
+    16_15's 1.03), one read as 1.6x does not, and a file
     cleanup cannot read is named as failed, not dropped."""
     from conftest import require_data
 
@@ -47,7 +47,7 @@ def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path, monkeypatch
     bad.write_text("HIERARCHY\nROOT x\n")
     walks = [str(d / "16_15.bvh"), str(d / "16_16.bvh")]
     (line,) = pa.cleanup_of_clips_line([*walks, str(bad)], jobs=1)
-    assert "(2 clips," in line and "≤ 1.3 on 2 of 2 (largest 1.02, asfamc_converted 16_15 ltibia)" in line, line
+    assert "(2 clips," in line and "≤ 1.3 on 2 of 2 (largest 1.03, asfamc_converted 16_15 rfoot)" in line, line
     assert "above it" not in line and "; failed: " in line and "broken: " in line, line
     real = pa.cleanup_of_clip
     monkeypatch.setattr(

@@ -19,11 +19,12 @@ MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Find foot plants with the judge's contact labels (docs/METRICS.md: sole within --h-c of the
 floor and slower than --v-c, with hysteresis), hold the point each plant touches the floor with
 still while the foot turns as captured (low-passed at 6 Hz, so a one-frame jerk of the body does
-not jerk the held foot), raise a plant that stands below the floor onto it (by
-the median depth of its lowest sole point over the plant), lift any foot still in the floor,
-solve the legs with analytic two-bone IK (bone lengths unchanged), move the root where a leg
-cannot reach, and ease every adjustment in and out (--blend seconds) so no joint pops. Only
-hips, knees, ankles and the root change, and only near plants.
+not jerk the held foot), raise a plant that stands below the floor onto it (by the median depth
+of its lowest sole point over the plant), lift any foot still in the floor, solve the legs with
+analytic two-bone IK (bone lengths unchanged; a leg held past its reach slows to its limit rather
+than snapping straight), move the root where a leg cannot reach, and ease every adjustment in
+and out (--blend seconds) so no joint pops. Only hips, knees, ankles, toes and the root change,
+and only near plants.
 
 The floor is --floor METRES, else that of the --source clip(s) the input was made from (the clips
 of a blend; repeatable), else the input's own stance floor. --source clips also calibrate the
