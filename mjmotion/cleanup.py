@@ -889,11 +889,11 @@ def _pin(
         moved = motion.replace(root_positions=motion.root_positions + shift)
         pose2 = kinematics.forward(compiled, moved)
         out, unreached = _solve_legs(compiled, moved, pose2, pose, legs, targets, foot_rot, support, shift, params.reach)
-    out = _held_toes(out, legs, toes, held_w)
+    out = _held_toes(out, toes, held_w)
     return out, shift, unreached, lifts, raised
 
 
-def _held_toes(motion: Motion, legs: list[tuple[int, int, int]], toes: Sequence[int | None], held_w: np.ndarray) -> Motion:
+def _held_toes(motion: Motion, toes: Sequence[int | None], held_w: np.ndarray) -> Motion:
     """``motion`` with each toe joint's local rotation low-passed at :data:`TOE_CUTOFF_HZ` where its foot
     is held (``held_w: (T, F)``, blended in and out): the plant held the toe tip where the toe's flex,
     low-passed, puts it; the toe kept its captured jitter, and the judge saw the tip move (ASF blends)."""

@@ -654,43 +654,43 @@ def test_the_legs_cancel_a_one_frame_jerk_of_the_pelvis_no_faster_than_captured(
     assert 0.0 < added_after <= 0.6 * added_before
 
 
+def _wobbled_mid_plant(joint: str, degrees: float = 4.0):
+    """The bundled walk with ``joint`` turned ``degrees`` for one frame in the middle of a right-foot plant,
+    its cleanup against itself, and that frame."""
+    m = synth.walk(seconds=3.0).motion
+    plant = next(p for p in cl.cleanup(m, sources=[m.replace()]).plants if p.side == "right" and p.stop - p.start > 15 and p.start > 0)
+    f = (plant.start + plant.stop) // 2
+    q = m.rotations.copy()
+    j = m.skeleton.index(joint)
+    q[f, j] = rot.multiply(q[f, j], rot.exp(np.radians(degrees) * np.array([1.0, 0.0, 0.0])))
+    wobbly = m.replace(rotations=q)
+    return wobbly, cl.cleanup(wobbly, sources=[wobbly.replace()]), f
+
+
+def _wobble_left(q: np.ndarray, f: int) -> float:
+    """Degrees frame ``f`` of rotations ``q (T, 4)`` stands off the halfway turn between its neighbours."""
+    mid = rot.slerp(q[f - 1 : f], q[f + 1 : f + 2], np.array([0.5]))[0]
+    return float(np.degrees(rot.norm(rot.log(rot.multiply(rot.conjugate(mid), q[f])))))
+
+
 def test_a_held_foot_does_not_turn_with_a_one_frame_wobble_of_its_capture():
     """A foot's captured orientation wobbling 4° for one frame mid-plant: the held foot turns low-passed
     (FOOT_CUTOFF_HZ), so its touching point jumps less there: 2.0° of the wobble are left (the ankle's
     correction turns no faster in one frame than the ankle was captured turning: ``_despiked``).
     (Turned as captured, the held foot kept all 4°; in the linear blend of daz 08_05 and 02_03 such frames moved its ball 1-2 cm and back.)"""
-    m = synth.walk(seconds=3.0).motion
-    plant = next(p for p in cl.cleanup(m, sources=[m.replace()]).plants if p.side == "right" and p.stop - p.start > 15 and p.start > 0)
-    f = (plant.start + plant.stop) // 2
-    foot = m.skeleton.index("RightFoot")
-    q = m.rotations.copy()
-    q[f, foot] = rot.multiply(q[f, foot], rot.exp(np.radians(4.0) * np.array([1.0, 0.0, 0.0])))
-    wobbly = m.replace(rotations=q)
-    res = cl.cleanup(wobbly, sources=[wobbly.replace()])
-    world = kinematics.forward(mjcf.compile(m.skeleton), res.motion).joint_rotations[:, foot]
-    # the wobble's size in the result: frame f against the mean of its neighbours' turn
-    mid = rot.slerp(world[f - 1 : f], world[f + 1 : f + 2], np.array([0.5]))[0]
-    left = np.degrees(rot.norm(rot.log(rot.multiply(rot.conjugate(mid), world[f]))))
-    assert left < 2.4, left
+    wobbly, res, f = _wobbled_mid_plant("RightFoot")
+    world = kinematics.forward(mjcf.compile(wobbly.skeleton), res.motion).joint_rotations[:, wobbly.skeleton.index("RightFoot")]
+    assert _wobble_left(world, f) < 2.4, _wobble_left(world, f)
 
 
 def test_a_held_foots_toe_flexes_low_passed():
     """A toe joint wobbling 4° for one frame mid-plant: the plant holds the toe tip where the toe's flex,
     low-passed (TOE_CUTOFF_HZ), puts it, and the result's toe now flexes so (the judge measures the tip
     it sees); the toe kept all 4° of the wobble."""
-    m = synth.walk(seconds=3.0).motion
-    res0 = cl.cleanup(m, sources=[m.replace()])
-    plant = next(p for p in res0.plants if p.side == "right" and p.stop - p.start > 15 and p.start > 0)
-    f = (plant.start + plant.stop) // 2
-    toe = m.skeleton.index("RightToe")
-    q = m.rotations.copy()
-    q[f, toe] = rot.multiply(q[f, toe], rot.exp(np.radians(4.0) * np.array([1.0, 0.0, 0.0])))
-    wobbly = m.replace(rotations=q)
-    res = cl.cleanup(wobbly, sources=[wobbly.replace()])
+    wobbly, res, f = _wobbled_mid_plant("RightToe")
+    toe = wobbly.skeleton.index("RightToe")
     out = res.motion.rotations[:, toe]
-    mid = rot.slerp(out[f - 1 : f], out[f + 1 : f + 2], np.array([0.5]))[0]
-    left = np.degrees(rot.norm(rot.log(rot.multiply(rot.conjugate(mid), out[f]))))
-    assert left < 1.0, left
+    assert _wobble_left(out, f) < 1.0, _wobble_left(out, f)
     assert not np.array_equal(out, wobbly.rotations[:, toe])
     before = ev.evaluate(wobbly, sources=[wobbly.replace()])
     after = ev.evaluate(res.motion, sources=[wobbly.replace()])
