@@ -536,11 +536,7 @@ def list_clips(root: Path, source_map: Mapping[str, tuple[str, ...]] | None = No
         try:
             sha, listed = fingerprint(p)
         except OSError:  # unreadable here: listed without a hash, its worker's row says why (a resume tries it again)
-            try:
-                size = os.stat(p).st_size  # (a size needs no read permission: it read 0)
-            except OSError:
-                size = 0
-            out.append(Clip(rel, str(p), size, "", src, ()))
+            out.append(Clip(rel, str(p), _size(p, os.stat), "", src, ()))  # (a size needs no read permission: it read 0)
             continue
         out.append(Clip(rel, str(p), listed.stat[2], sha, src, tuple(sha256_file(s) for s in src), listed))
     return out
@@ -557,13 +553,18 @@ def listing(root: Path, unreadable: list[str] | None = None, skipped: list[tuple
     return files
 
 
+def _size(path: Path, look: Callable[[Path], os.stat_result]) -> int:
+    """``path``'s size by ``look`` (``os.stat``, or ``os.lstat`` for a link itself), 0 when it cannot be had."""
+    try:
+        return look(path).st_size
+    except OSError:
+        return 0
+
+
 def no_file_row(path: Path, why: str, base: Path, opts: Mapping[str, Any]) -> dict[str, Any]:
     """The error row of a name ending in ``.bvh`` under ``base`` that is no file to read (a pipe, a
     dangling link, a link loop): the table has a row for every such name, as for a file that cannot be read."""
-    try:
-        size = os.lstat(path).st_size
-    except OSError:
-        size = 0
+    size = _size(path, os.lstat)
     clip = Clip(rel_text(path, base), str(path), size, "", (), ())
     return {
         "path": clip.rel, "size": size, "sha256": "", "status": "error", "error": one_line(f"{path}: {why}"), "error_kind": "unreadable",

@@ -207,7 +207,6 @@ def parse_script(data: dict, base: Path, load) -> Script:
         f"× {n_joints} joints × {BYTES_PER_TRACK_FRAME_JOINT} bytes per track at {fps:g} fps)"
     )
     duration = _number(data["duration"], "script.duration", 1.0 / fps, limit_s, why)
-    clips = {k: (m if same_rate(m.fps, fps) else m.resample(fps)) for k, m in clips.items()}
     commands = []
     if not isinstance(data["commands"], list) or not data["commands"]:
         raise MjmotionError("script.commands: expected a non-empty list")

@@ -121,14 +121,22 @@ def _num(v: Any) -> float:
     return float("nan") if v is None else float(v)
 
 
-def verdict(before: dict[str, float], after: dict[str, float], self_clean: bool = False) -> list[str] | None:
-    """Why a case misses the bar (``[]``: it passes; None: no planted frame before, nothing to cut)."""
+def cut(before: dict[str, float], after: dict[str, float]) -> float:
+    """The share of planted skate cleanup removed (1: all, a result left with no contact frame), NaN
+    when there was none to cut (no planted frame before)."""
     skate0, skate1 = before["planted_skate_mm_per_s"], after["planted_skate_mm_per_s"]
     if not math.isfinite(skate0) or skate0 <= 0:
+        return math.nan
+    return 1.0 - (skate1 if math.isfinite(skate1) else 0.0) / skate0
+
+
+def verdict(before: dict[str, float], after: dict[str, float], self_clean: bool = False) -> list[str] | None:
+    """Why a case misses the bar (``[]``: it passes; None: no planted frame before, nothing to cut)."""
+    share = cut(before, after)
+    if math.isnan(share):
         return None
     fails = []
-    cut = 1.0 - (skate1 if math.isfinite(skate1) else 0.0) / skate0
-    if cut < (MIN_SELF_CUT if self_clean else MIN_CUT):
+    if share < (MIN_SELF_CUT if self_clean else MIN_CUT):
         fails.append("skate")
     if after["penetrate_mm"] > MAX_PENETRATE_MM:
         fails.append("penetrate")
@@ -182,13 +190,16 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
     for c, r in zip(todo, results):
         groups.setdefault((c.folder.replace("cmu_", ""), c.kind), []).append((c, r))
     failing = []
+    passed = judged_all = 0
     for (folder, kind), members in groups.items():
         done = [(c, r) for c, r in members if isinstance(r, dict)]
         judged = [(c, r) for c, r in done if r["fails"] is not None]
-        cuts = [100 * (1 - _finite(r["after"]["planted_skate_mm_per_s"]) / r["before"]["planted_skate_mm_per_s"]) for _, r in judged]
+        cuts = [100 * cut(r["before"], r["after"]) for _, r in judged]
         ratios = [r["after"]["worst_joint_speed_ratio"] for _, r in done]
+        n_pass = sum(not r["fails"] for _, r in judged)
+        passed, judged_all = passed + n_pass, judged_all + len(judged)
         table.add(
-            folder, kind, len(members), sum(not r["fails"] for _, r in judged), len(done) - len(judged),
+            folder, kind, len(members), n_pass, len(done) - len(judged),
             *(sum(why in r["fails"] for _, r in judged) for why in ("skate", "penetrate", "joint speed", "pops")),
             float(np.median(cuts)) if cuts else float("nan"), max(ratios) if ratios else float("nan"),
         )  # fmt: skip
@@ -201,13 +212,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
                     f"{c.label} ({', '.join(r['fails'])}): skate {b['planted_skate_mm_per_s']:.0f} → {a['planted_skate_mm_per_s']:.0f} mm/s, "
                     f"worst joint {a['worst_joint_speed_ratio']:.2f} ({r['worst_joint']}), pops {b['pop_frames']:.0f} → {a['pop_frames']:.0f}"
                 )
-    total = sum(row[3] for row in table.rows)  # type: ignore[misc]
-    judged_all = sum(row[2] - row[4] for row in table.rows)  # type: ignore[operator]
-    table.notes.append(f"{total} of {judged_all} judged cases pass ({len(todo)} cases)")
+    table.notes.append(f"{passed} of {judged_all} judged cases pass ({len(todo)} cases)")
     table.notes += [f"fails: {f}" for f in failing]
     table.write(Path(out_dir))
     return table
-
-
-def _finite(v: float) -> float:
-    return v if math.isfinite(v) else 0.0
