@@ -858,6 +858,12 @@ def _pin(
         hit = raw_peak > 0
         gain = float(np.max(raw_peak[hit] / np.maximum(sm_norm[hit], 1e-12))) if hit.any() else 1.0
         shift = sm * min(gain, 3.0)
+        # No deeper than ROOT_SHIFT x the leg: past it the held foot stops short and slides (soft_reach).
+        j0 = pose.joint_positions[0]
+        leg = float(np.mean([np.linalg.norm(j0[k] - j0[h]) + np.linalg.norm(j0[a] - j0[k]) for h, k, a in legs]))
+        norm = np.linalg.norm(shift, axis=1)
+        capped = soft_limit(norm, ROOT_SHIFT * leg, SOFT_REACH * leg)
+        shift *= np.where(norm > 0, capped / np.maximum(norm, 1e-12), 1.0)[:, None]
     root = motion.root_positions + shift
     moved = motion.replace(root_positions=root)
     pose2 = kinematics.forward(compiled, moved) if np.any(shift) else pose
@@ -961,6 +967,10 @@ def _solve_legs(
 #: Where a leg would stretch past its limit (:func:`soft_reach`), the last this share of its length is
 #: approached smoothly: the knee slows to its limit instead of stopping there in one frame.
 SOFT_REACH = 0.03
+#: The root moves at most this share of the leg's length (hip to ankle) towards targets the legs cannot
+#: reach, approached softly over SOFT_REACH of it: a plant glued across two steps of a blend of walks out
+#: of phase (its foot gliding 0.5 m) crouched the body 0.41 m to hold it (daz 07_02+08_11).
+ROOT_SHIFT = 0.1
 
 
 def soft_reach(top: np.ndarray, mid: np.ndarray, end: np.ndarray, target: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
@@ -974,15 +984,22 @@ def soft_reach(top: np.ndarray, mid: np.ndarray, end: np.ndarray, target: np.nda
     length = np.linalg.norm(mid - top, axis=-1) + np.linalg.norm(end - mid, axis=-1)
     captured = np.linalg.norm(end - top, axis=-1)
     limit = np.maximum(captured, reach * length)
-    start = np.maximum(captured, limit - SOFT_REACH * length)
-    width = limit - start
     vec = target - top
     d = np.linalg.norm(vec, axis=-1)
-    # (only frames past the start use it: there the exponent is ≤ 0)
-    soft = start + width * -np.expm1(-np.maximum(d - start, 0.0) / np.where(width > 0, width, 1.0))
-    used = np.where(d <= start, d, np.where(width > 0, soft, limit))
+    used = soft_limit(d, limit, np.minimum(SOFT_REACH * length, limit - captured))
     scale = np.where(d > 1e-12, used / np.maximum(d, 1e-12), 1.0)
     return top + vec * scale[:, None], d - used
+
+
+def soft_limit(d: np.ndarray, limit: np.ndarray | float, width: np.ndarray | float) -> np.ndarray:
+    """``d (T,)`` (≥ 0) kept below ``limit`` by a soft clamp over its last ``width``: ``d`` up to
+    ``s = limit − width``, then ``s + width (1 − e^{−(d − s)/width})`` (value and slope continuous);
+    ``width`` 0 clamps hard."""
+    limit, width = np.broadcast_to(limit, d.shape), np.broadcast_to(width, d.shape)
+    start = limit - width
+    # (only values past the start use it: there the exponent is ≤ 0)
+    soft = start + width * -np.expm1(-np.maximum(d - start, 0.0) / np.where(width > 0, width, 1.0))
+    return np.where(d <= start, d, np.where(width > 0, soft, limit))
 
 
 #: A leg correction's one-frame spike is removed when alone it is as sharp as this percentile of the

@@ -723,10 +723,12 @@ def test_soft_reach_stretches_a_leg_smoothly_to_its_limit_and_no_further():
     assert np.linalg.norm(got, axis=1).max() == pytest.approx(0.8) and np.allclose(got[d <= 0.8], target[d <= 0.8])
 
 
-def test_a_plant_held_while_the_body_walks_away_does_not_snap_the_knee_straight():
-    """A linear blend of daz walks 07_02 and 08_11: a plant is held while the blended body walks on, the
-    hip-to-foot distance passes the leg's reach, and the knee snapped straight in one frame (the shin at
-    2.4x its inputs' peak, one new pop frame). It now slows to its limit (:func:`mjmotion.cleanup.soft_reach`)."""
+def test_a_plant_held_while_the_body_walks_away_neither_snaps_the_knee_nor_crouches_the_body():
+    """A linear blend of daz walks 07_02 and 08_11: a plant is held while the blended body walks on (the
+    two walks out of phase, its foot glides 0.47 m), the hip-to-foot distance passes the leg's reach, and
+    the knee snapped straight in one frame (the shin at 2.4x its inputs' peak, one new pop frame). It now
+    slows to its limit (:func:`mjmotion.cleanup.soft_reach`). The root, moved towards the held foot, went
+    0.41 m down and 0.51 m in all to hold it; it now moves at most ``ROOT_SHIFT`` x the leg's length."""
     from mjmotion import blend
 
     a, b = shared_clip("cmu_cgspeed_daz/07_02.bvh"), shared_clip("cmu_cgspeed_daz/08_11.bvh")
@@ -736,6 +738,12 @@ def test_a_plant_held_while_the_body_walks_away_does_not_snap_the_knee_straight(
     before, after = ev.evaluate(lin, sources=[a, b]), ev.evaluate(res.motion, sources=[a, b])
     assert after.worst_joint_speed_ratio <= 1.3 and after.pop_frames <= before.pop_frames, (after.worst_joint_speed_ratio, after.worst_joint)
     assert after.planted_skate_mm_per_s <= 0.2 * before.planted_skate_mm_per_s
+    pose = kinematics.forward(mjcf.compile(lin.skeleton), lin).joint_positions[0]
+    ankle = lin.skeleton.feet()["left"][0]
+    knee = int(lin.skeleton.parents[ankle])
+    leg = np.linalg.norm(pose[knee] - pose[lin.skeleton.parents[knee]]) + np.linalg.norm(pose[ankle] - pose[knee])
+    shift = np.linalg.norm(res.motion.root_positions - lin.root_positions, axis=1)
+    assert res.max_root_shift_m == pytest.approx(shift.max()) and 0.05 < shift.max() <= cl.ROOT_SHIFT * leg * 1.01
 
 
 def test_despiking_scales_only_sharp_spikes_of_corrected_frames():
@@ -771,3 +779,4 @@ def test_the_cleanup_help_states_the_release_constants_the_code_uses():
     assert f"default {cl.CleanupParams().blend:g} s" in text
     assert f"fades longer ({cl.RELEASE_SPEED:g} m/s, up to {cl.MAX_FADE:g} s)" in text
     assert f"(low-passed at {cl.FOOT_CUTOFF_HZ:g} Hz," in text
+    assert f"(by at most {100 * cl.ROOT_SHIFT:g} % of the leg's length:" in text

@@ -51,4 +51,7 @@ def test_the_bundled_walk_run_blends_pass(tmp_path):
     table = cb.run(tmp_path, None, jobs=1)
     ((flavour, kind, cases, passed, na, *_),) = table.rows
     assert (flavour, kind, cases, passed, na) == ("bundled", "walk/run", 3, 3, 0)
+    from mjmotion.cleanup import ROOT_SHIFT
+
+    assert table.columns[-1] == "largest root shift (m)" and 0.0 <= table.rows[0][-1] <= ROOT_SHIFT  # (legs shorter than 1 m)
     assert (tmp_path / "table.md").read_text().count("3 of 3 judged cases pass") == 1

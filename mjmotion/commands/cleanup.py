@@ -22,7 +22,8 @@ still while the foot turns as captured (low-passed at 6 Hz, so a one-frame jerk 
 not jerk the held foot), raise a plant that stands below the floor onto it (by the median depth
 of its lowest sole point over the plant), lift any foot still in the floor, solve the legs with
 analytic two-bone IK (bone lengths unchanged; a leg held past its reach slows to its limit rather
-than snapping straight), move the root where a leg cannot reach, and ease every adjustment in
+than snapping straight), move the root where a leg cannot reach (by at most 10 % of the leg's
+length: past that the foot stops short and slides), and ease every adjustment in
 and out (--blend seconds) so no joint pops. Only hips, knees, ankles, toes and the root change,
 and only near plants.
 

@@ -8,7 +8,8 @@ cleanup cuts ``planted_skate_mm_per_s`` by at least 80 %, leaves ``penetrate_mm`
 ``worst_joint_speed_ratio`` ≤ 1.3 and adds no ``pop_frames``; a blend with no planted frame has no
 skate to cut (``n/a``). Every walk is also cleaned against itself (cut at least half, the same
 joint bars). The table gives, per flavour and kind, how many cases pass and why the others fail;
-the notes list each failing case.
+the notes list each failing case. The largest root shift is how far cleanup moved the body
+towards feet it held (``max_root_shift_m``): a crouch the bar itself does not see.
 """
 
 from __future__ import annotations
@@ -113,6 +114,7 @@ def clean_case(case: Case, data_dir: str | None) -> dict[str, Any]:
         "after": judged[1],
         "worst_joint": after.worst_joint,
         "plants": len(done.plants),
+        "root_shift_m": done.max_root_shift_m,
         "fails": verdict(*judged, self_clean=case.b is None),
     }
 
@@ -180,6 +182,7 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
             "new pops",
             "median cut %",
             "largest joint ratio",
+            "largest root shift (m)",
         ),
         notes=[
             "each blend (weights 0.5/0.5, 0.3/0.7, 0.7/0.3) cleaned and judged against its two inputs; each walk cleaned against itself "
@@ -196,12 +199,14 @@ def run(out_dir: Path, data_dir: Path | None = None, quick: bool = False, jobs: 
         judged = [(c, r) for c, r in done if r["fails"] is not None]
         cuts = [100 * cut(r["before"], r["after"]) for _, r in judged]
         ratios = [r["after"]["worst_joint_speed_ratio"] for _, r in done]
+        shifts = [r["root_shift_m"] for _, r in done]
         n_pass = sum(not r["fails"] for _, r in judged)
         passed, judged_all = passed + n_pass, judged_all + len(judged)
         table.add(
             folder, kind, len(members), n_pass, len(done) - len(judged),
             *(sum(why in r["fails"] for _, r in judged) for why in ("skate", "penetrate", "joint speed", "pops")),
             float(np.median(cuts)) if cuts else float("nan"), max(ratios) if ratios else float("nan"),
+            max(shifts) if shifts else float("nan"),
         )  # fmt: skip
         for c, r in members:
             if not isinstance(r, dict):
