@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from mjmotion import synth
@@ -91,3 +92,23 @@ def test_flight_falls_reads_g_on_a_captured_jump_and_4g_played_twice_as_fast(moc
     assert fall == pytest.approx(-1.0, abs=0.05)
     fast = pa.flight_falls(sped_up(jump))
     assert len(fast) == 1 and fast[0] == pytest.approx(4 * fall, rel=0.05)
+
+
+def test_flight_falls_of_the_root_follow_the_pelvis_alone(mocap):
+    """Over the same flight the root joint of the jump also falls at g; bend its knees over the
+    flight by up to 90° (the legs drawn up and let down again, the pelvis untouched) and the centre of mass
+    falls otherwise while the root still reads g: the brackets of the note tell the legs from the pelvis."""
+    from mjmotion import rotations as rot
+
+    jump = pa._read(mocap / "cmu_asfamc_converted" / "16_01.bvh")
+    (pelvis,) = pa.flight_falls(jump, root=True)
+    assert pelvis == pytest.approx(-1.0, abs=0.05)
+    knees = [jump.skeleton.parents[a] for a, _ in jump.skeleton.feet().values()]
+    t = np.arange(jump.n_frames)
+    bend = np.where((t >= 132) & (t < 174), np.sin(np.pi * (t - 132) / 42) ** 2, 0.0) * np.radians(90)
+    q = jump.rotations.copy()
+    for k in knees:
+        q[:, k] = rot.multiply(q[:, k], rot.exp(np.outer(bend, [1.0, 0.0, 0.0])))
+    tucked = jump.replace(rotations=q)
+    (com,), (root,) = pa.flight_falls(tucked), pa.flight_falls(tucked, root=True)
+    assert root == pytest.approx(pelvis, abs=1e-6) and abs(com - pelvis) > 0.1

@@ -232,10 +232,11 @@ FLIGHT_CLIPS = (
 )
 
 
-def flight_falls(motion: Motion, params: ev.Params = ev.DEFAULTS) -> list[float]:
+def flight_falls(motion: Motion, params: ev.Params = ev.DEFAULTS, root: bool = False) -> list[float]:
     """The vertical acceleration (in g; free fall reads −1) of the centre of mass over each airborne
     stretch the judge fits a parabola to (:func:`mjmotion.physics.ballistic_fits`), the clip judged
-    as ``evaluate`` judges it: its own floor, levelled, its feet calibrated."""
+    as ``evaluate`` judges it: its own floor, levelled, its feet calibrated. ``root``: that of the
+    root joint (the pelvis) over the same stretches instead — the capture's own point, no mass model."""
     from .. import feet, kinematics, physics
 
     compiled = ev.judge_model(motion.skeleton)
@@ -244,7 +245,10 @@ def flight_falls(motion: Motion, params: ev.Params = ev.DEFAULTS) -> list[float]
     pose, motion = feet.level_pose(fl.level, pose), feet.level_motion(fl.level, motion)
     ground = feet.lowest_body_point(compiled, pose, track.heights.min(axis=1) + fl.height) - fl.height
     res = physics.residuals(compiled, motion, track, params, ground=ground, pose=pose)
-    return [float(a[2] / physics.GRAVITY) for a in res.flight_accelerations]
+    if not root:
+        return [float(a[2] / physics.GRAVITY) for a in res.flight_accelerations]
+    judged = res.ballistic if res.ballistic is not None else np.zeros(motion.n_frames, dtype=bool)
+    return [float(a[2] / physics.GRAVITY) for _, _, a in physics.ballistic_fits(pose.joint_positions[:, 0], judged, motion.fps)]
 
 
 def flight_fall_lines(data_dir: Path | None) -> list[str]:
@@ -253,10 +257,14 @@ def flight_fall_lines(data_dir: Path | None) -> list[str]:
     for rel in FLIGHT_CLIPS if data_dir is not None else ():
         assert data_dir is not None
         if (data_dir / rel).is_file():
-            falls = flight_falls(_read(data_dir / rel))
-            shown = ", ".join(f"{a:.2f}".replace("-", "−") for a in falls) if falls else "none fitted"
+            clip = _read(data_dir / rel)
+            falls, pelvis = flight_falls(clip), flight_falls(clip, root=True)
+            shown = ", ".join(f"{a:.2f} ({b:.2f})".replace("-", "−") for a, b in zip(falls, pelvis)) if falls else "none fitted"
             parts.append(f"{rel.split('/')[0].removeprefix('cmu_')} {Path(rel).stem} {shown}")
-    head = "centre of mass's vertical acceleration over each flight the judge fits, in g (free fall −1; experiments.physics_audit.flight_falls): "
+    head = (
+        "centre of mass's vertical acceleration over each flight the judge fits, in g, and in brackets the root joint's (the pelvis, "
+        "the capture's own point) over the same stretch (free fall −1; experiments.physics_audit.flight_falls): "
+    )
     return _note(head, parts, "; ")
 
 
