@@ -530,3 +530,39 @@ def test_exaggerated_variants_stay_inside_the_judges_joint_ranges(name, factor):
     assert not limits.violations(src.skeleton, raw.rotations).any() and not limits.violations(src.skeleton, out.rotations).any()
     lvr, _ = evaluate.limit_violation_ratio(evaluate.judge_model(src.skeleton), bvh.parse(bvh.format_motion(out)))
     assert lvr == 0.0  # as evaluate reads the clip once written
+
+
+def test_a_held_foot_out_of_reach_does_not_snap_the_knee_straight():
+    """The kick 10_01 exaggerated ×1.3: its support foot is held on the source's footprint while the
+    variant's body, 15-30 cm from the source's in the last quarter second, returns to the source's
+    last pose; out of reach, the knee went fully straight (0.2°) for five frames and bent 24° in the
+    next (ltibia at 6.3x its source peak). The leg now slows to its limit (cleanup.soft_reach)."""
+    from mjmotion.trim import leading_transient
+
+    src = bvh.read(require_data() / "cmu_asfamc_converted" / "10_01.bvh")
+    src = src[leading_transient(src) :]
+    space = PoseSpace.fit(src, translations=True)
+    path = V.scaled_path(V.source_path(space, space.components_for(V.DEFAULT_VARIANCE)), 1.3)
+    out, rep = V.clean_up(src, V.synthesise(space, path), path, first_hand=None)
+    worst, joint = evaluate.worst_joint_speed_ratio(out, src)
+    assert worst < 3.0, (worst, joint)
+    knee = int(src.skeleton.parents[src.skeleton.feet()["left"][0]])
+    assert np.degrees(rot.norm(rot.log(out.rotations[:, knee]))).min() > 5.0
+    assert rep.foot_reach_error_m > 0.0  # (it stopped short instead)
+
+
+def test_two_bone_ik_stops_a_target_out_of_reach_short_of_a_straight_limb(swing01):
+    src, _ = swing01
+    m = src[200:230]
+    skel = m.skeleton
+    pose = kinematics.forward(mjcf.compile(skel), m)
+    ankle = skel.feet()["left"][0]
+    knee, hip = int(skel.parents[ankle]), int(skel.parents[skel.parents[ankle]])
+    p = pose.joint_positions
+    length = np.linalg.norm(p[:, knee] - p[:, hip], axis=1) + np.linalg.norm(p[:, ankle] - p[:, knee], axis=1)
+    far = p[:, hip] + (p[:, ankle] - p[:, hip]) * (1.2 * length / np.linalg.norm(p[:, ankle] - p[:, hip], axis=1))[:, None]
+    local, err = V.two_bone_ik(skel, p, pose.joint_rotations, m.rotations, ankle, far, pose.joint_rotations[:, ankle], reach=0.995)
+    got = kinematics.forward(mjcf.compile(skel), m.replace(rotations=local)).joint_positions
+    dist = np.linalg.norm(got[:, ankle] - got[:, hip], axis=1)
+    assert np.all(dist <= 0.995 * length + 1e-9) and np.all(dist > 0.99 * length)
+    np.testing.assert_allclose(err, 1.2 * length - dist, atol=1e-6)

@@ -77,12 +77,15 @@ def two_bone_ik(
     target_rot: np.ndarray,
     keep: np.ndarray | None = None,
     keep_fade: int = 1,
+    reach: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Analytic IK placing joint ``end`` (ankle, wrist) at ``target_pos`` with world orientation ``target_rot``.
 
     The middle joint (knee, elbow) bends in its current plane to get the right reach, then the
     upper joint (hip, shoulder) swings the limb onto the target; the end joint's local rotation
-    gives it the target orientation. Reach is clamped to the limb's length.
+    gives it the target orientation. Reach is clamped to the limb's length; with ``reach``, a limb
+    stretches no further than ``reach`` × its length (or as captured, if straighter), approaching it
+    softly (:func:`mjmotion.cleanup.soft_reach`): held out of reach, a knee snapped straight.
 
     Where the limb is nearly straight its plane turns smoothly towards its usual one, and a limb
     bent the other way is bent the usual way; ``keep: (T,)`` frames (the source's own poses) use
@@ -93,7 +96,8 @@ def two_bone_ik(
         local_rot: ``(T, J, 4)`` the pose's local rotations (a modified copy is returned).
         target_pos: ``(T, 3)``; target_rot: ``(T, 4)`` world.
     Returns:
-        ``(local_rot, reach_error)``: updated rotations and ``(T,)`` metres the target stays out of reach.
+        ``(local_rot, reach_error)``: updated rotations and ``(T,)`` metres the target stays out of reach
+        (or short of it).
     """
     mid = int(skeleton.parents[end])
     top = int(skeleton.parents[mid])
@@ -128,7 +132,13 @@ def two_bone_ik(
         w_own = _fade(keep, keep_fade)[:, None]
         n_unit = w_own * own + (1.0 - w_own) * n_unit
     n_unit /= np.maximum(np.linalg.norm(n_unit, axis=-1, keepdims=True), 1e-12)
+    short = np.zeros(len(target_pos))
+    if reach is not None:
+        from ..cleanup import soft_reach  # (here: the synthesis alone does not load the cleanup)
+
+        target_pos, short = soft_reach(h, k, a, target_pos, reach)
     r_hip, r_knee, reach_error = analytic.two_bone(h, k, a, target_pos, n_unit)
+    reach_error = reach_error + short
     q_top_new = rot.multiply(r_hip, q_top)
     q_mid_new = rot.multiply(r_hip, rot.multiply(r_knee, world_rot[:, mid]))
     out = local_rot.copy()
@@ -283,6 +293,7 @@ def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_heig
             target_rot,
             keep=copies,
             keep_fade=n_fade,
+            reach=REACH,
         )
         if toe is not None:
             for j in [toe, *skel.descendants(toe)]:
