@@ -88,6 +88,36 @@ def test_scaled_path_is_a_homothety_about_the_centre(swing01):
     np.testing.assert_array_equal(out.scores[[0, -1]], base.scores[[0, -1]])  # the ends untouched
 
 
+def test_end_weights_ramp_in_and_out_over_the_given_frames():
+    """A path moving up to its last frame (a kick's recovery): its distance-based weight fell from 0.44
+    to 0 in the last four frames (10_01 ×1.3: the root 15 cm in them); with ``ramp`` frames the weight
+    changes by at most 1 / ramp a frame, never exceeds the distance-based one, is 0 at the first and
+    last frames, and is the distance-based weight where that changes slowly (most of the path)."""
+    t = np.linspace(0.0, 1.0, 200)
+    path = np.stack([t**20, np.sin(3 * t)], axis=1)  # moving fastest at its end
+    plain, ramped = V.end_weights(path), V.end_weights(path, ramp=30)
+    assert np.abs(np.diff(plain[-10:])).max() > 0.15  # (what the ramp is for)
+    assert ramped[0] == 0.0 and ramped[-1] == 0.0 and np.all(ramped <= plain + 1e-15)
+    assert np.abs(np.diff(ramped)).max() <= 1 / 30 + 1e-12
+    assert np.mean(ramped == plain) > 0.5 and ramped[-30] < plain[-30]
+
+
+def test_the_kick_reaches_its_last_pose_without_a_jump_of_its_root():
+    """10_01 ×1.3 (vary passes the clip's rate): over its last eight frames the variant's root moves
+    no faster than the source's fastest (it moved 3.8x as fast, 8 cm in one frame, without the ramp).
+    (Before them it jitters 2-3 cm a frame: the scaled components' own jitter, left as it is.)"""
+    from mjmotion.trim import leading_transient
+
+    src = bvh.read(require_data() / "cmu_asfamc_converted" / "10_01.bvh")
+    src = src[leading_transient(src) :]
+    space = PoseSpace.fit(src, translations=True)
+    path = V.scaled_path(V.source_path(space, space.components_for(V.DEFAULT_VARIANCE)), 1.3, fps=src.fps)
+    raw = V.synthesise(space, path)
+    speed = lambda m: np.linalg.norm(np.diff(m.root_positions, axis=0), axis=1)
+    assert speed(raw)[-8:].max() <= speed(src).max()
+    np.testing.assert_allclose(raw.root_positions[-1], src.root_positions[-1], atol=1e-9)
+
+
 def test_a_path_too_short_to_weight_any_frame_scales_to_itself(swing01):
     """Two frames are the start and the end pose, which scaling keeps: the path comes back as it was,
     finite (it was NaN, from the mean of no weighted frame, and `vary` refused a 2-frame clip as
@@ -566,3 +596,12 @@ def test_two_bone_ik_stops_a_target_out_of_reach_short_of_a_straight_limb(swing0
     dist = np.linalg.norm(got[:, ankle] - got[:, hip], axis=1)
     assert np.all(dist <= 0.995 * length + 1e-9) and np.all(dist > 0.99 * length)
     np.testing.assert_allclose(err, 1.2 * length - dist, atol=1e-6)
+
+
+def test_the_vary_help_states_the_end_ramp_the_code_uses():
+    import argparse
+
+    from mjmotion import cli
+
+    sub = next(a for a in cli.build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    assert f"faster than over {V.END_RAMP_S:g} s)" in " ".join(sub.choices["vary"].format_help().split())

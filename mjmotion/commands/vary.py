@@ -21,8 +21,9 @@ MUJOCO_WITHOUT_GL = True
 DESCRIPTION = """Build the principal-component space of a shot (root translation and every joint's
 quaternion, standardised), take the shot's own path of scores through it and change the path:
   --scale F        exaggerate (F > 1) or mute (F < 1) about the path's centre, fading to none
-                   at the first and last frames (the shot keeps its start and end poses), or
-                   about the centre of --segment A:B (tapered at the segment's ends)
+                   at the first and last frames (the shot keeps its start and end poses; no
+                   faster than over 0.25 s), or about the centre of --segment A:B (tapered at
+                   the segment's ends)
   --abort-at F     follow the shot to frame F, then head for the rest pose's scores over
                    --abort-frames N frames (default: at the shot's own pace); the rest pose is
                    the last frame unless --rest-frame says otherwise
@@ -193,7 +194,7 @@ def run(args: argparse.Namespace) -> int:
                         )
                     if seg[1] - seg[0] < 3:  # (scaled_path's own check counts from the clip as read)
                         raise MjmotionError(f"--segment {args.segment}: selects {seg[1] - seg[0]} frame(s); expected at least 3")
-                path = variations.scaled_path(base, args.scale, seg)
+                path = variations.scaled_path(base, args.scale, seg, fps=source.fps)
             else:
                 n_out = args.abort_at + 1 + (args.abort_frames or 0)
                 check_motion_size(n_out, source.skeleton.n_joints, f"--abort-at {args.abort_at} --abort-frames {args.abort_frames}")

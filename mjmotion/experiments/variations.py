@@ -158,8 +158,8 @@ def run_shot(shot: Shot) -> ShotResult:
     k = space.components_for(V.DEFAULT_VARIANCE)
     base = V.source_path(space, k)
     variants = {
-        f"exaggerated ×{EXAGGERATE:g}": V.scaled_path(base, EXAGGERATE),
-        f"muted ×{MUTE:g}": V.scaled_path(base, MUTE),
+        f"exaggerated ×{EXAGGERATE:g}": V.scaled_path(base, EXAGGERATE, fps=src.fps),
+        f"muted ×{MUTE:g}": V.scaled_path(base, MUTE, fps=src.fps),
         f"aborted at {ph.abort}": V.aborted_path(base, ph.abort, fps=src.fps, space=space),
     }
     compiled = mjcf.compile(src.skeleton)

@@ -291,7 +291,7 @@ def vary(
     k = space.components_for(variations.DEFAULT_VARIANCE)
     base = variations.source_path(space, k)
     if scale is not None:
-        path = variations.scaled_path(base, scale)
+        path = variations.scaled_path(base, scale, fps=source.fps)
     else:
         if not 0 <= int(abort_at) < source.n_frames - 1:  # type: ignore[arg-type]
             raise MjmotionError(f"abort frame {abort_at}: the shot has frames 0..{source.n_frames - 2}")

@@ -15,6 +15,7 @@ from .measure import effector_path_length, first_hand_for, fitted_club, grip_err
 from .paths import (
     DEFAULT_VARIANCE,
     END_FADE,
+    END_RAMP_S,
     MAX_SCORE,
     SEGMENT_TAPER,
     ScorePath,
@@ -33,6 +34,7 @@ from .paths import (
 __all__ = [
     "DEFAULT_VARIANCE",
     "END_FADE",
+    "END_RAMP_S",
     "MAX_SCORE",
     "FEET_METHODS",
     "SEGMENT_TAPER",
