@@ -147,11 +147,11 @@ def end_weights(controlled: np.ndarray, fade: float = END_FADE, ramp: int = 0) -
     w1 = _smoothstep(d1 / max(fade * float(d1[0]), 1e-12))
     w = w0 * w1
     if ramp > 0:
-        # The largest weight below w that changes by at most 1/ramp a frame (one pass each way).
-        for order in (slice(None), slice(None, None, -1)):
-            v = w[order]
-            for i in range(1, len(v)):
-                v[i] = min(v[i], v[i - 1] + 1.0 / ramp)
+        # The largest weight below w that rises by at most 1/ramp a frame, forwards then backwards:
+        # v_i = min(w_i, v_{i-1} + 1/ramp) is v_i − i/ramp = the running minimum of w_i − i/ramp.
+        slope = np.arange(len(w)) / ramp
+        w = np.minimum.accumulate(w - slope) + slope
+        w = (np.minimum.accumulate(w[::-1] - slope) + slope)[::-1]
     return w
 
 
@@ -161,7 +161,8 @@ def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None 
     The controlled scores move away from (or toward) the centre ``c`` (mean over the segment,
     or the whole path): ``s' = s + w(t)(factor − 1)(s − c)`` with ``w`` from :func:`segment_weights`
     for a segment, else :func:`end_weights`: the first and last frames are the source's (the
-    common start and end poses of §2.2.5).
+    common start and end poses of §2.2.5). ``fps``: the clip's rate; with it the scaling also
+    fades no faster than over :data:`END_RAMP_S` (:func:`end_weights`' ``ramp``).
     """
     if not (np.isfinite(factor) and factor > 0):
         raise MjmotionError(f"scale factor must be a positive number, got {factor}")
