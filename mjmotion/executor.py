@@ -44,6 +44,9 @@ POLL = 0.5
 #: Seconds a cluster that had workers may have none before the run ends with an error (every worker lost
 #: and none back: the tasks would wait for good). Generous: an adaptive cluster may take a while to start one.
 NO_WORKERS_WAIT = 120.0
+#: Seconds a run waits, when a finished task's result cannot be fetched, for the client to notice its
+#: scheduler has gone (killed between the task's end and the fetch) before calling it the task's fault.
+FETCH_WAIT = 5.0
 #: Seconds without a worker before a run says it is waiting for one.
 WAIT_NOTE = 10.0
 #: Dask settings of a LocalCluster. The workers' statistical profiler (a stack sample every 10 ms, for the
@@ -540,7 +543,15 @@ class Dask(Executor):
                     key = futures[f.key][0]
                     futures[f.key] = (key, None)  # drop our reference: the cluster may free the result
                     if f.status == "finished":
-                        result = f.result()
+                        try:
+                            result = f.result()
+                        except OSError as closed:  # (Dask's CommClosedError): the result's connection closed under us
+                            # A scheduler killed between the task's end and the fetch of its result: the same
+                            # one error as when it goes away earlier (the fetch raised Dask's own traceback).
+                            if self._gone(FETCH_WAIT):
+                                raise self._went_away(futures, done) from None
+                            yield Outcome(key, error=f"its result could not be fetched ({one_line(str(closed))})", kind="worker")
+                            continue
                         if timeout is not None and result[2] > timeout:
                             # It overran the limit between two polls (or while a restart held the loop): a timeout
                             # all the same; its value is not taken (a 55 MB clip came back ok at 2 s with a 1 s limit).
@@ -558,10 +569,7 @@ class Dask(Executor):
                     elif self.client.status != "running":
                         # The scheduler went away: every task still out is cancelled at once, which is no outcome
                         # of the clips (it made them all "worker" rows, exit 0).
-                        raise MjmotionError(
-                            f"the Dask scheduler at {self.address} went away (connection lost); "
-                            f"{sum(k in done for k in futures) - 1} of {len(futures)} tasks had finished"
-                        )
+                        raise self._went_away(futures, done)
                     else:
                         yield Outcome(key, error=f"cancelled by the cluster ({f.status})", kind="worker")
                     continue
@@ -590,6 +598,19 @@ class Dask(Executor):
             pending = [f for k, (_, f) in futures.items() if k not in done and f is not None]
             if pending:
                 self.client.cancel(pending)
+
+    def _gone(self, wait: float) -> bool:
+        """Whether the client has lost its scheduler, waiting up to ``wait`` seconds for it to notice."""
+        end = time.perf_counter() + wait
+        while self.client.status == "running" and time.perf_counter() < end:
+            time.sleep(0.05)
+        return self.client.status != "running"
+
+    def _went_away(self, futures: dict[Any, tuple[Any, Any]], done: set[Any]) -> MjmotionError:
+        """The error of a run whose scheduler went away (the future being handled counted in ``done``, not finished)."""
+        return MjmotionError(
+            f"the Dask scheduler at {self.address} went away (connection lost); {sum(k in done for k in futures) - 1} of {len(futures)} tasks had finished"
+        )
 
     def _expire(self, futures: dict[Any, tuple[Any, Any]], done: set[Any], timeout: float) -> Iterator[Outcome]:
         """Tasks running longer than ``timeout``: an outcome each, the future cancelled, the worker process ended."""

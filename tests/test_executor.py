@@ -105,6 +105,33 @@ def test_dask_outcomes_and_retries(dask2, tmp_path):
     assert dask2.workers == 2 and (dask2.dashboard is None or dask2.dashboard.startswith("http://127.0.0.1:"))
 
 
+@pytest.mark.parametrize("gone", [True, False])
+def test_a_result_that_cannot_be_fetched_is_the_schedulers_end_or_one_row(dask2, monkeypatch, gone):
+    """The CI run that saw the scheduler killed between a task's end and the fetch of its result
+    failed with Dask's CommClosedError and its traceback. Such a fetch is now the scheduler going
+    away when the client notices it has (the run's one error), else that task's "worker" row."""
+    from distributed import Future
+    from distributed.comm.core import CommClosedError
+
+    real = Future.result
+
+    def result(self, *a, **k):
+        if self.key.endswith("-2"):
+            raise CommClosedError("in <TCP (closed) ConnectionPool.gather>: Stream is closed")
+        return real(self, *a, **k)
+
+    monkeypatch.setattr(Future, "result", result)
+    monkeypatch.setattr(dask2, "_gone", lambda wait: gone)
+    tasks = [(i, (i,)) for i in range(4)]
+    if gone:
+        with pytest.raises(MjmotionError, match=r"the Dask scheduler at .* went away \(connection lost\); \d of 4 tasks had finished"):
+            list(dask2.run(square, tasks, progress=False))
+        return
+    by = {o.key: o for o in dask2.run(square, tasks, progress=False)}
+    assert sorted(by) == [0, 1, 2, 3] and by[2].kind == "worker" and "could not be fetched (in <TCP" in by[2].error
+    assert [by[i].value for i in (0, 1, 3)] == [0, 1, 9]
+
+
 def test_dask_worker_killed_mid_task_is_retried(dask2, tmp_path):
     marker = tmp_path / "killed"
     outs = list(dask2.run(die_once, [(i, (i, str(marker))) for i in range(8)], progress=False))
