@@ -838,14 +838,15 @@ def _pin(
             targets[:, f] = pose.joint_positions[:, h] + vec * scale[:, None]
     # Root: move towards targets the legs cannot reach, smoothed so it does not pop.
     shift = np.zeros((t_count, 3))
+    lengths = []  # (T,) each leg's hip-to-knee plus knee-to-ankle
     for f, (h, k, a) in enumerate(legs):
         hp = pose.joint_positions[:, h]
-        reach_len = params.reach * (
+        lengths.append(
             np.linalg.norm(pose.joint_positions[:, k] - hp, axis=1) + np.linalg.norm(pose.joint_positions[:, a] - pose.joint_positions[:, k], axis=1)
         )
         vec = targets[:, f] - hp
         dist = np.linalg.norm(vec, axis=1)
-        excess = np.maximum(dist - reach_len, 0.0)
+        excess = np.maximum(dist - params.reach * lengths[-1], 0.0)
         need = vec / np.maximum(dist, 1e-12)[:, None] * excess[:, None]
         bigger = np.linalg.norm(need, axis=1) > np.linalg.norm(shift, axis=1)
         shift[bigger] = need[bigger]
@@ -859,8 +860,7 @@ def _pin(
         gain = float(np.max(raw_peak[hit] / np.maximum(sm_norm[hit], 1e-12))) if hit.any() else 1.0
         shift = sm * min(gain, 3.0)
         # No deeper than ROOT_SHIFT x the leg: past it the held foot stops short and slides (soft_reach).
-        j0 = pose.joint_positions[0]
-        leg = float(np.mean([np.linalg.norm(j0[k] - j0[h]) + np.linalg.norm(j0[a] - j0[k]) for h, k, a in legs]))
+        leg = float(np.mean([length[0] for length in lengths]))
         norm = np.linalg.norm(shift, axis=1)
         capped = soft_limit(norm, ROOT_SHIFT * leg, SOFT_REACH * leg)
         shift *= np.where(norm > 0, capped / np.maximum(norm, 1e-12), 1.0)[:, None]
@@ -903,16 +903,15 @@ def _held_toes(motion: Motion, toes: Sequence[int | None], held_w: np.ndarray) -
     """``motion`` with each toe joint's local rotation low-passed at :data:`TOE_CUTOFF_HZ` where its foot
     is held (``held_w: (T, F)``, blended in and out): the plant held the toe tip where the toe's flex,
     low-passed, puts it; the toe kept its captured jitter, and the judge saw the tip move (ASF blends)."""
-    q = motion.rotations
-    for f, toe in enumerate(toes):
-        if toe is None or not held_w[:, f].any():
-            continue
-        if q is motion.rotations:
-            q = q.copy()
+    held = [(f, toe) for f, toe in enumerate(toes) if toe is not None and held_w[:, f].any()]
+    if not held:
+        return motion
+    q = motion.rotations.copy()
+    for f, toe in held:
         smooth = lowpass_quaternions(motion.rotations[:, toe], motion.fps, TOE_CUTOFF_HZ)
         blended = rot.slerp(motion.rotations[:, toe], smooth, held_w[:, f])
         q[:, toe] = np.where((held_w[:, f] > 0)[:, None], blended, motion.rotations[:, toe])
-    return motion if q is motion.rotations else motion.replace(rotations=q)
+    return motion.replace(rotations=q)
 
 
 def _solve_legs(

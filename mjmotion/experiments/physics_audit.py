@@ -237,6 +237,11 @@ def flight_falls(motion: Motion, params: ev.Params = ev.DEFAULTS, root: bool = F
     stretch the judge fits a parabola to (:func:`mjmotion.physics.ballistic_fits`), the clip judged
     as ``evaluate`` judges it: its own floor, levelled, its feet calibrated. ``root``: that of the
     root joint (the pelvis) over the same stretches instead — the capture's own point, no mass model."""
+    return _flight_fits(motion, params)[1 if root else 0]
+
+
+def _flight_fits(motion: Motion, params: ev.Params = ev.DEFAULTS) -> tuple[list[float], list[float]]:
+    """:func:`flight_falls` of the centre of mass and of the root joint, from one judging of ``motion``."""
     from .. import feet, kinematics, physics
 
     compiled = ev.judge_model(motion.skeleton)
@@ -245,10 +250,9 @@ def flight_falls(motion: Motion, params: ev.Params = ev.DEFAULTS, root: bool = F
     pose, motion = feet.level_pose(fl.level, pose), feet.level_motion(fl.level, motion)
     ground = feet.lowest_body_point(compiled, pose, track.heights.min(axis=1) + fl.height) - fl.height
     res = physics.residuals(compiled, motion, track, params, ground=ground, pose=pose)
-    if not root:
-        return [float(a[2] / physics.GRAVITY) for a in res.flight_accelerations]
     judged = res.ballistic if res.ballistic is not None else np.zeros(motion.n_frames, dtype=bool)
-    return [float(a[2] / physics.GRAVITY) for _, _, a in physics.ballistic_fits(pose.joint_positions[:, 0], judged, motion.fps)]
+    pelvis = physics.ballistic_fits(pose.joint_positions[:, 0], judged, motion.fps)
+    return [float(a[2] / physics.GRAVITY) for a in res.flight_accelerations], [float(a[2] / physics.GRAVITY) for _, _, a in pelvis]
 
 
 def flight_fall_lines(data_dir: Path | None) -> list[str]:
@@ -257,8 +261,7 @@ def flight_fall_lines(data_dir: Path | None) -> list[str]:
     for rel in FLIGHT_CLIPS if data_dir is not None else ():
         assert data_dir is not None
         if (data_dir / rel).is_file():
-            clip = _read(data_dir / rel)
-            falls, pelvis = flight_falls(clip), flight_falls(clip, root=True)
+            falls, pelvis = _flight_fits(_read(data_dir / rel))
             shown = ", ".join(f"{a:.2f} ({b:.2f})".replace("-", "−") for a, b in zip(falls, pelvis)) if falls else "none fitted"
             parts.append(f"{rel.split('/')[0].removeprefix('cmu_')} {Path(rel).stem} {shown}")
     head = (
