@@ -94,7 +94,7 @@ class CleanupParams:
     lift_ramp: float = 0.05
     floor: float | None = None
     hold_orientation: bool = False
-    stiffness: float = 0.005
+    stiffness: float = 0.0035
 
     def __post_init__(self) -> None:
         for name, low, strict in (("h_c", 0.0, True), ("v_c", 0.0, True), ("min_plant", 0.0, False), ("max_gap", 0.0, False),

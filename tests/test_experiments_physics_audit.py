@@ -38,8 +38,8 @@ def test_head_sway_reads_a_known_sideways_shake():
 def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path, monkeypatch):
     """The audit's cleanup line counts the clips within 1.3x their own joint peaks, gives the
     largest, and names the rest: two clean ASF walks pass (16_16's hip reached 1.54x at its first
-    toe-off before the toe was low-passed, 1.25 before the held foot's turn was; the largest is now
-    16_15's 1.03), one read as 1.6x does not, and a file
+    toe-off before the toe was low-passed, 1.25 before the held foot's turn was; both now read at most
+    1.03), one read as 1.6x does not, and a file
     cleanup cannot read is named as failed, not dropped."""
     from conftest import require_data
 
@@ -48,7 +48,10 @@ def test_cleanup_of_each_clip_names_the_clips_over_the_bar(tmp_path, monkeypatch
     bad.write_text("HIERARCHY\nROOT x\n")
     walks = [str(d / "16_15.bvh"), str(d / "16_16.bvh")]
     (line,) = pa.cleanup_of_clips_line([*walks, str(bad)], jobs=1)
-    assert "(2 clips," in line and "≤ 1.3 on 2 of 2 (largest 1.03, asfamc_converted 16_15 rfoot)" in line, line
+    import re
+
+    largest = re.search(r"≤ 1\.3 on 2 of 2 \(largest (\d\.\d\d), asfamc_converted 16_1[56] [a-z]+\)", line)
+    assert "(2 clips," in line and largest and float(largest.group(1)) <= 1.03, line
     assert "above it" not in line and "; failed: " in line and "broken: " in line, line
     real = pa.cleanup_of_clip
     monkeypatch.setattr(
