@@ -575,9 +575,21 @@ class Dask(Executor):
                     continue
                 if time.perf_counter() - polled >= POLL:
                     polled = time.perf_counter()
-                    if timeout is not None:
-                        yield from self._expire(futures, done, timeout)
-                    present = self.client.nthreads()
+                    # A scheduler killed since: asking it anything waits for Dask's connect timeout (10 s), then
+                    # raises its OSError; the client has usually noticed by now (it cancels every future then).
+                    if self.client.status != "running":
+                        raise self._went_away(futures, done, handling=False)
+                    try:
+                        if timeout is not None:
+                            yield from self._expire(futures, done, timeout)
+                        present = self.client.nthreads()
+                    except OSError as e:  # (Dask's CommClosedError, its connect timeout)
+                        if self._gone(FETCH_WAIT):
+                            raise self._went_away(futures, done, handling=False) from None
+                        raise MjmotionError(
+                            f"the Dask scheduler at {self.address} stopped answering ({one_line(str(e))}); "
+                            f"{sum(k in done for k in futures)} of {len(futures)} tasks had finished"
+                        ) from None
                     if present:
                         alone, seen = None, True
                         if self.cluster is None and set(present) - checked:
@@ -606,10 +618,12 @@ class Dask(Executor):
             time.sleep(0.05)
         return self.client.status != "running"
 
-    def _went_away(self, futures: dict[Any, tuple[Any, Any]], done: set[Any]) -> MjmotionError:
-        """The error of a run whose scheduler went away (the future being handled counted in ``done``, not finished)."""
+    def _went_away(self, futures: dict[Any, tuple[Any, Any]], done: set[Any], handling: bool = True) -> MjmotionError:
+        """The error of a run whose scheduler went away (``handling``: the future being handled is counted in
+        ``done``, and did not finish)."""
         return MjmotionError(
-            f"the Dask scheduler at {self.address} went away (connection lost); {sum(k in done for k in futures) - 1} of {len(futures)} tasks had finished"
+            f"the Dask scheduler at {self.address} went away (connection lost); "
+            f"{sum(k in done for k in futures) - handling} of {len(futures)} tasks had finished"
         )
 
     def _expire(self, futures: dict[Any, tuple[Any, Any]], done: set[Any], timeout: float) -> Iterator[Outcome]:

@@ -132,6 +132,28 @@ def test_a_result_that_cannot_be_fetched_is_the_schedulers_end_or_one_row(dask2,
     assert [by[i].value for i in (0, 1, 3)] == [0, 1, 9]
 
 
+@pytest.mark.parametrize("gone", [True, False])
+def test_a_scheduler_that_stops_answering_the_poll_ends_the_run_with_one_error(dask2, monkeypatch, gone):
+    """The CI run that saw its scheduler killed just before the run's twice-a-second look at the cluster
+    failed with Dask's OSError ("Timed out trying to connect ... after 10 s") and its traceback. It is
+    now the scheduler going away when the client notices it has, else one error that it stopped answering."""
+    from distributed.comm.core import CommClosedError
+
+    real, calls = dask2.client.nthreads, []
+
+    def nthreads(*a, **k):  # (the run's first call, as it starts, answers)
+        calls.append(1)
+        if len(calls) > 1:
+            raise CommClosedError("in <TCPConnector>: ConnectionRefusedError: [Errno 111] Connection refused")
+        return real(*a, **k)
+
+    monkeypatch.setattr(dask2.client, "nthreads", nthreads)
+    monkeypatch.setattr(dask2, "_gone", lambda wait: gone)
+    what = r"went away \(connection lost\)" if gone else r"stopped answering \(in <TCPConnector>: ConnectionRefusedError"
+    with pytest.raises(MjmotionError, match=rf"the Dask scheduler at .* {what}.*; \d of 4 tasks had finished"):
+        list(dask2.run(time.sleep, [(i, (0.4,)) for i in range(4)], progress=False))
+
+
 def test_dask_worker_killed_mid_task_is_retried(dask2, tmp_path):
     marker = tmp_path / "killed"
     outs = list(dask2.run(die_once, [(i, (i, str(marker))) for i in range(8)], progress=False))
