@@ -23,7 +23,8 @@ quaternion, standardised), take the shot's own path of scores through it and cha
   --scale F        exaggerate (F > 1) or mute (F < 1) about the path's centre, fading to none
                    at the first and last frames (the shot keeps its start and end poses; no
                    faster than over 0.25 s), or about the centre of --segment A:B (tapered at
-                   the segment's ends)
+                   the segment's ends); what it adds is low-passed at 6 Hz, so the capture's
+                   one-frame glitches stay as captured instead of being scaled with the motion
   --abort-at F     follow the shot to frame F, then head for the rest pose's scores over
                    --abort-frames N frames (default: at the shot's own pace); the rest pose is
                    the last frame unless --rest-frame says otherwise

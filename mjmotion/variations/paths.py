@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import kinematics, limits, mjcf
+from .. import filters, kinematics, limits, mjcf
 from .. import rotations as rot
 from ..caps import MAX_FPS, check_motion_size
 from ..errors import MjmotionError, is_real, is_whole
@@ -42,6 +42,10 @@ END_FADE = 0.5
 #: clip still moving in its last frames (a kick's recovery) reached its end pose in 4 frames, the
 #: root 15 cm in them (10_01 ×1.3: 3.8x the source's fastest root).
 END_RAMP_S = 0.25
+#: Hz: what scaling adds is low-passed at the judge's cutoff (``thresholds.CUTOFF_HZ``), so a capture's
+#: one-frame glitch, which the controlled components carry to every joint and the root, is not scaled with
+#: the motion (10_01's hand glitch moved the ×1.3 kick's root 3.8x as fast as the source's fastest).
+SCALE_CUTOFF_HZ = 6.0
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:
@@ -162,7 +166,9 @@ def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None 
     or the whole path): ``s' = s + w(t)(factor − 1)(s − c)`` with ``w`` from :func:`segment_weights`
     for a segment, else :func:`end_weights`: the first and last frames are the source's (the
     common start and end poses of §2.2.5). ``fps``: the clip's rate; with it the scaling also
-    fades no faster than over :data:`END_RAMP_S` (:func:`end_weights`' ``ramp``).
+    fades no faster than over :data:`END_RAMP_S` (:func:`end_weights`' ``ramp``), and what it adds,
+    ``s − c``, is first low-passed at :data:`SCALE_CUTOFF_HZ`: the motion is exaggerated, the
+    capture's frame-to-frame jitter (kept as captured in ``s``) is not.
     """
     if not (np.isfinite(factor) and factor > 0):
         raise MjmotionError(f"scale factor must be a positive number, got {factor}")
@@ -172,7 +178,10 @@ def scaled_path(path: ScorePath, factor: float, segment: tuple[int, int] | None 
     ctrl = s[:, : path.k]
     # The segment's centre (every frame of the segment has w > 0); a clip too short to weight any frame keeps its scores.
     centre = ctrl[w > 0].mean(axis=0) if (w > 0).any() else np.zeros(path.k)
-    s[:, : path.k] = ctrl + (w * (factor - 1.0))[:, None] * (ctrl - centre)
+    away = ctrl - centre
+    if fps:
+        away = filters.lowpass(away, fps, SCALE_CUTOFF_HZ)
+    s[:, : path.k] = ctrl + (w * (factor - 1.0))[:, None] * away
     return replace(path, scores=s, label=f"scale {factor:g}")
 
 
