@@ -173,3 +173,15 @@ def test_cli_blend(mocap, tmp_path):
     assert mean_speed(m) == pytest.approx(mean_speed(B.blend([_clip(mocap, "07_01"), _clip(mocap, "09_01")], [0.5, 0.5])), rel=0.02)
     bad = subprocess.run(base + ["--weights", "0.5,0.6", "-o", str(tmp_path / "x.bvh")], capture_output=True, text=True)
     assert bad.returncode == 2 and "sum to 1" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_a_still_clip_blended_with_itself_by_registration_keeps_its_length():
+    """Every frame of a still clip matches every other: the registration's free end took the first of
+    the equal ends and the blend had 59 of the clip's 120 frames."""
+    from mjmotion import synth
+
+    w = synth.walk(seconds=1.0).motion
+    still = w.replace(root_positions=np.repeat(w.root_positions[:1], 120, 0), rotations=np.repeat(w.rotations[:1], 120, 0))
+    out = B.blend([still, still], [0.5, 0.5], method="registered")
+    assert out.n_frames == still.n_frames
+    np.testing.assert_allclose(out.root_positions, still.root_positions, atol=1e-9)

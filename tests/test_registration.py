@@ -126,6 +126,18 @@ def Motion_of(rng, skel, n):
 
 
 # --------------------------------------------------------------------------- paths
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+@pytest.mark.parametrize("shape", [(12, 12), (12, 8), (8, 12)])
+def test_a_free_end_among_equal_ends_is_the_one_nearest_the_far_corner(shape, backend):
+    """On a grid of equal costs (a still clip against a still clip) every end is as good; the path ran
+    to the first one, half of the longer clip at the slope limit, and a still clip's registered blend
+    with itself came out half as long."""
+    cost = np.zeros(shape)
+    for rule in ("per-end", "mean"):
+        dp = R.dp_path(cost, R.SlopeLimit(1, 1), True, backend=backend, rule=rule)
+        assert tuple(dp.cells[-1]) == (shape[0] - 1, shape[1] - 1), rule
+
+
 @pytest.mark.parametrize("backend", ["numpy", "auto"])  # auto = the Numba kernel when installed
 @pytest.mark.parametrize("seed", range(40))
 def test_dp_equals_brute_force_on_small_random_grids(seed, backend):

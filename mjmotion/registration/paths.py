@@ -297,9 +297,11 @@ def _dp_pass(c: np.ndarray, slope: SlopeLimit, free_end: bool, rule: str, kernel
             s_best = np.argmin(vals, axis=1)  # per boundary cell its cheapest path (any state)
             tot = vals[np.arange(len(vals)), s_best]
             obj = _end_objective(tot, lens[np.arange(len(vals)), s_best]) if rule == "per-end" else tot
-            k = int(np.argmin(obj))
+            # Of equally good ends the one nearest the far corner: a still clip against itself ties at
+            # every end, and the first one (half of it, at the slope limit) halved its blend.
+            k = int(np.flatnonzero(obj == obj.min())[-1]) if np.isfinite(obj.min()) else 0
             cands.append((float(obj[k]), cell(k), int(s_best[k])))
-        value, (i, j), s = min(cands, key=lambda c: c[0])
+        value, (i, j), s = min(cands, key=lambda c: (c[0], -(c[1][0] + c[1][1])))
     if not np.isfinite(value):
         raise MjmotionError(
             f"no path joins the corners of a {n_a} × {n_b}-frame grid within the slope limit "
