@@ -852,18 +852,7 @@ def _pin(
         shift[bigger] = need[bigger]
     n_root = round(params.root_window * motion.fps / 2)
     if np.any(shift):
-        # Smoothing spreads the shift; scale so the peak shortfall is still covered.
-        raw_peak = np.linalg.norm(shift, axis=1)
-        sm = _hann_smooth_max(shift, n_root)
-        sm_norm = np.linalg.norm(sm, axis=1)
-        hit = raw_peak > 0
-        gain = float(np.max(raw_peak[hit] / np.maximum(sm_norm[hit], 1e-12))) if hit.any() else 1.0
-        shift = sm * min(gain, 3.0)
-        # No deeper than ROOT_SHIFT x the leg: past it the held foot stops short and slides (soft_reach).
-        leg = float(np.mean([length[0] for length in lengths]))
-        norm = np.linalg.norm(shift, axis=1)
-        capped = soft_limit(norm, ROOT_SHIFT * leg, SOFT_REACH * leg)
-        shift *= np.where(norm > 0, capped / np.maximum(norm, 1e-12), 1.0)[:, None]
+        shift = spread_root_shift(shift, n_root, float(np.mean([length[0] for length in lengths])))
     root = motion.root_positions + shift
     moved = motion.replace(root_positions=root)
     pose2 = kinematics.forward(compiled, moved) if np.any(shift) else pose
@@ -970,6 +959,25 @@ SOFT_REACH = 0.03
 #: reach, approached softly over SOFT_REACH of it: a plant glued across two steps of a blend of walks out
 #: of phase (its foot gliding 0.5 m) crouched the body 0.41 m to hold it (daz 07_02+08_11).
 ROOT_SHIFT = 0.1
+
+
+def spread_root_shift(need: np.ndarray, half: int, leg: float) -> np.ndarray:
+    """``(T, 3)`` the root's move towards targets its legs cannot reach, from ``need (T, 3)``, each frame's
+    largest shortfall: Hann-smoothed over ``2·half + 1`` frames so it does not pop, rescaled (at most 3x)
+    so the largest shortfall is still covered, and no longer than :data:`ROOT_SHIFT` × ``leg`` (the leg's
+    hip-to-ankle length, m; approached softly over :data:`SOFT_REACH` of it): past that the held foot stops
+    short and slides (:func:`soft_reach`) rather than the body crouching. Shared by this cleanup and the
+    variations' foot repair (``mjmotion.variations.fixes``: the kick 10_01 ×2 crouched 0.59 m)."""
+    peak = np.linalg.norm(need, axis=1)
+    hit = peak > 0
+    if not hit.any():
+        return need
+    smooth = _hann_smooth_max(need, half)
+    gain = float(np.max(peak[hit] / np.maximum(np.linalg.norm(smooth, axis=1)[hit], 1e-12)))
+    shift = smooth * min(gain, 3.0)
+    norm = np.linalg.norm(shift, axis=1)
+    capped = soft_limit(norm, ROOT_SHIFT * leg, SOFT_REACH * leg)
+    return shift * np.where(norm > 0, capped / np.maximum(norm, 1e-12), 1.0)[:, None]
 
 
 def soft_reach(top: np.ndarray, mid: np.ndarray, end: np.ndarray, target: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:

@@ -616,6 +616,28 @@ def test_a_held_foot_out_of_reach_does_not_snap_the_knee_straight():
     assert rep.foot_reach_error_m > 0.0  # (it stopped short instead)
 
 
+def test_the_foot_repair_does_not_crouch_the_body_to_hold_a_foot():
+    """The kick 10_01 exaggerated ×2: its feet held on the source's footprints while the variant's body
+    leaves them, the repair lowered the root 0.59 m (1.07 m in all) towards them. It moves the root at
+    most cleanup.ROOT_SHIFT of the leg's length, as the footskate cleanup does; the foot stops short."""
+    from mjmotion import cleanup
+    from mjmotion.trim import leading_transient
+
+    src = bvh.read(require_data() / "cmu_asfamc_converted" / "10_01.bvh")
+    src = src[leading_transient(src) :]
+    space = PoseSpace.fit(src, translations=True)
+    path = V.scaled_path(V.source_path(space, space.components_for(V.DEFAULT_VARIANCE)), 2.0, fps=src.fps)
+    raw = V.synthesise(space, path)
+    out, rep = V.clean_up(src, raw, path, first_hand=None)
+    p = _fk(src)[0]
+    ankle = src.skeleton.feet()["left"][0]
+    knee, hip = int(src.skeleton.parents[ankle]), int(src.skeleton.parents[src.skeleton.parents[ankle]])
+    leg = np.linalg.norm(p[knee] - p[hip]) + np.linalg.norm(p[ankle] - p[knee])
+    moved = np.linalg.norm(out.root_positions - raw.root_positions, axis=1)
+    assert moved.max() <= cleanup.ROOT_SHIFT * leg + 1e-9, (moved.max(), leg)
+    assert rep.foot_reach_error_m > 0.0
+
+
 def test_two_bone_ik_stops_a_target_out_of_reach_short_of_a_straight_limb(swing01):
     src, _ = swing01
     m = src[200:230]

@@ -351,16 +351,21 @@ def _root_shift_for_reach(
 ) -> np.ndarray:
     """``(T, 3)`` root translation bringing every held ankle target within ``REACH`` of its leg.
 
-    Per frame, the largest shortfall (weighted by the hold's fade) along the hip→target line;
-    then a Hann-window smoothing (``ROOT_WINDOW_S``) rescaled so the peak is still covered.
+    Per frame, the largest shortfall (weighted by the hold's fade) along the hip→target line; then
+    spread over ``ROOT_WINDOW_S`` and capped as the footskate cleanup's root is
+    (:func:`mjmotion.cleanup.spread_root_shift`: at most a tenth of the leg; the kick 10_01 ×2 crouched 0.59 m).
     """
+    from ..cleanup import spread_root_shift  # (here: the synthesis alone does not load the cleanup)
+
     t = pose.joint_positions.shape[0]
     need = np.zeros((t, 3))
+    legs_m = []
     for ankle, target, w in legs:
         knee = int(skel.parents[ankle])
         hip = int(skel.parents[knee])
         p = pose.joint_positions
         length = np.linalg.norm(p[:, knee] - p[:, hip], axis=-1) + np.linalg.norm(p[:, ankle] - p[:, knee], axis=-1)
+        legs_m.append(float(length[0]))
         vec = target - p[:, hip]
         dist = np.linalg.norm(vec, axis=-1)
         # only targets truly out of reach move the root (a captured straight leg stays as it is)
@@ -368,17 +373,7 @@ def _root_shift_for_reach(
         n = vec / np.maximum(dist, 1e-12)[:, None] * (w * short)[:, None]
         bigger = np.linalg.norm(n, axis=-1) > np.linalg.norm(need, axis=-1)
         need[bigger] = n[bigger]
-    peak = np.linalg.norm(need, axis=-1)
-    if not peak.any():
-        return need
-    half = max(0, min(round(0.5 * ROOT_WINDOW_S * fps), (t - 1) // 2))  # np.convolve 'same' keeps the longer length
-    kernel = np.hanning(2 * half + 3)[1:-1]
-    kernel /= kernel.sum()
-    smooth = np.stack([np.convolve(need[:, i], kernel, mode="same") for i in range(3)], axis=1)
-    norm = np.linalg.norm(smooth, axis=-1)
-    hit = peak > 0
-    gain = float(np.max(peak[hit] / np.maximum(norm[hit], 1e-12)))
-    return smooth * min(gain, 3.0)
+    return spread_root_shift(need, round(0.5 * ROOT_WINDOW_S * fps), float(np.mean(legs_m)))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
