@@ -746,6 +746,24 @@ def test_a_plant_held_while_the_body_walks_away_neither_snaps_the_knee_nor_crouc
     assert res.max_root_shift_m == pytest.approx(shift.max()) and 0.05 < shift.max() <= cl.ROOT_SHIFT * leg * 1.01
 
 
+def test_the_root_shift_covers_a_shortfall_smoothly_and_no_deeper_than_its_limit():
+    """cleanup.spread_root_shift (the cleanup's and vary's): no shortfall, no move; a 4 cm shortfall
+    over 15 frames is covered (the smoothing rescaled so its peak is, by at most 3x) and eased in and
+    out over the window; a 0.5 m one moves the root at most ROOT_SHIFT x the leg, in the same direction."""
+    leg, half = 0.9, 18
+    need = np.zeros((120, 3))
+    assert not cl.spread_root_shift(need, half, leg).any()
+    need[53:68] = [0.0, 0.0, -0.04]
+    out = cl.spread_root_shift(need, half, leg)
+    assert np.all(-out[53:68, 2] >= 0.04 - 1e-9) and not out[:, :2].any()
+    assert np.abs(np.diff(out[:, 2])).max() < 0.04 / 10 and abs(out[0, 2]) < 1e-12 and abs(out[-1, 2]) < 1e-12
+    need[53:68] = [0.3, 0.0, -0.4]
+    deep = cl.spread_root_shift(need, half, leg)
+    norm = np.linalg.norm(deep, axis=1)
+    assert 0.9 * cl.ROOT_SHIFT * leg < norm.max() <= cl.ROOT_SHIFT * leg + 1e-12
+    np.testing.assert_allclose(deep[60] / norm[60], [0.6, 0.0, -0.8], atol=1e-12)
+
+
 def test_despiking_scales_only_sharp_spikes_of_corrected_frames():
     """A one-frame correction spike sharper than the joint's captured p99 acceleration is scaled down to
     it; a frame the solve did not correct stays exactly as captured even between two corrected ones."""
