@@ -638,6 +638,24 @@ def test_the_foot_repair_does_not_crouch_the_body_to_hold_a_foot():
     assert rep.foot_reach_error_m > 0.0
 
 
+def test_an_aborted_swing_steps_its_foot_back_over_the_whole_return():
+    """64_05 aborted at frame 122 returns to its finish pose in 44 frames and its trail foot steps (its
+    footprint moves 6 cm and its heel rises). Carried in the middle 40 % of the return, the step bent the
+    knee 80° and back in 0.17 s: rtibia at 6.5x its captured p99 speed and 18 pop frames. Lifted over the
+    whole return and carried over its middle 80 % (fixes.STEP_CARRY): 5.2x and 4. The return still ends
+    exactly in the rest pose where the character stands."""
+    from mjmotion.trim import leading_transient
+
+    src = _swing("64_05")
+    src = src[leading_transient(src) :]
+    space = PoseSpace.fit(src, translations=True)
+    path = V.aborted_path(V.source_path(space, space.components_for(V.DEFAULT_VARIANCE)), 122, fps=src.fps, space=space)
+    out, _ = V.clean_up(src, V.synthesise(space, path), path, first_hand=V.first_hand_for(src))
+    worst, joint = evaluate.worst_joint_speed_ratio(out, src)
+    pops = int(np.count_nonzero(evaluate.pop_frames(out, [src])))
+    assert worst < 5.6 and pops <= 8, (worst, joint, pops)
+
+
 def test_two_bone_ik_stops_a_target_out_of_reach_short_of_a_straight_limb(swing01):
     src, _ = swing01
     m = src[200:230]

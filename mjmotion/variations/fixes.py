@@ -28,8 +28,12 @@ STRAIGHT_LIMB_DEG = 15.0
 FADE_S = 0.1
 #: A foot whose footprint moves more than this (m) during an abort's return steps instead of sliding …
 STEP_M = 0.05
-#: … lifting its contact point this high (m) at mid-step.
+#: … lifting its contact point this high (m) at mid-step …
 STEP_LIFT = 0.12
+#: … over the whole return, and carrying it between these fractions of the return: lifted before it moves,
+#: put down after. Carried over the middle 0.3–0.7 (lifted over 0.1–0.9), a step pushed the aborted golf
+#: swings' knees to 2.6–6.5x their captured peak (64_05: 18 pop frames); now 1.7–5.2x (4).
+STEP_CARRY = (0.1, 0.9)
 
 
 def _source_at(source_values: np.ndarray, path: ScorePath) -> np.ndarray:
@@ -225,10 +229,11 @@ def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_heig
             # a foot whose footprint moves must step: lift, carry, put down (not slide)
             stepping = np.linalg.norm((p_b - p_a)[:, :2], axis=-1) > STEP_M
             if stepping.any():
-                # lift first, then carry and turn the foot in the air, then put it down
+                # lift first, then carry and turn the foot in the air, then put it down: over the whole
+                # return (STEP_CARRY), a step's knee as slow as the return allows
                 u = w[:, 0]
-                carry = _smoothstep((u - 0.3) / 0.4)
-                lift = STEP_LIFT * np.sin(np.pi * np.clip((u - 0.1) / 0.8, 0.0, 1.0))
+                carry = _smoothstep((u - STEP_CARRY[0]) / (STEP_CARRY[1] - STEP_CARRY[0]))
+                lift = STEP_LIFT * np.sin(np.pi * np.clip(u, 0.0, 1.0))
                 step = p_a + carry[:, None] * (p_b - p_a)
                 step[:, 2] += lift
                 pivot = np.where(stepping[:, None], step, pivot)
