@@ -656,6 +656,23 @@ def test_an_aborted_swing_steps_its_foot_back_over_the_whole_return():
     assert worst < 5.6 and pops <= 8, (worst, joint, pops)
 
 
+def test_a_foot_hovering_at_the_plant_height_stays_held():
+    """64_05's trail foot hovers at 78-81 mm through its finish, about the 80 mm under which the source's
+    foot counts as down (fixes.PLANT_HEIGHT): five runs of frames under it were five plants, each with
+    its own shift, and the ×0.7 variant's foot target stepped between them (rfemur at 2.1x its captured
+    peak, 8 pop frames). Gaps shorter than two fades between plants are held through: 1.03x, 2 pops."""
+    from mjmotion.trim import leading_transient
+
+    src = _swing("64_05")
+    src = src[leading_transient(src) :]
+    space = PoseSpace.fit(src, translations=True)
+    path = V.scaled_path(V.source_path(space, space.components_for(V.DEFAULT_VARIANCE)), 0.7, fps=src.fps)
+    out, _ = V.clean_up(src, V.synthesise(space, path), path, first_hand=V.first_hand_for(src))
+    worst, joint = evaluate.worst_joint_speed_ratio(out, src)
+    pops = int(np.count_nonzero(evaluate.pop_frames(out, [src])))
+    assert worst <= 1.3 and pops <= 3, (worst, joint, pops)
+
+
 def test_two_bone_ik_stops_a_target_out_of_reach_short_of_a_straight_limb(swing01):
     src, _ = swing01
     m = src[200:230]

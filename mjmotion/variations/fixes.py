@@ -56,6 +56,16 @@ def _quat_source_at(source_q: np.ndarray, path: ScorePath) -> np.ndarray:
     return rot.slerp(source_q[path.frame_a], source_q[path.frame_b], w)
 
 
+def _close_gaps(mask: np.ndarray, n: int) -> np.ndarray:
+    """``mask (T,)`` with its gaps of at most ``n`` frames between two True runs filled."""
+    out = mask.copy()
+    idx = np.flatnonzero(mask)
+    for a, b in zip(idx[:-1], idx[1:]):
+        if 1 < b - a <= n + 1:
+            out[a + 1 : b] = True
+    return out
+
+
 def _fade(mask: np.ndarray, n_fade: int) -> np.ndarray:
     """``(T,)`` 1 where ``mask`` holds, easing to 0 over ``n_fade`` frames either side."""
     if not mask.any():
@@ -177,7 +187,8 @@ def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_heig
     """Feet that slide or float (§3.3) put back on the source's footprints with two-bone leg IK.
 
     Where the source's foot (its lowest point, METRICS.md) is within ``plant_height`` of the floor at the
-    frames a path frame stands for, the ankle follows the source's ankle (position and world
+    frames a path frame stands for (gaps of up to two fades between such frames included: a foot hovering
+    at that height made a plant of every few frames, each with its own shift), the ankle follows the source's ankle (position and world
     orientation, toes as in the source) shifted by the variant's mean horizontal offset over
     that plant; corrections fade in and out over ``FADE_S``. Returns the motion, frames held per
     foot and the largest distance a target stayed out of reach.
@@ -200,7 +211,7 @@ def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_heig
     copied = copies & (path.weight <= 0)
     plans = []
     for side, (ankle, toe) in feet.items():
-        low_src = track.heights[:, track.sides.index(side)] < plant_height
+        low_src = _close_gaps(track.heights[:, track.sides.index(side)] < plant_height, 2 * n_fade)
         # between two source frames a foot down at either end stays held (released, it would
         # swing to wherever the blended pose puts it)
         low_a, low_b = low_src[path.frame_a], low_src[path.frame_b]
