@@ -656,6 +656,15 @@ def test_an_aborted_swing_steps_its_foot_back_over_the_whole_return():
     assert worst < 5.6 and pops <= 8, (worst, joint, pops)
 
 
+def test_close_gaps_fills_only_short_gaps_between_runs():
+    from mjmotion.variations.fixes import _close_gaps
+
+    m = np.array([0, 1, 1, 0, 0, 1, 0, 0, 0, 0, 1, 0, 1, 1, 0], dtype=bool)
+    assert _close_gaps(m, 2).astype(int).tolist() == [0, 1, 1, 1, 1, 1, 0, 0, 0, 0, 1, 1, 1, 1, 0]
+    assert _close_gaps(m, 4).astype(int).tolist() == [0] + [1] * 13 + [0]  # (the clip's ends are no gaps)
+    assert not _close_gaps(np.zeros(4, dtype=bool), 3).any() and _close_gaps(np.zeros(0, dtype=bool), 3).size == 0
+
+
 def test_a_foot_hovering_at_the_plant_height_stays_held():
     """64_05's trail foot hovers at 78-81 mm through its finish, about the 80 mm under which the source's
     foot counts as down (fixes.PLANT_HEIGHT): five runs of frames under it were five plants, each with

@@ -60,9 +60,10 @@ def _close_gaps(mask: np.ndarray, n: int) -> np.ndarray:
     """``mask (T,)`` with its gaps of at most ``n`` frames between two True runs filled."""
     out = mask.copy()
     idx = np.flatnonzero(mask)
-    for a, b in zip(idx[:-1], idx[1:]):
-        if 1 < b - a <= n + 1:
-            out[a + 1 : b] = True
+    gap = np.diff(idx) - 1  # False frames between consecutive True ones
+    short = (gap > 0) & (gap <= n)
+    for a, g in zip(idx[:-1][short], gap[short]):
+        out[a + 1 : a + 1 + g] = True
     return out
 
 
