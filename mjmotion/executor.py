@@ -583,6 +583,9 @@ class Dask(Executor):
                         if timeout is not None:
                             yield from self._expire(futures, done, timeout)
                         present = self.client.nthreads()
+                        if present and self.cluster is None and set(present) - checked:
+                            self._check_workers(self.address or "", set(present) - checked)  # joined since: the same check
+                            checked |= set(present)
                     except OSError as e:  # (Dask's CommClosedError, its connect timeout)
                         if self._gone(FETCH_WAIT):
                             raise self._went_away(futures, done, handling=False) from None
@@ -590,11 +593,12 @@ class Dask(Executor):
                             f"the Dask scheduler at {self.address} stopped answering ({one_line(str(e))}); "
                             f"{sum(k in done for k in futures)} of {len(futures)} tasks had finished"
                         ) from None
+                    except MjmotionError:  # (new workers that did not answer: their scheduler may be what went)
+                        if self.client.status != "running":
+                            raise self._went_away(futures, done, handling=False) from None
+                        raise
                     if present:
                         alone, seen = None, True
-                        if self.cluster is None and set(present) - checked:
-                            self._check_workers(self.address or "", set(present) - checked)  # joined since: the same check
-                            checked |= set(present)
                     elif alone is None and seen:
                         alone = polled
                     if not present and not waited and polled - begun > WAIT_NOTE:
@@ -608,8 +612,10 @@ class Dask(Executor):
                 time.sleep(0.02)
         finally:
             pending = [f for k, (_, f) in futures.items() if k not in done and f is not None]
-            if pending:
-                self.client.cancel(pending)
+            # (a client that gave up on a lost scheduler is closed: cancel raised its ClosedClientError over the run's error)
+            if pending and self.client.status in ("running", "connecting"):
+                with contextlib.suppress(Exception):
+                    self.client.cancel(pending)
 
     def _gone(self, wait: float) -> bool:
         """Whether the client has lost its scheduler, waiting up to ``wait`` seconds for it to notice."""

@@ -133,9 +133,14 @@ def test_a_free_end_among_equal_ends_is_the_one_nearest_the_far_corner(shape, ba
     to the first one, half of the longer clip at the slope limit, and a still clip's registered blend
     with itself came out half as long."""
     cost = np.zeros(shape)
+    corner = (shape[0] - 1, shape[1] - 1)
     for rule in ("per-end", "mean"):
         dp = R.dp_path(cost, R.SlopeLimit(1, 1), True, backend=backend, rule=rule)
-        assert tuple(dp.cells[-1]) == (shape[0] - 1, shape[1] - 1), rule
+        assert tuple(dp.cells[-1]) == corner, rule
+    # The brute force and the threshold search take the same end (they took the first one too).
+    assert tuple(R.brute_path(cost, R.SlopeLimit(2, 2), True).cells[-1]) == corner
+    for area in (1.0, 0.35):
+        assert tuple(R.threshold_path(cost, R.SlopeLimit(2, 2), True, area_threshold=area).cells[-1]) == corner
 
 
 @pytest.mark.parametrize("backend", ["numpy", "auto"])  # auto = the Numba kernel when installed

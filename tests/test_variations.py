@@ -656,6 +656,26 @@ def test_an_aborted_swing_steps_its_foot_back_over_the_whole_return():
     assert worst < 5.6 and pops <= 8, (worst, joint, pops)
 
 
+def test_a_path_of_another_length_does_not_step_between_neighbouring_frames():
+    """An explicit path 1.37x the kick 10_02's length stands each frame between two neighbouring source
+    frames. The step of an abort's return (lift, carry, put down by the fraction of the way) was taken
+    there too wherever the foot moved over 5 cm between them: its height jumped with each frame's
+    fraction (59.5 mm in a frame, the raw variant's largest 30.4). It is an abort's return alone now."""
+    from mjmotion.trim import leading_transient
+
+    src = bvh.read(require_data() / "cmu_asfamc_converted" / "10_02.bvh")
+    src = src[leading_transient(src) :]
+    space = PoseSpace.fit(src, translations=True)
+    k, s = space.components_for(V.DEFAULT_VARIANCE), space.source_scores
+    x = np.linspace(0, len(s) - 1, int(len(s) * 1.37))
+    path = V.explicit_path(space, np.stack([np.interp(x, np.arange(len(s)), s[:, c]) for c in range(k)], axis=1))
+    raw = V.synthesise(space, path)
+    out, _, _ = V.hold_source_feet(src, raw, path)
+    ankles = [a for a, _ in src.skeleton.feet().values()]
+    step = lambda m: np.abs(np.diff(_fk(m)[:, ankles, 2], axis=0)).max()
+    assert step(out) < 1.5 * step(raw), (step(out), step(raw))
+
+
 def test_close_gaps_fills_only_short_gaps_between_runs():
     from mjmotion.variations.fixes import _close_gaps
 

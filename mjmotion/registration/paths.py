@@ -437,7 +437,7 @@ def _search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[in
     si, sj = start
     total_paths = count_paths(cost.shape, slope, free_end, start)
     end_best: dict[tuple[int, int], tuple[float, list]] = {}
-    best_mean, best_mean_path = math.inf, None
+    best_mean, best_mean_path, best_mean_end = math.inf, None, -1
     path: list[tuple[int, int]] = []
     stack: list[tuple[int, int, int, int, float, int]] = [(si, sj, 0, 0, float(cost[si, sj]), 0)]
     done = nodes = 0
@@ -454,8 +454,9 @@ def _search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[in
             old = end_best.get((i, j))
             if old is None or total < old[0]:
                 end_best[(i, j)] = (total, list(path))
-            if total / len(path) < best_mean:
-                best_mean, best_mean_path = total / len(path), (total, list(path))
+            # (of equal means the end nearest the far corner, as dp_path takes)
+            if total / len(path) < best_mean or (total / len(path) == best_mean and i + j > best_mean_end):
+                best_mean, best_mean_path, best_mean_end = total / len(path), (total, list(path)), i + j
         children: list[tuple[int, int, int, int, float, int]] = []
         for di, dj, nrh, nrv in _moves(rh, rv, slope):
             ni, nj = i + di, j + dj
@@ -473,7 +474,8 @@ def _search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[in
         assert best_mean_path is not None
         best = best_mean_path
     else:
-        best = min(end_best.values(), key=lambda v: v[0] / len(v[1]))
+        # (of equally good ends the one nearest the far corner, as dp_path takes)
+        best = min(end_best.items(), key=lambda kv: (kv[1][0] / len(kv[1][1]), -sum(kv[0])))[1]
     return Path(cells=np.array(best[1], dtype=int), cost=best[0])
 
 
@@ -547,7 +549,8 @@ def _pruned_search(
             best[nkey] = (nt, length + 1, key)
     if not end_best:
         raise MjmotionError("no path reaches the end under the area threshold; raise the threshold (--area-threshold) or use --method dp")
-    total, length, last = min(end_best.values(), key=lambda v: v[0] / v[1] if free_end and rule == "per-end" else v[0])
+    # (of equally good ends the one nearest the far corner, as dp_path takes)
+    total, length, last = min(end_best.values(), key=lambda v: (v[0] / v[1] if free_end and rule == "per-end" else v[0], -(v[2][0] + v[2][1])))
     cells = []
     node: tuple | None = last
     while node is not None:

@@ -238,8 +238,9 @@ def hold_source_feet(source: Motion, motion: Motion, path: ScorePath, plant_heig
             p_a = src.joint_positions[fa, ankle] + rot.rotate(src.joint_rotations[fa, ankle], c)
             p_b = low_pt[fb] + path.shift_b
             pivot = (1.0 - w) * p_a + w * p_b
-            # a foot whose footprint moves must step: lift, carry, put down (not slide)
-            stepping = np.linalg.norm((p_b - p_a)[:, :2], axis=-1) > STEP_M
+            # a foot whose footprint moves must step: lift, carry, put down (not slide); only between two
+            # source frames apart (an abort's return), not between neighbours (a path of another length)
+            stepping = (np.linalg.norm((p_b - p_a)[:, :2], axis=-1) > STEP_M) & (fb - fa > 1)
             if stepping.any():
                 # lift first, then carry and turn the foot in the air, then put it down: over the whole
                 # return (STEP_CARRY), a step's knee as slow as the return allows
@@ -390,7 +391,8 @@ def _root_shift_for_reach(
         n = vec / np.maximum(dist, 1e-12)[:, None] * (w * short)[:, None]
         bigger = np.linalg.norm(n, axis=-1) > np.linalg.norm(need, axis=-1)
         need[bigger] = n[bigger]
-    return spread_root_shift(need, round(0.5 * ROOT_WINDOW_S * fps), float(np.mean(legs_m)))
+    # (a clip shorter than the window spreads over its own length: the shift must still cover the shortfall)
+    return spread_root_shift(need, min(round(0.5 * ROOT_WINDOW_S * fps), (t - 1) // 2), float(np.mean(legs_m)))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

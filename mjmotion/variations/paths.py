@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import filters, kinematics, limits, mjcf
+from .. import filters, kinematics, limits, mjcf, thresholds
 from .. import rotations as rot
 from ..caps import MAX_FPS, check_motion_size
 from ..errors import MjmotionError, is_real, is_whole
@@ -45,7 +45,7 @@ END_RAMP_S = 0.25
 #: Hz: what scaling adds is low-passed at the judge's cutoff (``thresholds.CUTOFF_HZ``), so a capture's
 #: one-frame glitch, which the controlled components carry to every joint and the root, is not scaled with
 #: the motion (10_01's hand glitch moved the ×1.3 kick's root 3.8x as fast as the source's fastest).
-SCALE_CUTOFF_HZ = 6.0
+SCALE_CUTOFF_HZ = thresholds.CUTOFF_HZ
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:
