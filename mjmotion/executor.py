@@ -174,6 +174,12 @@ def _internal(key: Any, e: BaseException) -> Outcome:
     return Outcome(key, error=one_line(f"internal error: {type(e).__name__}: {e}"), kind="internal", exception=e)
 
 
+def _tally(futures: dict[Any, Any], done: set[Any], handling: bool = False) -> str:
+    """``"K of N"``: the tasks of ``futures`` whose outcome has come back (``done``; ``handling``: less the one
+    being handled, counted there though it did not finish), for a run's closing error."""
+    return f"{sum(k in done for k in futures) - handling} of {len(futures)}"
+
+
 def _finished(key: Any, result: tuple[Any, str | None, float]) -> Outcome:
     value, err, seconds = result
     return Outcome(key, value, err, "input" if err is not None else None, seconds)
@@ -590,8 +596,7 @@ class Dask(Executor):
                         if self._gone(FETCH_WAIT):
                             raise self._went_away(futures, done, handling=False) from None
                         raise MjmotionError(
-                            f"the Dask scheduler at {self.address} stopped answering ({one_line(str(e))}); "
-                            f"{sum(k in done for k in futures)} of {len(futures)} tasks had finished"
+                            f"the Dask scheduler at {self.address} stopped answering ({one_line(str(e))}); {_tally(futures, done)} tasks had finished"
                         ) from None
                     except MjmotionError:  # (new workers that did not answer: their scheduler may be what went)
                         if self.client.status != "running":
@@ -607,7 +612,7 @@ class Dask(Executor):
                     elif alone is not None and polled - alone > NO_WORKERS_WAIT:
                         raise MjmotionError(
                             f"the Dask cluster at {self.address}: no worker for {NO_WORKERS_WAIT:g} s (every one lost and none back; their logs say why); "
-                            f"{sum(k in done for k in futures)} of {len(futures)} tasks finished"
+                            f"{_tally(futures, done)} tasks finished"
                         )
                 time.sleep(0.02)
         finally:
@@ -628,8 +633,7 @@ class Dask(Executor):
         """The error of a run whose scheduler went away (``handling``: the future being handled is counted in
         ``done``, and did not finish)."""
         return MjmotionError(
-            f"the Dask scheduler at {self.address} went away (connection lost); "
-            f"{sum(k in done for k in futures) - handling} of {len(futures)} tasks had finished"
+            f"the Dask scheduler at {self.address} went away (connection lost); {_tally(futures, done, handling)} tasks had finished"
         )
 
     def _expire(self, futures: dict[Any, tuple[Any, Any]], done: set[Any], timeout: float) -> Iterator[Outcome]:

@@ -79,6 +79,13 @@ class Path:
         return self.cost / len(self.cells)
 
 
+def _end_rank(objective: float, cell: tuple[int, int]) -> tuple[float, int]:
+    """How a free-ended search orders its ends: the least objective; of equally good ends the one nearest
+    the far corner (a still clip against itself ties at every end, and the first one, half of it at the
+    slope limit, halved its blend). Every search takes the same end."""
+    return objective, -(int(cell[0]) + int(cell[1]))
+
+
 def _end_objective(total: np.ndarray, length: np.ndarray) -> np.ndarray:
     return total / np.maximum(length, 1)
 
@@ -297,11 +304,10 @@ def _dp_pass(c: np.ndarray, slope: SlopeLimit, free_end: bool, rule: str, kernel
             s_best = np.argmin(vals, axis=1)  # per boundary cell its cheapest path (any state)
             tot = vals[np.arange(len(vals)), s_best]
             obj = _end_objective(tot, lens[np.arange(len(vals)), s_best]) if rule == "per-end" else tot
-            # Of equally good ends the one nearest the far corner: a still clip against itself ties at
-            # every end, and the first one (half of it, at the slope limit) halved its blend.
+            # (the last of the least along the boundary: the end nearest the far corner, _end_rank)
             k = int(np.flatnonzero(obj == obj.min())[-1]) if np.isfinite(obj.min()) else 0
             cands.append((float(obj[k]), cell(k), int(s_best[k])))
-        value, (i, j), s = min(cands, key=lambda c: (c[0], -(c[1][0] + c[1][1])))
+        value, (i, j), s = min(cands, key=lambda c: _end_rank(c[0], c[1]))
     if not np.isfinite(value):
         raise MjmotionError(
             f"no path joins the corners of a {n_a} × {n_b}-frame grid within the slope limit "
@@ -437,7 +443,7 @@ def _search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[in
     si, sj = start
     total_paths = count_paths(cost.shape, slope, free_end, start)
     end_best: dict[tuple[int, int], tuple[float, list]] = {}
-    best_mean, best_mean_path, best_mean_end = math.inf, None, -1
+    best_mean, best_mean_path, best_mean_end = math.inf, None, (n_a, n_b)  # (beyond every end: no tie replaces nothing)
     path: list[tuple[int, int]] = []
     stack: list[tuple[int, int, int, int, float, int]] = [(si, sj, 0, 0, float(cost[si, sj]), 0)]
     done = nodes = 0
@@ -454,9 +460,8 @@ def _search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[in
             old = end_best.get((i, j))
             if old is None or total < old[0]:
                 end_best[(i, j)] = (total, list(path))
-            # (of equal means the end nearest the far corner, as dp_path takes)
-            if total / len(path) < best_mean or (total / len(path) == best_mean and i + j > best_mean_end):
-                best_mean, best_mean_path, best_mean_end = total / len(path), (total, list(path)), i + j
+            if _end_rank(total / len(path), (i, j)) < _end_rank(best_mean, best_mean_end):
+                best_mean, best_mean_path, best_mean_end = total / len(path), (total, list(path)), (i, j)
         children: list[tuple[int, int, int, int, float, int]] = []
         for di, dj, nrh, nrv in _moves(rh, rv, slope):
             ni, nj = i + di, j + dj
@@ -474,8 +479,7 @@ def _search(cost: np.ndarray, slope: SlopeLimit, free_end: bool, start: tuple[in
         assert best_mean_path is not None
         best = best_mean_path
     else:
-        # (of equally good ends the one nearest the far corner, as dp_path takes)
-        best = min(end_best.items(), key=lambda kv: (kv[1][0] / len(kv[1][1]), -sum(kv[0])))[1]
+        best = min(end_best.items(), key=lambda kv: _end_rank(kv[1][0] / len(kv[1][1]), kv[0]))[1]
     return Path(cells=np.array(best[1], dtype=int), cost=best[0])
 
 
@@ -549,8 +553,7 @@ def _pruned_search(
             best[nkey] = (nt, length + 1, key)
     if not end_best:
         raise MjmotionError("no path reaches the end under the area threshold; raise the threshold (--area-threshold) or use --method dp")
-    # (of equally good ends the one nearest the far corner, as dp_path takes)
-    total, length, last = min(end_best.values(), key=lambda v: (v[0] / v[1] if free_end and rule == "per-end" else v[0], -(v[2][0] + v[2][1])))
+    total, length, last = min(end_best.values(), key=lambda v: _end_rank(v[0] / v[1] if free_end and rule == "per-end" else v[0], v[2][:2]))
     cells = []
     node: tuple | None = last
     while node is not None:
