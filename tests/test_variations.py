@@ -42,6 +42,17 @@ def swing01():
     return src, PoseSpace.fit(src)
 
 
+def _shot(name: str):
+    """An ASF shot from its first captured frame, its pose space (translations too, as ``vary`` fits it) and
+    its own score path with the default number of controlled components."""
+    from mjmotion.trim import leading_transient
+
+    src = _swing(name)
+    src = src[leading_transient(src) :]
+    space = PoseSpace.fit(src, translations=True)
+    return src, space, V.source_path(space, space.components_for(V.DEFAULT_VARIANCE))
+
+
 def _fk(m):
     return kinematics.forward(mjcf.compile(m.skeleton), m).joint_positions
 
@@ -105,12 +116,8 @@ def test_end_weights_ramp_in_and_out_over_the_given_frames():
 def test_the_kick_reaches_its_last_pose_without_a_jump_of_its_root():
     """10_01 ×1.3 (vary passes the clip's rate): over its last eight frames the variant's root moves
     no faster than the source's fastest (it moved 3.8x as fast, 8 cm in one frame, without the ramp)."""
-    from mjmotion.trim import leading_transient
-
-    src = bvh.read(require_data() / "cmu_asfamc_converted" / "10_01.bvh")
-    src = src[leading_transient(src) :]
-    space = PoseSpace.fit(src, translations=True)
-    path = V.scaled_path(V.source_path(space, space.components_for(V.DEFAULT_VARIANCE)), 1.3, fps=src.fps)
+    src, space, base = _shot("10_01")
+    path = V.scaled_path(base, 1.3, fps=src.fps)
     raw = V.synthesise(space, path)
     speed = lambda m: np.linalg.norm(np.diff(m.root_positions, axis=0), axis=1)
     assert speed(raw)[-8:].max() <= speed(src).max()
@@ -139,12 +146,7 @@ def test_the_kicks_scaled_variants_do_not_jitter_their_root():
     carry it to the root, and scaling them by 1.3 or 0.7 moved the root 3.8x and 4.3x as fast as the
     source's fastest there, its 99th-percentile acceleration 6x the source's. Scaled with the clip's
     rate (variations.SCALE_CUTOFF_HZ) the variants' root is no jerkier than the source's."""
-    from mjmotion.trim import leading_transient
-
-    src = bvh.read(require_data() / "cmu_asfamc_converted" / "10_01.bvh")
-    src = src[leading_transient(src) :]
-    space = PoseSpace.fit(src, translations=True)
-    base = V.source_path(space, space.components_for(V.DEFAULT_VARIANCE))
+    src, space, base = _shot("10_01")
     speed = lambda m: np.linalg.norm(np.diff(m.root_positions, axis=0), axis=1)
     jerk = lambda m: np.percentile(np.linalg.norm(np.diff(m.root_positions, 2, axis=0), axis=1), 99)
     for f in (1.3, 0.7):
@@ -602,12 +604,8 @@ def test_a_held_foot_out_of_reach_does_not_snap_the_knee_straight():
     variant's body, 15-30 cm from the source's in the last quarter second, returns to the source's
     last pose; out of reach, the knee went fully straight (0.2°) for five frames and bent 24° in the
     next (ltibia at 6.3x its source peak). The leg now slows to its limit (cleanup.soft_reach)."""
-    from mjmotion.trim import leading_transient
-
-    src = bvh.read(require_data() / "cmu_asfamc_converted" / "10_01.bvh")
-    src = src[leading_transient(src) :]
-    space = PoseSpace.fit(src, translations=True)
-    path = V.scaled_path(V.source_path(space, space.components_for(V.DEFAULT_VARIANCE)), 1.3)
+    src, space, base = _shot("10_01")
+    path = V.scaled_path(base, 1.3)
     out, rep = V.clean_up(src, V.synthesise(space, path), path, first_hand=None)
     worst, joint = evaluate.worst_joint_speed_ratio(out, src)
     assert worst < 3.0, (worst, joint)
@@ -621,12 +619,9 @@ def test_the_foot_repair_does_not_crouch_the_body_to_hold_a_foot():
     leaves them, the repair lowered the root 0.59 m (1.07 m in all) towards them. It moves the root at
     most cleanup.ROOT_SHIFT of the leg's length, as the footskate cleanup does; the foot stops short."""
     from mjmotion import cleanup
-    from mjmotion.trim import leading_transient
 
-    src = bvh.read(require_data() / "cmu_asfamc_converted" / "10_01.bvh")
-    src = src[leading_transient(src) :]
-    space = PoseSpace.fit(src, translations=True)
-    path = V.scaled_path(V.source_path(space, space.components_for(V.DEFAULT_VARIANCE)), 2.0, fps=src.fps)
+    src, space, base = _shot("10_01")
+    path = V.scaled_path(base, 2.0, fps=src.fps)
     raw = V.synthesise(space, path)
     out, rep = V.clean_up(src, raw, path, first_hand=None)
     p = _fk(src)[0]
@@ -644,12 +639,8 @@ def test_an_aborted_swing_steps_its_foot_back_over_the_whole_return():
     knee 80° and back in 0.17 s: rtibia at 6.5x its captured p99 speed and 18 pop frames. Lifted over the
     whole return and carried over its middle 80 % (fixes.STEP_CARRY): 5.2x and 4. The return still ends
     exactly in the rest pose where the character stands."""
-    from mjmotion.trim import leading_transient
-
-    src = _swing("64_05")
-    src = src[leading_transient(src) :]
-    space = PoseSpace.fit(src, translations=True)
-    path = V.aborted_path(V.source_path(space, space.components_for(V.DEFAULT_VARIANCE)), 122, fps=src.fps, space=space)
+    src, space, base = _shot("64_05")
+    path = V.aborted_path(base, 122, fps=src.fps, space=space)
     out, _ = V.clean_up(src, V.synthesise(space, path), path, first_hand=V.first_hand_for(src))
     worst, joint = evaluate.worst_joint_speed_ratio(out, src)
     pops = int(np.count_nonzero(evaluate.pop_frames(out, [src])))
@@ -661,11 +652,7 @@ def test_a_path_of_another_length_does_not_step_between_neighbouring_frames():
     frames. The step of an abort's return (lift, carry, put down by the fraction of the way) was taken
     there too wherever the foot moved over 5 cm between them: its height jumped with each frame's
     fraction (59.5 mm in a frame, the raw variant's largest 30.4). It is an abort's return alone now."""
-    from mjmotion.trim import leading_transient
-
-    src = bvh.read(require_data() / "cmu_asfamc_converted" / "10_02.bvh")
-    src = src[leading_transient(src) :]
-    space = PoseSpace.fit(src, translations=True)
+    src, space, base = _shot("10_02")
     k, s = space.components_for(V.DEFAULT_VARIANCE), space.source_scores
     x = np.linspace(0, len(s) - 1, int(len(s) * 1.37))
     path = V.explicit_path(space, np.stack([np.interp(x, np.arange(len(s)), s[:, c]) for c in range(k)], axis=1))
@@ -690,12 +677,8 @@ def test_a_foot_hovering_at_the_plant_height_stays_held():
     foot counts as down (fixes.PLANT_HEIGHT): five runs of frames under it were five plants, each with
     its own shift, and the ×0.7 variant's foot target stepped between them (rfemur at 2.1x its captured
     peak, 8 pop frames). Gaps shorter than two fades between plants are held through: 1.03x, 2 pops."""
-    from mjmotion.trim import leading_transient
-
-    src = _swing("64_05")
-    src = src[leading_transient(src) :]
-    space = PoseSpace.fit(src, translations=True)
-    path = V.scaled_path(V.source_path(space, space.components_for(V.DEFAULT_VARIANCE)), 0.7, fps=src.fps)
+    src, space, base = _shot("64_05")
+    path = V.scaled_path(base, 0.7, fps=src.fps)
     out, _ = V.clean_up(src, V.synthesise(space, path), path, first_hand=V.first_hand_for(src))
     worst, joint = evaluate.worst_joint_speed_ratio(out, src)
     pops = int(np.count_nonzero(evaluate.pop_frames(out, [src])))
