@@ -69,6 +69,7 @@ from .thresholds import (
     PEAK_PERCENTILE,
     POP_FACTOR,
     SKATE_WINDOW,
+    SPEED_FLOOR,
     V_C,
     Params,
 )
@@ -262,11 +263,12 @@ def pop_frames(
     return np.asarray((acc > factor * _robust_peaks(refs, percentile, floor)).any(axis=1))
 
 
-def max_joint_speed_ratio(result: Motion, sources: Motion | Sequence[Motion]) -> float:
-    """Whole-body: max joint angular speed of ``result`` over the max in ``sources`` (kept for
-    comparison; blind to a knee popping under a glitchy finger: :func:`worst_joint_speed_ratio`)."""
+def max_joint_speed_ratio(result: Motion, sources: Motion | Sequence[Motion], floor: float = SPEED_FLOOR) -> float:
+    """Whole-body: max joint angular speed of ``result`` over the max in ``sources``, at least ``floor``
+    rad/s as :func:`worst_joint_speed_ratio`'s (a still source's rounding noise read 0.00 → 3.67); kept for
+    comparison: blind to a knee popping under a glitchy finger (:func:`worst_joint_speed_ratio` is not)."""
     src = max(float(joint_angular_speeds(s).max()) for s in _as_list(sources))
-    return float(joint_angular_speeds(result).max() / max(src, 1e-12))
+    return float(joint_angular_speeds(result).max() / max(src, floor))
 
 
 def root_jump_m(result: Motion, sources: Motion | Sequence[Motion]) -> float:
@@ -559,7 +561,7 @@ def evaluate(
         sources=len(sources),
         worst_joint_speed_ratio=worst,
         worst_joint=joint,
-        max_joint_speed_ratio=max_joint_speed_ratio(motion, sources) if sources else None,
+        max_joint_speed_ratio=max_joint_speed_ratio(motion, sources, params.speed_floor) if sources else None,
         root_jump_m=root_jump_m(motion, sources) if sources else None,
         soles_calibrated=soles.calibrated,
         hit=hit,

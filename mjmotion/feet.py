@@ -32,6 +32,7 @@ Reusable pieces:
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -543,13 +544,33 @@ def _stance(track: FootTrack) -> tuple[np.ndarray, np.ndarray]:
     return floors.stance_points(track.heights + track.floor, still, track.lowest[..., :2])
 
 
+def min_source_frames(fps: float) -> int:
+    """Frames a source needs: one period of the judge's low-pass (``CUTOFF_HZ``), the shortest stretch
+    whose joint speeds can be a reference (a 3-frame source read a golf swing's thumb at 377x its "peak")."""
+    return max(3, math.ceil(float(fps) / CUTOFF_HZ - 1e-9))
+
+
+def source_too_short(source: Motion) -> str | None:
+    """Why ``source`` is too short to judge against (``"N frames; …"``), or None."""
+    need = min_source_frames(source.fps)
+    if source.n_frames >= need:
+        return None
+    return (
+        f"{source.n_frames} frame{'s' * (source.n_frames != 1)}; a source is the reference for every joint's speed and needs at "
+        f"least {need} frames at {source.fps:g} fps (1/{CUTOFF_HZ:g} s, one period of the judge's low-pass)"
+    )
+
+
 def check_sources(motion: Motion, sources: Sequence[Motion]) -> None:
     """Refuse a source the judge cannot measure ``motion`` against: another skeleton, another
-    frame rate, or the result itself (``evaluate``, ``cleanup`` and ``render`` share the rule)."""
+    frame rate, the result itself, or too short (:func:`min_source_frames`) (``evaluate``,
+    ``cleanup`` and ``render`` share the rule)."""
     if isinstance(sources, Motion) or not all(isinstance(s, Motion) for s in sources):
         raise MjmotionError("sources: expected a list of Motions (the clips this one was made from), e.g. sources=[walk, run]")
     for i, s in enumerate(sources):
         label = f"source {i + 1} ({s.name or 'unnamed'})"
+        if (short := source_too_short(s)) is not None:
+            raise MjmotionError(f"{label}: {short}")
         if not motion.skeleton.same_topology(s.skeleton):
             raise MjmotionError(f"{label}: another skeleton than {motion.name or 'the result'}'s; a source must share the result's skeleton")
         if not same_rate(s.fps, motion.fps):

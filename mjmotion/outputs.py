@@ -21,6 +21,9 @@ error on the way leaves none of them (a clip without its report read as a finish
 
 A path no :func:`check_output` claimed (library code writing results) is published with
 replacement, as ``os.replace`` would, but never over a directory, FIFO, device or socket.
+
+Every JSON file a verb writes is :func:`json_text`: standard JSON, a value that is not a finite
+number (a metric with nothing to measure) written as ``null``.
 """
 
 from __future__ import annotations
@@ -29,6 +32,8 @@ import contextlib
 import ctypes
 import errno
 import functools
+import json
+import math
 import os
 import shutil
 import stat
@@ -36,6 +41,7 @@ import tempfile
 import threading
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
+from typing import Any
 
 from .errors import AlreadyExistsError, MjmotionError, OutputExistsError
 from .inputs import kind_of
@@ -86,8 +92,10 @@ def check_output(
     output may be replaced, for :func:`atomic_path`.
     """
     raw = os.fspath(path)
-    if not raw or raw.endswith(("/", os.sep)) or os.path.basename(raw) in (".", ".."):
-        raise OutputExistsError(f"{raw or repr(raw)}: names a folder; expected a file path (no trailing '/')")
+    if not raw.strip():
+        raise OutputExistsError(f"{raw!r}: an empty output path; expected a file path, not an empty value")
+    if raw.endswith(("/", os.sep)) or os.path.basename(raw) in (".", ".."):
+        raise OutputExistsError(f"{raw}: names a folder; expected a file path (no trailing '/')")
     out = Path(raw)
     for src in inputs:
         try:
@@ -269,9 +277,12 @@ def atomic_path(path: str | os.PathLike[str], replace: bool | None = None) -> It
             held[-1].append((tmp, out, replace))
         else:
             publish(tmp, out, replace)
-    except BaseException:
+    except BaseException as e:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+        if isinstance(e, OSError) and not isinstance(e, MjmotionError) and getattr(e, "filename", None) is None:
+            # (a full disk read "error: No space left on device", naming no file)
+            raise MjmotionError(f"{out}: cannot be written ({e.strerror or e}); nothing was written there") from None
         raise
 
 
@@ -333,3 +344,23 @@ def staged_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def _plain(x: Any) -> Any:
+    """``x`` with NumPy values as Python ones and every non-finite float as ``None`` (nested dicts, lists, tuples)."""
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if hasattr(x, "tolist") and hasattr(x, "dtype"):  # a NumPy array or scalar
+        return _plain(x.tolist())
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def json_text(value: Any, indent: int | None = None) -> str:
+    """``value`` as standard JSON text: NaN and ±inf (which ``json.dumps`` writes as ``NaN`` and
+    ``Infinity``, refused by strict readers) become ``null``; NumPy scalars and arrays become numbers
+    and lists; anything else JSON cannot hold raises ``TypeError``."""
+    return json.dumps(_plain(value), indent=indent, allow_nan=False)

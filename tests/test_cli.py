@@ -120,6 +120,20 @@ def test_convert_scale_fps_frames_keep_the_motion(walk, tmp_path):
     assert "OFFSET" in out.read_text() and "Frame Time: 0.016666666666666666" in out.read_text()
 
 
+def test_convert_refuses_a_scale_whose_file_no_units_reads_at_its_size(walk, tmp_path, capsys):
+    # --scale 1e6 of a centimetre file wrote 1e-8 m per unit: read back at its size it needs --units 1e-8, below 1e-6.
+    unit = bvh.read(walk).skeleton.scale
+    out = tmp_path / "big.bvh"
+    for scale in (1e6, 1e-6):
+        assert main(["convert", str(walk), str(out), "--scale", f"{scale:g}"]) == 2
+        errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("error:")]
+        assert len(errors) == 1 and errors[0].startswith(f"error: --scale {scale:g}: the written file's unit would be ") and not out.exists()
+    assert main(["convert", str(walk), str(out), "--scale", f"{unit / 1e-6:g}"]) == 0  # the largest: read with --units 1e-6
+    capsys.readouterr()
+    a, b = bvh.read(walk), bvh.read(out, scale=1e-6)
+    assert b.skeleton.stature() == pytest.approx(a.skeleton.stature(), rel=1e-6)
+
+
 def test_outputs_are_protected(walk, tmp_path, capsys):
     out = tmp_path / "o.bvh"
     out.write_text("precious")

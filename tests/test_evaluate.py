@@ -530,7 +530,7 @@ def test_cli_evaluate_floor_and_source(tmp_path, capsys):
     assert " given" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("case", ["floor nan", "floor inf", "other skeleton", "other fps", "itself", "a copy of itself", "folder"])
+@pytest.mark.parametrize("case", ["floor nan", "floor inf", "other skeleton", "other fps", "itself", "a copy of itself", "folder", "too short"])
 def test_cli_evaluate_refuses_a_bad_floor_or_source(case, tmp_path, capsys):
     d = require_data()
     clip = tmp_path / "walk.bvh"
@@ -544,8 +544,11 @@ def test_cli_evaluate_refuses_a_bad_floor_or_source(case, tmp_path, capsys):
         "itself": ["--source", str(clip)],
         "a copy of itself": ["--source", str(tmp_path / "copy.bvh")],
         "folder": ["--source", str(clip)],
+        "too short": ["--source", str(tmp_path / "short.bvh")],
     }[case]
     bvh.write(m.resample(60.0), tmp_path / "slow.bvh")
+    # (3 frames: the judge takes it as a clip, but as a reference it read a thumb at 377x its "peak")
+    bvh.write(m[:3], tmp_path / "short.bvh")
     (tmp_path / "copy.bvh").write_bytes(clip.read_bytes())
     target = str(tmp_path) if case == "folder" else str(clip)
     assert main(["evaluate", target, *extra]) == 2
@@ -554,6 +557,16 @@ def test_cli_evaluate_refuses_a_bad_floor_or_source(case, tmp_path, capsys):
     # A copy is named as a copy (it said "is the result itself" of another file).
     if case in ("itself", "a copy of itself"):
         assert ("is the result itself" in err) == (case == "itself") and ("a copy" in err) == (case != "itself"), err
+    if case == "too short":  # named: it blamed the judged clip ("walk.bvh: a clip needs at least 2 frames")
+        assert "short.bvh: 3 frames" in err and "needs at least 21 frames" in err, err
+
+
+def test_a_source_shorter_than_the_low_pass_period_is_refused_by_the_api():
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh")[10:80]
+    assert m.fps > 120  # (Frame Time 0.008333: 20.0008 frames per period, so 21)
+    with pytest.raises(ev.MjmotionError, match=r"source 1 \(.*\): 20 frames; .* at least 21 frames"):
+        ev.evaluate(m, sources=[m[:20]])
+    assert ev.evaluate(m, sources=[m[:21]]).sources == 1
 
 
 def test_a_clip_resampled_to_its_sources_rate_as_written_is_judged_against_it(tmp_path, capsys):
@@ -705,3 +718,13 @@ def test_skate_weights_of_a_tiny_contact_height_raise_no_overflow_warning():
         w = ev.skate_weights(np.array([-0.01, 0.0, 0.02, 1.0]), 1e-10)
     assert w.tolist() == [1.0, 1.0, 0.0, 0.0]
     assert ev.skate_weights(np.array([0.025]), 0.05)[0] == pytest.approx(2 - 2**0.5)
+
+
+def test_the_whole_body_speed_ratio_of_a_still_source_is_no_ratio_of_rounding_noise():
+    # cleanup of a clip holding one pose read max_joint_speed_ratio 0.00 -> 3.67: noise over noise.
+    m = shared_clip("cmu_asfamc_converted/16_15.bvh")[10:80]
+    still = m.replace(rotations=np.repeat(m.rotations[:1], m.n_frames, axis=0), root_positions=np.repeat(m.root_positions[:1], m.n_frames, axis=0))
+    noise = np.random.default_rng(0).normal(0.0, 1e-9, still.rotations.shape)
+    a, b = still.replace(rotations=still.rotations + noise), still.replace(rotations=still.rotations - noise)
+    assert ev.max_joint_speed_ratio(a, [b]) < 1e-3
+    assert ev.max_joint_speed_ratio(m, [m]) == pytest.approx(1.0)  # a moving clip against itself: exactly its own peak

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import stat
 import subprocess
 import sys
@@ -28,10 +29,16 @@ def _fresh_claims():
 
 
 def test_trailing_slash_is_a_folder_not_a_file(tmp_path):
-    for raw in (f"{tmp_path}/out.bvh/", f"{tmp_path}/.", f"{tmp_path}/..", ""):
+    for raw in (f"{tmp_path}/out.bvh/", f"{tmp_path}/.", f"{tmp_path}/.."):
         with pytest.raises(OutputExistsError, match="names a folder"):
             check_output(raw)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_empty_output_path_is_called_empty_not_a_folder():
+    for raw in ("", "  "):
+        with pytest.raises(OutputExistsError, match=r"an empty output path; expected a file path, not an empty value"):
+            check_output(raw)
 
 
 def test_a_dangling_symlink_exists(tmp_path):
@@ -134,7 +141,8 @@ def test_a_full_disk_leaves_nothing(tmp_path, monkeypatch):
 
     monkeypatch.setattr(os, "fsync", full)
     check_output(tmp_path / "out.bvh")
-    with pytest.raises(OSError, match="No space left"):
+    # Named by the output (it read "error: No space left on device": write() and fsync() name no file).
+    with pytest.raises(MjmotionError, match=rf"^{re.escape(str(tmp_path / 'out.bvh'))}: cannot be written \(No space left on device\)"):
         write_text_atomic(tmp_path / "out.bvh", "x" * 1000)
     assert list(tmp_path.iterdir()) == []
 
@@ -284,3 +292,20 @@ def test_an_output_folder_is_checked_before_the_work(tmp_path, monkeypatch, caps
     assert capsys.readouterr().err.startswith("error: --out /proc/mjmotion-exp: cannot write in /proc")
     assert main(["studio", "--out", "/proc/mjmotion-studio", "--check"]) == 2
     assert capsys.readouterr().err.startswith("error: --out /proc/mjmotion-studio: cannot write in /proc")
+
+
+def test_json_text_is_standard_json_with_null_for_non_finite_numbers():
+    import json as _json
+
+    import numpy as np
+
+    from mjmotion.outputs import json_text
+
+    def strict(text: str):
+        return _json.loads(text, parse_constant=lambda c: pytest.fail(f"non-standard JSON constant {c}"))
+
+    value = {"score": float("inf"), "ratio": np.float32("nan"), "speeds": np.array([1.5, -np.inf]), "n": np.int64(3), "rows": ({"x": float("-inf")},)}
+    assert strict(json_text(value)) == {"score": None, "ratio": None, "speeds": [1.5, None], "n": 3, "rows": [{"x": None}]}
+    assert strict(json_text({"a": 1.25}, indent=1)) == {"a": 1.25}
+    with pytest.raises(TypeError):
+        json_text({"a": object()})

@@ -51,6 +51,10 @@ def add_output_options(p: argparse.ArgumentParser, required: bool = True, help: 
     p.add_argument("--force", action="store_true", help="replace OUT if it exists")
 
 
+#: Metres per file unit ``--units`` takes (a number): the range a written clip's unit must stay in to be read.
+UNITS_RANGE = (1e-6, 1e3)
+
+
 def units_scale(text: str) -> float | None:
     """Metres per file unit from ``--units`` (``None`` = detect)."""
     from ..skeleton import ASF_UNIT, CM, METRE, MM
@@ -64,7 +68,7 @@ def units_scale(text: str) -> float | None:
         value = float(text)
     except ValueError:
         raise MjmotionError(f"--units {text!r}: expected auto, m, cm, mm, asf or a number of metres per unit") from None
-    if not (1e-6 <= value <= 1e3):  # (NaN fails too)
+    if not (UNITS_RANGE[0] <= value <= UNITS_RANGE[1]):  # (NaN fails too)
         raise MjmotionError(f"--units {text!r}: expected a number of metres per unit from 1e-6 to 1000")
     return value
 

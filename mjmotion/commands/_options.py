@@ -204,6 +204,8 @@ COORD = number(-1000.0, 1000.0, what="a coordinate in metres")
 VELOCITY = number(-1000.0, 1000.0, what="a velocity in m/s")
 #: A frame index of a clip (its range is checked once the clip is read).
 FRAME = integer(0, MAX_FRAMES - 1, what="a frame index")
+#: A frame inside a clip, neither its first nor its last (a hit or an abort needs a frame either side).
+INNER_FRAME = integer(1, MAX_FRAMES - 2, what="a frame index inside the clip (not its first or last)")
 #: A contact height threshold (metres) and speed threshold (m/s).
 CONTACT_HEIGHT = number(0.0, 1.0, lo_open=True, what="a contact height in metres")
 CONTACT_SPEED = number(0.0, 100.0, lo_open=True, what="a contact speed in m/s")

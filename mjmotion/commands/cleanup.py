@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 
 from ..errors import MjmotionError
-from ..outputs import together, write_text_atomic
+from ..outputs import json_text, together, write_text_atomic
 from ._common import add_input_options, extra_output, load, naming, output_path
 from ._options import CONTACT_HEIGHT, CONTACT_SPEED, number
-from .evaluate import _finite, _nan_to_none, add_judge_options, check_floor, load_sources
+from .evaluate import _finite, add_judge_options, check_floor, load_sources
 
 NAME = "cleanup"
 HELP = "remove footskate: hold foot plants on the floor, two-bone leg IK, root adjustment, smooth blending"
@@ -122,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
         bvh.write(res.motion, out)
         if rep_path is not None:
             doc = dict(input=args.file, output=str(out), sources=list(args.source), before=before, after=after, **info)
-            write_text_atomic(rep_path, json.dumps(_nan_to_none(doc), indent=1, default=float, allow_nan=False))
+            write_text_atomic(rep_path, json_text(doc, indent=1))
     print(
         f"wrote {out}: {len(res.plants)} plants ({info['raised_plants']} raised onto the floor), "
         f"{int(res.changed_frames.sum())}/{m.n_frames} frames changed, root moved ≤ {res.max_root_shift_m * 1000:.1f} mm"

@@ -6,7 +6,6 @@ import argparse
 import csv
 import filecmp
 import io
-import json
 import math
 import os
 import sys
@@ -15,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import MjmotionError, printable, require_number
 from ..inputs import find_bvh
-from ..outputs import write_text_atomic
+from ..outputs import json_text, write_text_atomic
 from ._common import (
     add_bowler_option,
     add_input_options,
@@ -186,6 +185,7 @@ def load_sources(args: argparse.Namespace, result_path: str, result, what: str =
     """The ``--source`` clips, checked against the result (``result_path``, motion ``result``):
     same skeleton and frame rate, not the result itself; leading transients cut like the result's.
     ``what``: how the messages call the clip judged against them (``cleanup``: "the input")."""
+    from ..feet import source_too_short
     from ..skeleton import same_rate
 
     out = []
@@ -208,6 +208,8 @@ def load_sources(args: argparse.Namespace, result_path: str, result, what: str =
             )
         if not same_rate(m.fps, result.fps):
             raise MjmotionError(f"--source {src}: {m.fps:g} fps, {result_path} {result.fps:g} fps; resample one first (mjmotion convert --fps)")
+        if (short := source_too_short(m)) is not None:
+            raise MjmotionError(f"--source {src}: {short}")
         out.append(m)
     return out
 
@@ -444,22 +446,18 @@ def run(args: argparse.Namespace) -> int:
     if out is not None:
         write_text_atomic(
             out,
-            json.dumps(
-                _nan_to_none(
-                    [
-                        {
-                            "file": r["file"],
-                            "skipped_frames": r.get("skipped_frames"),
-                            **({"report": r["report"]} if "report" in r else {"error": r["error"]}),
-                            **({"notes": list(r["notes"])} if "report" in r else {}),  # what the table's note: lines say
-                            **({"hit_grid": r["hit_grid"]} if "hit_grid" in r else {}),
-                        }
-                        for r in results
-                    ]
-                ),
+            json_text(
+                [
+                    {
+                        "file": r["file"],
+                        "skipped_frames": r.get("skipped_frames"),
+                        **({"report": r["report"]} if "report" in r else {"error": r["error"]}),
+                        **({"notes": list(r["notes"])} if "report" in r else {}),  # what the table's note: lines say
+                        **({"hit_grid": r["hit_grid"]} if "hit_grid" in r else {}),
+                    }
+                    for r in results
+                ],
                 indent=1,
-                default=_json_default,
-                allow_nan=False,
             ),
         )
         print(f"wrote {out}")
@@ -481,27 +479,6 @@ def _hit_grid(args: argparse.Namespace, opts: dict[str, Any]) -> dict[str, Any]:
         p = launchgrid.hit_grid(m, prop, frame, offsets, wrist=mode, ball_radius=args.ball_radius, ball_velocity=tuple(args.ball_velocity))
         out[mode] = {"rho_azimuth": p.rho_azimuth, "rho_elevation": p.rho_elevation, "slope_deg_per_m": p.slope_deg_per_m, "rows": p.rows()}
     return out
-
-
-def _nan_to_none(x: Any) -> Any:
-    """NaN (a metric with nothing to measure, e.g. no flight frames) becomes JSON ``null``."""
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    if isinstance(x, dict):
-        return {k: _nan_to_none(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_nan_to_none(v) for v in x]
-    return x
-
-
-def _json_default(o: Any) -> Any:
-    import numpy as np
-
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o).__name__)
 
 
 def _safe(path: str, opts: dict[str, Any]) -> dict[str, Any]:

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from ..errors import MjmotionError
-from ..outputs import together, write_text_atomic
+from ..outputs import json_text, together, write_text_atomic
 from ._common import add_bowler_option, add_input_options, check_bowler, check_model, clip_frame, extra_output, load_first, output_path, prop_option
-from ._options import COORD, FRAME, VELOCITY, Given, number, prop_text
+from ._options import COORD, INNER_FRAME, VELOCITY, Given, number, prop_text
 from ._progress import steps
 
 NAME = "hit"
@@ -86,10 +85,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--frame",
-        type=FRAME,
+        type=INNER_FRAME,
         default=None,
         metavar="H",
-        help="hit frame (default: the moment of contact, the effector's lowest pass in the downswing)",
+        help="hit frame, a file frame inside the clip, not its first or last (default: the moment of contact, the effector's lowest pass in the downswing)",
     )
     p.add_argument(
         "--source-ball",
@@ -194,7 +193,7 @@ def run(args: argparse.Namespace) -> int:
             step("launch")
             result.report["delivery"] = _launch(result, ball, flight, args.delivery)
         step("write")
-        text = json.dumps(result.report, indent=2)
+        text = json_text(result.report, indent=2)
         with together():  # (the clip and its report appear together or not at all)
             bvh.write(result.motion, out)
             if report_path is not None:

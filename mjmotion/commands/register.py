@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from ..caps import MAX_WINDOW
 from ..errors import MjmotionError
-from ..outputs import check_output, together, write_text_atomic
+from ..outputs import check_output, json_text, together, write_text_atomic
 from . import _joint_weights as joint_weights
 from ._common import add_input_options, check_suffix, extra_output, load, naming
 from ._options import FPS, Given, integer, number, resample
@@ -197,7 +196,7 @@ def _register(registration, a, b, args: argparse.Namespace):
 def _write(pr, out: Path, plot: Path | None, name_a: str, name_b: str) -> str:
     """Write the registration's JSON (and the grid's plot); the files written, for the summary line."""
     with together():  # (the registration and its plot appear together or not at all)
-        write_text_atomic(out, json.dumps(pr.to_json()))
+        write_text_atomic(out, json_text(pr.to_json()))
         if plot is None:
             return str(out)
         from .. import plots

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from ..errors import MjmotionError
-from ..outputs import together, write_text_atomic
+from ..outputs import json_text, together, write_text_atomic
 from . import _joint_weights as joint_weights
 from ._common import add_input_options, extra_output, load, output_path
 from ._progress import steps
@@ -88,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
                     "transitions": [t.to_json(script.fps) for t in controller.transitions],
                     "blendability": {name: b.to_json() for name, b in blends.items()},
                 }
-                write_text_atomic(report, json.dumps(data, indent=1))
+                write_text_atomic(report, json_text(data, indent=1))
     for name, b in blends.items():
         warning = b.warning(script.locomotion[registration.reference], name)
         if warning:

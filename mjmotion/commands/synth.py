@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 from ..errors import MjmotionError
-from ..outputs import check_folder, together, write_text_atomic
+from ..outputs import check_folder, json_text, together, write_text_atomic
 from ._common import extra_output, output_path
 from ._options import integer, number
 from ._progress import steps
@@ -107,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     with together():  # (the clip and its ground truth appear together or not at all)
         bvh.write(clip.motion, out)
         if truth is not None:
-            write_text_atomic(truth, json.dumps(clip.to_manifest(out.name), indent=1) + "\n")
+            write_text_atomic(truth, json_text(clip.to_manifest(out.name), indent=1) + "\n")
     extra = f", hit frame {clip.hit_frame}" if clip.hit_frame is not None else ""
     written = f"{out} and {truth}" if truth is not None else str(out)
     print(f"wrote {written}: {args.kind}, {clip.motion.n_frames} frames at {clip.motion.fps:g} fps{extra}")

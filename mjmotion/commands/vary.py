@@ -5,13 +5,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
-import json
 
 from ..caps import MAX_COMPONENTS, MAX_FRAMES, check_motion_size
 from ..errors import MjmotionError
-from ..outputs import check_output, together, write_text_atomic
+from ..outputs import check_output, json_text, together, write_text_atomic
 from ._common import add_input_options, check_model, check_suffix, clip_frame, load_first, output_path, parse_frames
-from ._options import FRAME, Given, integer, number
+from ._options import INNER_FRAME, Given, integer, number
 from ._progress import steps
 
 NAME = "vary"
@@ -59,9 +58,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     how.add_argument(
         "--abort-at",
-        type=FRAME,
+        type=INNER_FRAME,
         metavar="FRAME",
-        help="abandon the shot at FRAME and return to the rest pose",
+        help="abandon the shot at FRAME (a file frame inside the clip, not its first or last) and return to the rest pose",
     )
     how.add_argument(
         "--scores",
@@ -79,7 +78,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=integer(-MAX_FRAMES, MAX_FRAMES - 1, what="a frame index"),
         default=None,
         metavar="F",
-        help="the rest pose's frame, negative from the end (default: the last)",
+        help="the rest pose's frame within the clip, negative from the end (default: the last)",
     )
     p.add_argument(
         "--pcs", type=integer(1, MAX_COMPONENTS, what="a number of components"), metavar="K", help="number of controlled principal components"
@@ -261,7 +260,7 @@ def run(args: argparse.Namespace) -> int:
                     dims=args.plot_dims,
                 )
             if args.json:
-                write_text_atomic(args.json, json.dumps(report, indent=2, default=_jsonable) + "\n")
+                write_text_atomic(args.json, json_text(report, indent=2) + "\n")
 
     written = ", ".join(str(x) for x in (out, args.json, args.plot) if x)
     print(f"wrote {written}: {path.label}, {result.n_frames} frames, k={k} ({100 * report['variance_explained']:.1f}% of the variance)")
@@ -288,13 +287,3 @@ def run(args: argparse.Namespace) -> int:
 
 def _mm(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.1f}"
-
-
-def _jsonable(x: object) -> object:
-    import numpy as np
-
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    raise TypeError(f"cannot write {type(x).__name__} to JSON")

@@ -22,6 +22,9 @@ from .grid import DEFAULT_WINDOW, distance_grid
 THRESHOLD = 0.9
 #: Frames of a clip (evenly spaced; every frame of a shorter clip) whose windows enter its self-similarity.
 SELF_FRAMES = 200
+#: A self-similarity (m²) at most this holds one pose: its frames differ by the rounding of a written file
+#: (a still clip read back from BVH read 1e-15, and its blendability 6e13 instead of "cannot be measured").
+STILL_M2 = 1e-10
 
 
 @dataclass(frozen=True)
@@ -29,7 +32,8 @@ class Blendability:
     """How blendable two registered clips are.
 
     Attributes:
-        score: ``mean_cost / min(self_similarity)``; lower is more alike, ≥ 1 no correspondence.
+        score: ``mean_cost / min(self_similarity)``; lower is more alike, ≥ 1 no correspondence; inf (``null``
+            in JSON) when a clip holds one pose (self-similarity at most ``STILL_M2``) and the other does not.
         mean_cost: the path's mean cell cost (m²).
         self_similarity: ``(A, B)`` mean distance between two frames of each clip (m²).
         threshold: the score above which the pair is called unblendable.
@@ -78,6 +82,7 @@ def blendability(
 ) -> Blendability:
     """The :class:`Blendability` of clips A and B whose registration path has ``mean_cost``."""
     sa, sb = self_similarity(positions_a, weights, window), self_similarity(positions_b, weights, window)
+    sa, sb = (s if s > STILL_M2 else 0.0 for s in (sa, sb))
     scale = min(sa, sb)
-    score = float(mean_cost / scale) if scale > 0 else (0.0 if mean_cost == 0 else float("inf"))
+    score = float(mean_cost / scale) if scale > 0 else (0.0 if mean_cost <= STILL_M2 else float("inf"))
     return Blendability(score=score, mean_cost=float(mean_cost), self_similarity=(sa, sb))
