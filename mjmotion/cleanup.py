@@ -69,6 +69,21 @@ MAX_SECONDS = 10.0
 _SECONDS = ("min_plant", "max_gap", "blend", "root_window", "lift_ramp")
 
 
+#: Highest a given floor may lie above the clip's own stance floor, as a share of the leg (hip to ankle): a plant
+#: below the floor is raised onto it by folding the leg, and past this the feet were folded up to the hips
+#: (``--floor 1`` on a golf swing: every frame's feet above its hips, reported as a cleanup).
+MAX_FLOOR_RAISE = 0.25
+
+
+class FloorTooHighError(MjmotionError):
+    """A given floor (``CleanupParams.floor``) too far above the clip's stance for its plants to be raised onto;
+    ``why`` says how far, without naming the option (the CLI names ``--floor``)."""
+
+    def __init__(self, option: str, why: str):
+        super().__init__(f"{option}: {why}")
+        self.why = why
+
+
 @dataclass(frozen=True)
 class CleanupParams:
     """Cleanup settings. ``h_c``/``v_c``/``hysteresis`` as the judge's contact; times in seconds.
@@ -691,6 +706,17 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
         if knee <= 0 or hip <= 0:
             raise MjmotionError(f"{motion.name}: the {side} foot {skel.names[ankle]!r} needs a knee and a hip above it")
         legs.append((hip, knee, ankle))
+    if params.floor is not None:
+        rest = skel.rest_positions()
+        leg = float(np.mean([np.linalg.norm(rest[h] - rest[k]) + np.linalg.norm(rest[k] - rest[a]) for h, k, a in legs]))
+        stance = track.detected_floor()
+        if params.floor - stance > MAX_FLOOR_RAISE * leg:
+            raise FloorTooHighError(
+                f"floor={params.floor:g}",
+                f"{params.floor - stance:.2f} m above the floor {motion.name or 'the clip'} stands on (detected at {stance:.3f} m); cleanup "
+                f"raises plants onto the floor it is given by bending the legs, at most {MAX_FLOOR_RAISE:.0%} of their length "
+                f"({MAX_FLOOR_RAISE * leg:.2f} m): give the floor it was captured on, or none",
+            )
     toes = [feet[side][1] for side in track.sides]
     ankles = pose.joint_positions[:, [a for _, _, a in legs]]
     # Every sole point in its ankle's frame (T, F, P, 3): constant for a rigid foot, moving with a toe joint.
@@ -846,7 +872,8 @@ def _pin(
         )
         vec = targets[:, f] - hp
         dist = np.linalg.norm(vec, axis=1)
-        excess = np.maximum(dist - params.reach * lengths[-1], 0.0)
+        # Only where the foot is held or lifted: a captured leg straighter than `reach` is the capture's own.
+        excess = np.where(support[:, f], np.maximum(dist - params.reach * lengths[-1], 0.0), 0.0)
         need = vec / np.maximum(dist, 1e-12)[:, None] * excess[:, None]
         bigger = np.linalg.norm(need, axis=1) > np.linalg.norm(shift, axis=1)
         shift[bigger] = need[bigger]

@@ -322,11 +322,12 @@ def test_hann_smoothing_keeps_the_clip_length_even_when_shorter_than_the_window(
 
 
 def test_cleanup_of_clips_shorter_than_the_root_window():
-    """30 frames (0.25 s, under the 37-frame root window) of a T-pose start whose straight legs
-    need the root lowered: cleaned without error, bone lengths kept, same length."""
-    m = shared_clip("cmu_cgspeed_daz/09_06.bvh")[:30]
+    """30 frames (0.25 s, under the 37-frame root window) of a run whose held stance foot is past its
+    leg's reach: the root moves towards it, cleaned without error, bone lengths kept, same length.
+    (A T-pose start's straight legs, no foot held, moved the root too: no longer, the capture's own.)"""
+    m = shared_clip("cmu_cgspeed_daz/09_06.bvh")[40:70]
     res = cl.cleanup(m)
-    assert res.max_root_shift_m > 0  # the smoothing path ran
+    assert res.plants and res.max_root_shift_m > 0.01  # the smoothing path ran
     assert res.motion.n_frames == 30 and np.all(np.isfinite(res.motion.rotations))
     a, b = kinematics.joint_positions(m), kinematics.joint_positions(res.motion)
     p = m.skeleton.parents
@@ -798,3 +799,28 @@ def test_the_cleanup_help_states_the_release_constants_the_code_uses():
     assert f"fades longer ({cl.RELEASE_SPEED:g} m/s, up to {cl.MAX_FADE:g} s)" in text
     assert f"(low-passed at {cl.FOOT_CUTOFF_HZ:g} Hz," in text
     assert f"(by at most {100 * cl.ROOT_SHIFT:g} % of the leg's length:" in text
+
+
+def test_a_floor_far_above_the_stance_is_refused_and_one_far_below_changes_nothing(tmp_path, capsys):
+    # `--floor 1` under a golf swing folded every frame's feet up above its hips, reported as a cleanup.
+    m = shared_clip("cmu_asfamc_converted/64_01.bvh")[100:220]
+    stance = cl.cleanup(m).floor.height
+    rest = m.skeleton.rest_positions()
+    names = list(m.skeleton.names)
+    hip, knee, ankle = (names.index(n) for n in ("lfemur", "ltibia", "lfoot"))
+    leg = np.linalg.norm(rest[hip] - rest[knee]) + np.linalg.norm(rest[knee] - rest[ankle])
+    raised = stance + 0.9 * cl.MAX_FLOOR_RAISE * leg
+    assert cl.cleanup(m, cl.CleanupParams(floor=raised)).raised_plants >= 1  # within reach: raised onto it
+    with pytest.raises(cl.FloorTooHighError, match=r"floor=1: 1\.\d\d m above the floor"):
+        cl.cleanup(m, cl.CleanupParams(floor=1.0))
+    clip = tmp_path / "swing.bvh"
+    bvh.write(m, clip)
+    assert main(["cleanup", str(clip), "-o", str(tmp_path / "out.bvh"), "--floor", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --floor 1: 1.") and err.count("\n") == 1 and not (tmp_path / "out.bvh").exists()
+    # A floor far below: no foot touches it, so there is no plant and no frame changes (the root moved
+    # where the captured legs were straighter than `reach`: 133 frames of the follow-through).
+    end = shared_clip("cmu_asfamc_converted/64_01.bvh")[280:]
+    low = cl.cleanup(end, cl.CleanupParams(floor=-1.0))
+    assert not low.plants and not low.changed_frames.any()
+    assert np.array_equal(low.motion.rotations, end.rotations) and np.array_equal(low.motion.root_positions, end.root_positions)

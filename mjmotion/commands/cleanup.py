@@ -114,6 +114,8 @@ def run(args: argparse.Namespace) -> int:
         refs = sources or [m]
         before = _metrics(m, refs if sources else [m.replace()], args.floor, params)
         after = _metrics(res.motion, refs, args.floor, params)
+    except cl.FloorTooHighError as e:
+        raise MjmotionError(f"--floor {args.floor:g}: {e.why}") from None
     except MjmotionError as e:
         raise naming(args.file, e) from None
     info = res.to_dict()
