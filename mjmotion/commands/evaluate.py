@@ -163,8 +163,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 FLOOR_HELP = "the floor height (world z, m, within ±100) every ground metric measures from, level (default: from --source, else detected; a tilted stance floor is levelled first, docs/METRICS.md)"
 SOURCE_HELP = (
-    "a clip the input was made from (repeatable; same skeleton and frame rate): gives the floor, "
-    "calibrates the feet, and is the reference of the per-joint speed ratio and pops"
+    "a clip the input was made from (repeatable; same skeleton and frame rate, at least 1/6 s long): gives "
+    "the floor, calibrates the feet, and is the reference of the per-joint speed ratio and pops"
 )
 
 
