@@ -76,12 +76,13 @@ MAX_FLOOR_RAISE = 0.25
 
 
 class FloorTooHighError(MjmotionError):
-    """A given floor (``CleanupParams.floor``) too far above the clip's stance for its plants to be raised onto;
-    ``why`` says how far, without naming the option (the CLI names ``--floor``)."""
+    """A floor (``CleanupParams.floor``, or the sources') too far above the clip's stance for its plants to be
+    raised onto; ``why`` says how far, without naming the option (the CLI names ``--floor`` or ``--source``);
+    ``from_``: ``"given"`` or ``"source"``."""
 
-    def __init__(self, option: str, why: str):
-        super().__init__(f"{option}: {why}")
-        self.why = why
+    def __init__(self, why: str, height: float, from_: str = "given"):
+        super().__init__(f"floor={height:g}: {why}" if from_ == "given" else f"sources: their floor ({height:.3f} m) is {why}")
+        self.why, self.height, self.from_ = why, height, from_
 
 
 @dataclass(frozen=True)
@@ -684,6 +685,7 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
     compiled = mjcf.compile(skel)
     pose = kinematics.forward(compiled, motion)
     track, soles, fl = ft.judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], params.floor)
+    _check_floor_rise(motion, track, fl)
     if not fl.level.flat:
         # A tilted captured floor: cleaned in the judge's levelled frame, on its level floor, and turned back.
         lv = fl.level
@@ -706,17 +708,6 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
         if knee <= 0 or hip <= 0:
             raise MjmotionError(f"{motion.name}: the {side} foot {skel.names[ankle]!r} needs a knee and a hip above it")
         legs.append((hip, knee, ankle))
-    if params.floor is not None:
-        rest = skel.rest_positions()
-        leg = float(np.mean([np.linalg.norm(rest[h] - rest[k]) + np.linalg.norm(rest[k] - rest[a]) for h, k, a in legs]))
-        stance = track.detected_floor()
-        if params.floor - stance > MAX_FLOOR_RAISE * leg:
-            raise FloorTooHighError(
-                f"floor={params.floor:g}",
-                f"{params.floor - stance:.2f} m above the floor {motion.name or 'the clip'} stands on (detected at {stance:.3f} m); cleanup "
-                f"raises plants onto the floor it is given by bending the legs, at most {MAX_FLOOR_RAISE:.0%} of their length "
-                f"({MAX_FLOOR_RAISE * leg:.2f} m): give the floor it was captured on, or none",
-            )
     toes = [feet[side][1] for side in track.sides]
     ankles = pose.joint_positions[:, [a for _, _, a in legs]]
     # Every sole point in its ankle's frame (T, F, P, 3): constant for a rigid foot, moving with a toe joint.
@@ -761,6 +752,28 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
         floor=fl,
         raised_plants=raised,
     )
+
+
+def _check_floor_rise(motion: Motion, track: ft.FootTrack, fl: floors.Floor) -> None:
+    """Refuse a floor (given, or the sources') more than :data:`MAX_FLOOR_RAISE` of the leg above the
+    floor ``motion`` stands on (``track``'s own stance, in the same levelled frame as ``fl``)."""
+    if fl.from_ == "detected":
+        return
+    rest = motion.skeleton.rest_positions()
+    legs = [
+        (int(motion.skeleton.parents[int(motion.skeleton.parents[a])]), int(motion.skeleton.parents[a]), a)
+        for a, _ in motion.skeleton.feet().values()
+    ]
+    leg = float(np.mean([np.linalg.norm(rest[h] - rest[k]) + np.linalg.norm(rest[k] - rest[a]) for h, k, a in legs]))
+    stance = track.detected_floor()
+    if fl.height - stance > MAX_FLOOR_RAISE * leg:
+        raise FloorTooHighError(
+            f"{fl.height - stance:.2f} m above the floor {motion.name or 'the clip'} stands on (detected at {stance:.3f} m); cleanup "
+            f"raises plants onto its floor by bending the legs, at most {MAX_FLOOR_RAISE:.0%} of their length "
+            f"({MAX_FLOOR_RAISE * leg:.2f} m): give the floor it was captured on, or none",
+            fl.height,
+            fl.from_,
+        )
 
 
 @dataclass(frozen=True, eq=False)

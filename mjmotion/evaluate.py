@@ -66,6 +66,7 @@ from .thresholds import (
     H_C_SENSITIVITY,
     HYSTERESIS,
     MAX_JUDGED_FPS,
+    MIN_FRAMES,
     PEAK_PERCENTILE,
     POP_FACTOR,
     SKATE_WINDOW,
@@ -453,10 +454,6 @@ def judge_model(skeleton: Skeleton, props: Sequence[mjcf.Prop] = ()) -> Compiled
     while len(_models) > MODEL_CACHE:
         _models.popitem(last=False)
     return compiled
-
-
-#: The shortest clip the judge takes: speeds and accelerations are differences between frames.
-MIN_FRAMES = 3
 
 
 def require_frames(n_frames: int) -> None:

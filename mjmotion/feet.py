@@ -47,7 +47,7 @@ from .filters import lowpass, velocity
 from .kinematics import Pose
 from .mjcf import CompiledModel
 from .skeleton import Motion, Skeleton, same_rate
-from .thresholds import CUTOFF_HZ, H_C, HYSTERESIS, SPEED_WINDOW, V_C
+from .thresholds import CUTOFF_HZ, H_C, HYSTERESIS, MIN_FRAMES, SPEED_WINDOW, V_C
 
 # The 8 corner sign patterns of a box, (8, 3).
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
@@ -545,31 +545,39 @@ def _stance(track: FootTrack) -> tuple[np.ndarray, np.ndarray]:
 
 
 def min_source_frames(fps: float) -> int:
-    """Frames a source needs: one period of the judge's low-pass (``CUTOFF_HZ``), the shortest stretch
-    whose joint speeds can be a reference (a 3-frame source read a golf swing's thumb at 377x its "peak")."""
-    return max(3, math.ceil(float(fps) / CUTOFF_HZ - 1e-9))
+    """Frames a source given by a user (``--source``) needs as the reference of every joint's speed: one
+    period of the judge's low-pass (``CUTOFF_HZ``) between its first and last frame (21 at 120 fps,
+    whether the file's frame time rounds 1/120 up or down). A 3-frame source read a golf swing's thumb
+    at 377x its "peak"."""
+    return max(MIN_FRAMES, math.floor(float(fps) / CUTOFF_HZ + 1e-6) + 1)
 
 
-def source_too_short(source: Motion) -> str | None:
-    """Why ``source`` is too short to judge against (``"N frames; …"``), or None."""
+def source_too_short(source: Motion, speed_reference: bool = True) -> str | None:
+    """Why ``source`` is too short to judge against (``"N frames; …"``), or None: shorter than the judge
+    takes a clip (:data:`~mjmotion.thresholds.MIN_FRAMES`), or, as a ``speed_reference``, than
+    :func:`min_source_frames`."""
+    n, s = source.n_frames, "s" * (source.n_frames != 1)
+    if n < MIN_FRAMES:
+        return f"{n} frame{s}; the judge needs at least {MIN_FRAMES} frames of a source (speeds are differences between frames)"
     need = min_source_frames(source.fps)
-    if source.n_frames >= need:
+    if not speed_reference or n >= need:
         return None
     return (
-        f"{source.n_frames} frame{'s' * (source.n_frames != 1)}; a source is the reference for every joint's speed and needs at "
-        f"least {need} frames at {source.fps:g} fps (1/{CUTOFF_HZ:g} s, one period of the judge's low-pass)"
+        f"{n} frame{s}; a source is the reference for every joint's speed and needs at least {need} frames at "
+        f"{source.fps:g} fps (1/{CUTOFF_HZ:g} s, one period of the judge's low-pass)"
     )
 
 
 def check_sources(motion: Motion, sources: Sequence[Motion]) -> None:
     """Refuse a source the judge cannot measure ``motion`` against: another skeleton, another
-    frame rate, the result itself, or too short (:func:`min_source_frames`) (``evaluate``,
-    ``cleanup`` and ``render`` share the rule)."""
+    frame rate, the result itself, or fewer frames than the judge takes a clip (``evaluate``,
+    ``cleanup`` and ``render`` share the rule; the commands hold a ``--source`` to
+    :func:`min_source_frames`, :func:`source_too_short`)."""
     if isinstance(sources, Motion) or not all(isinstance(s, Motion) for s in sources):
         raise MjmotionError("sources: expected a list of Motions (the clips this one was made from), e.g. sources=[walk, run]")
     for i, s in enumerate(sources):
         label = f"source {i + 1} ({s.name or 'unnamed'})"
-        if (short := source_too_short(s)) is not None:
+        if (short := source_too_short(s, speed_reference=False)) is not None:
             raise MjmotionError(f"{label}: {short}")
         if not motion.skeleton.same_topology(s.skeleton):
             raise MjmotionError(f"{label}: another skeleton than {motion.name or 'the result'}'s; a source must share the result's skeleton")

@@ -347,13 +347,20 @@ def staged_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
 
 
 def _plain(x: Any) -> Any:
-    """``x`` with NumPy values as Python ones and every non-finite float as ``None`` (nested dicts, lists, tuples)."""
+    """``x`` with NumPy values as Python ones and every non-finite float as ``None`` (nested dicts, lists,
+    tuples; NumPy keys too)."""
+    import numpy as np
+
     if isinstance(x, dict):
-        return {k: _plain(v) for k, v in x.items()}
+        return {_plain(k): _plain(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
         return [_plain(v) for v in x]
-    if hasattr(x, "tolist") and hasattr(x, "dtype"):  # a NumPy array or scalar
-        return _plain(x.tolist())
+    if isinstance(x, np.ndarray):
+        # (row by row: tolist() keeps a longdouble a longdouble)
+        return _plain(x[()]) if x.ndim == 0 else [_plain(v) for v in x]
+    if isinstance(x, np.generic):
+        kind = x.dtype.kind
+        x = bool(x) if kind == "b" else int(x) if kind in "iu" else float(x) if kind == "f" else x.item()
     if isinstance(x, float) and not math.isfinite(x):
         return None
     return x

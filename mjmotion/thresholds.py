@@ -32,6 +32,8 @@ H_C_SENSITIVITY = (0.03, 0.05, 0.08)
 #: Low-pass cutoff (Hz) of the zero-lag 2nd-order Butterworth filter applied to positions before
 #: they are differentiated (foot speeds, inverse dynamics): Winter's cutoff for walking marker data.
 CUTOFF_HZ = 6.0
+#: The shortest clip the judge takes, as the result or a source: speeds and accelerations are differences between frames.
+MIN_FRAMES = 3
 #: Foot speeds: the slope of a local quadratic fitted over this many seconds (Savitzky–Golay).
 SPEED_WINDOW = 0.1
 MU = 1.0  #: friction coefficient of the ground-reaction feasibility test

@@ -824,3 +824,23 @@ def test_a_floor_far_above_the_stance_is_refused_and_one_far_below_changes_nothi
     low = cl.cleanup(end, cl.CleanupParams(floor=-1.0))
     assert not low.plants and not low.changed_frames.any()
     assert np.array_equal(low.motion.rotations, end.rotations) and np.array_equal(low.motion.root_positions, end.root_positions)
+
+
+def test_a_short_input_is_cleaned_and_a_sources_floor_far_above_is_refused_by_name(tmp_path, capsys):
+    # The input judged against itself is no user's --source: 15 frames were refused as "source 1 … 21 frames".
+    run = shared_clip("cmu_cgspeed_daz/09_06.bvh")[40:55]
+    short = tmp_path / "short.bvh"
+    bvh.write(run, short)
+    assert main(["cleanup", str(short), "-o", str(tmp_path / "short_clean.bvh")]) == 0
+    capsys.readouterr()
+    # Sources standing 0.4 m above a walk on a tilted floor (daz 07_01, 1.1°): a traceback-free error naming
+    # --source (the levelled pass took their floor as given and formatted the absent --floor).
+    walk = shared_clip("cmu_cgspeed_daz/07_01.bvh", 4)[:240]
+    clip, up = tmp_path / "walk.bvh", tmp_path / "walk_up.bvh"
+    bvh.write(walk, clip)
+    bvh.write(walk.replace(root_positions=walk.root_positions + [0.0, 0.0, 0.4]), up)
+    assert main(["cleanup", str(clip), "-o", str(tmp_path / "o.bvh"), "--source", str(up)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: --source {up}: their floor (") and " m above the floor walk stands on" in err and err.count("\n") == 1, err
+    with pytest.raises(cl.FloorTooHighError, match=r"^sources: their floor \("):
+        cl.cleanup(walk, sources=[bvh.read(up)])

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import clip_params, linear_blend, require_data, shared_clip
 
-from mjmotion import bvh, kinematics, mjcf, physics
+from mjmotion import bvh, feet, kinematics, mjcf, physics
 from mjmotion import evaluate as ev
 from mjmotion import rotations as rot
 from mjmotion.cli import main
@@ -561,12 +561,16 @@ def test_cli_evaluate_refuses_a_bad_floor_or_source(case, tmp_path, capsys):
         assert "short.bvh: 3 frames" in err and "needs at least 21 frames" in err, err
 
 
-def test_a_source_shorter_than_the_low_pass_period_is_refused_by_the_api():
+def test_sources_the_judge_cannot_take_are_refused_by_name_and_the_commands_want_one_low_pass_period():
+    # A 1-frame source read as an error of the judged clip ("a clip needs at least 2 frames for foot speeds").
     m = shared_clip("cmu_asfamc_converted/16_15.bvh")[10:80]
-    assert m.fps > 120  # (Frame Time 0.008333: 20.0008 frames per period, so 21)
-    with pytest.raises(ev.MjmotionError, match=r"source 1 \(.*\): 20 frames; .* at least 21 frames"):
-        ev.evaluate(m, sources=[m[:20]])
-    assert ev.evaluate(m, sources=[m[:21]]).sources == 1
+    with pytest.raises(ev.MjmotionError, match=r"source 1 \(.*\): 2 frames; the judge needs at least 3 frames of a source"):
+        ev.evaluate(m, sources=[m[:2]])
+    assert ev.evaluate(m, sources=[m[:3]]).sources == 1  # the API takes what the judge takes; the commands ask more
+    # One period of the 6 Hz low-pass between first and last frame, however the frame time rounds 1/120.
+    assert feet.min_source_frames(120.0) == feet.min_source_frames(1 / 0.0083333) == 21 and feet.min_source_frames(60.0) == 11
+    assert feet.source_too_short(m[:20]) is not None and feet.source_too_short(m[:21]) is None
+    assert feet.source_too_short(m[:3], speed_reference=False) is None
 
 
 def test_a_clip_resampled_to_its_sources_rate_as_written_is_judged_against_it(tmp_path, capsys):

@@ -316,3 +316,18 @@ def test_compile_puts_the_judges_floor_at_the_models_floor(rel, tmp_path):
     model = mujoco.MjModel.from_xml_path(str(out))
     assert abs(model.key_qpos[0, 2] - clip.root_positions[0, 2]) < 1e-6
     assert evaluate.evaluate(clip, floor=0.0).floor_from == "given"
+
+
+def test_compile_takes_a_short_source_for_its_floor(tmp_path, capsys):
+    """A --source gives compile and render a floor, not a speed reference: 12 frames are enough (refused
+    when the commands asked every source for one low-pass period)."""
+    from mjmotion.cli import main
+
+    walk = bvh.read(require_data() / "cmu_cgspeed_daz/07_01.bvh")[4:]
+    clip, src, out = tmp_path / "walk.bvh", tmp_path / "src12.bvh", tmp_path / "m.xml"
+    bvh.write(walk[:200], clip)
+    bvh.write(walk[200:212], src)
+    assert main(["compile", str(clip), "--source", str(src), "-o", str(out)]) == 0, capsys.readouterr().err
+    bvh.write(walk[200:202], src)
+    assert main(["compile", str(clip), "--source", str(src), "-o", str(out), "--force"]) == 2
+    assert capsys.readouterr().err.startswith(f"error: --source {src}: 2 frames; the judge needs at least 3 frames of a source")

@@ -307,5 +307,7 @@ def test_json_text_is_standard_json_with_null_for_non_finite_numbers():
     value = {"score": float("inf"), "ratio": np.float32("nan"), "speeds": np.array([1.5, -np.inf]), "n": np.int64(3), "rows": ({"x": float("-inf")},)}
     assert strict(json_text(value)) == {"score": None, "ratio": None, "speeds": [1.5, None], "n": 3, "rows": [{"x": None}]}
     assert strict(json_text({"a": 1.25}, indent=1)) == {"a": 1.25}
+    odd = {"long": np.longdouble(1.5), np.int64(7): np.array(2.0), "grid": np.array([[1, np.nan]], dtype=np.float32), "yes": np.bool_(True)}
+    assert strict(json_text(odd)) == {"long": 1.5, "7": 2.0, "grid": [[1.0, None]], "yes": True}  # (a longdouble recursed for ever)
     with pytest.raises(TypeError):
         json_text({"a": object()})

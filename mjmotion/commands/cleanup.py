@@ -26,9 +26,9 @@ length: past that the foot stops short and slides), and ease every adjustment in
 and out (--blend seconds) so no joint pops. Only hips, knees, ankles, toes and the root change,
 and only near plants.
 
-The floor is --floor METRES (at most a quarter of the leg above the input's own stance floor:
-plants are raised onto it by bending the legs), else that of the --source clip(s) the input was
-made from (the clips of a blend; repeatable), else the input's own stance floor. --source clips also calibrate the
+The floor is --floor METRES, else that of the --source clip(s) the input was made from (the clips
+of a blend; repeatable), else the input's own stance floor; at most a quarter of the leg above the
+input's own stance floor (plants are raised onto it by bending the legs). --source clips also calibrate the
 feet, and the report gives worst_joint_speed_ratio and pop_frames against them (against the
 input without them). Lifting swing feet clear of the floor is an option (--clearance M), off by
 default. Prints footskate, ground and pops before and after, as `mjmotion evaluate --source`
@@ -116,7 +116,9 @@ def run(args: argparse.Namespace) -> int:
         before = _metrics(m, refs if sources else [m.replace()], args.floor, params)
         after = _metrics(res.motion, refs, args.floor, params)
     except cl.FloorTooHighError as e:
-        raise MjmotionError(f"--floor {args.floor:g}: {e.why}") from None
+        if e.from_ == "given" and args.floor is not None:
+            raise MjmotionError(f"--floor {args.floor:g}: {e.why}") from None
+        raise MjmotionError(f"--source {', '.join(args.source)}: their floor ({e.height:.3f} m) is {e.why}") from None
     except MjmotionError as e:
         raise naming(args.file, e) from None
     info = res.to_dict()

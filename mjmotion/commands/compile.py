@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
             # The judge's feet and floor (as render draws them): a keyframe on the rest-pose boxes stood
             # 6 cm off the floor the judge finds for golf 64_04.
             check_floor(args)
-            sources = load_sources(args, args.file, clip) if args.source else []
+            sources = load_sources(args, args.file, clip, speed_reference=False) if args.source else []  # (a floor only)
             fl = feet.judged_floor(clip, sources, args.floor)
             compiled = feet.judged_model(clip, props, ball)
         elif args.source:

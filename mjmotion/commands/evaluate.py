@@ -163,8 +163,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 FLOOR_HELP = "the floor height (world z, m, within ±100) every ground metric measures from, level (default: from --source, else detected; a tilted stance floor is levelled first, docs/METRICS.md)"
 SOURCE_HELP = (
-    "a clip the input was made from (repeatable; same skeleton and frame rate, at least 1/6 s long): gives "
-    "the floor, calibrates the feet, and is the reference of the per-joint speed ratio and pops"
+    "a clip the input was made from (repeatable; same skeleton and frame rate, at least 1/6 s long, one period "
+    "of the judge's low-pass): gives the floor, calibrates the feet, and is the reference of the per-joint speed ratio and pops"
 )
 
 
@@ -181,10 +181,12 @@ def check_floor(args: argparse.Namespace) -> None:
         raise MjmotionError(f"--floor {floor:g}: expected a finite floor height in metres (world z)")
 
 
-def load_sources(args: argparse.Namespace, result_path: str, result, what: str = "the result") -> list:
+def load_sources(args: argparse.Namespace, result_path: str, result, what: str = "the result", speed_reference: bool = True) -> list:
     """The ``--source`` clips, checked against the result (``result_path``, motion ``result``):
-    same skeleton and frame rate, not the result itself; leading transients cut like the result's.
-    ``what``: how the messages call the clip judged against them (``cleanup``: "the input")."""
+    same skeleton and frame rate, not the result itself, long enough (``speed_reference``: as the
+    joints' speed reference, :func:`mjmotion.feet.min_source_frames`; else as a floor); leading
+    transients cut like the result's. ``what``: how the messages call the clip judged against them
+    (``cleanup``: "the input")."""
     from ..feet import source_too_short
     from ..skeleton import same_rate
 
@@ -208,7 +210,7 @@ def load_sources(args: argparse.Namespace, result_path: str, result, what: str =
             )
         if not same_rate(m.fps, result.fps):
             raise MjmotionError(f"--source {src}: {m.fps:g} fps, {result_path} {result.fps:g} fps; resample one first (mjmotion convert --fps)")
-        if (short := source_too_short(m)) is not None:
+        if (short := source_too_short(m, speed_reference)) is not None:
             raise MjmotionError(f"--source {src}: {short}")
         out.append(m)
     return out

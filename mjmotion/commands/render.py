@@ -127,7 +127,7 @@ def scene_floor(args: argparse.Namespace, first) -> Floor | None:
     from ..feet import judged_floor
 
     check_floor(args)
-    sources = load_sources(args, args.files[0], first) if args.source else []
+    sources = load_sources(args, args.files[0], first, speed_reference=False) if args.source else []  # (a floor only)
     if not first.skeleton.feet() or first.n_frames < 2:
         if args.source:
             raise MjmotionError(f"--source: {args.files[0]} has no feet found by name (or one frame); its floor cannot be judged")
