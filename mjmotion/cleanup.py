@@ -69,9 +69,9 @@ MAX_SECONDS = 10.0
 _SECONDS = ("min_plant", "max_gap", "blend", "root_window", "lift_ramp")
 
 
-#: Highest a given floor may lie above the clip's own stance floor, as a share of the leg (hip to ankle): a plant
-#: below the floor is raised onto it by folding the leg, and past this the feet were folded up to the hips
-#: (``--floor 1`` on a golf swing: every frame's feet above its hips, reported as a cleanup).
+#: Highest the cleanup's floor (given, or its sources') may lie above the clip's own stance floor, as a share of
+#: the leg (hip to ankle): a plant below the floor is raised onto it by folding the leg, and past this the feet
+#: were folded up to the hips (``--floor 1`` on a golf swing: every frame's feet above its hips, reported as a cleanup).
 MAX_FLOOR_RAISE = 0.25
 
 
@@ -759,11 +759,10 @@ def _check_floor_rise(motion: Motion, track: ft.FootTrack, fl: floors.Floor) -> 
     floor ``motion`` stands on (``track``'s own stance, in the same levelled frame as ``fl``)."""
     if fl.from_ == "detected":
         return
-    rest = motion.skeleton.rest_positions()
-    legs = [
-        (int(motion.skeleton.parents[int(motion.skeleton.parents[a])]), int(motion.skeleton.parents[a]), a)
-        for a, _ in motion.skeleton.feet().values()
-    ]
+    rest, parents = motion.skeleton.rest_positions(), motion.skeleton.parents
+    legs = [(int(parents[k]), k, a) for a, _ in motion.skeleton.feet().values() if (k := int(parents[a])) > 0]
+    if not legs:
+        return  # (no knee above a foot: cleanup refuses the skeleton, naming the foot)
     leg = float(np.mean([np.linalg.norm(rest[h] - rest[k]) + np.linalg.norm(rest[k] - rest[a]) for h, k, a in legs]))
     stance = track.detected_floor()
     if fl.height - stance > MAX_FLOOR_RAISE * leg:
