@@ -20,7 +20,9 @@ from .errors import MjmotionError, require_number
 #: foot whose quiet frames hold two stances is calibrated on the one it holds most (golf 64_0x's lead foot).
 #: 4: angular accelerations in true rad/s² (the rows' params read accel_floor 30, was 60; no pop frame moves);
 #: the rows' standing_axis column (the file axis the body stands along).
-JUDGE_REVISION = 4
+#: 5: max_joint_speed_ratio's source peak at least speed_floor (a still source read noise over noise); a
+#: --source shorter than one period of the low-pass is an error row.
+JUDGE_REVISION = 5
 H_C = 0.05  #: contact height, m
 V_C = 0.5  #: contact horizontal speed, m/s (GMD: 2.5 cm/frame at 20 fps)
 #: Contact hysteresis: a foot enters contact below (1 - HYSTERESIS) × (h_c, v_c) and leaves it
