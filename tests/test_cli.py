@@ -268,3 +268,13 @@ def test_the_judge_loads_no_scipy(mocap):
         "out['warm_up'] = heavy()\n"
     )
     assert all(v == ["mujoco"] for v in out.values()), out
+
+
+def test_frames_that_must_be_inside_the_clip_say_so_in_help_and_error(walk, tmp_path, capsys):
+    # The help said "range: from 0", and frame 0 was always refused later ("outside the clip's inner frames").
+    for verb, option in (("vary", "--abort-at"), ("hit", "--frame")):
+        assert main([verb, "--help"]) == 0
+        text = " ".join(capsys.readouterr().out.split())
+        assert f"{option} " in text and "inside the clip, not its first or last" in text and "range: from 1 to 999,998" in text, verb
+    assert main(["vary", str(walk), "--abort-at", "0", "-o", str(tmp_path / "v.bvh")]) == 2
+    assert capsys.readouterr().err.startswith("error: --abort-at 0: expected a frame index inside the clip (not its first or last)")
