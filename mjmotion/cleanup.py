@@ -685,7 +685,8 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
     compiled = mjcf.compile(skel)
     pose = kinematics.forward(compiled, motion)
     track, soles, fl = ft.judged_feet(compiled, motion, pose, [(s, kinematics.forward(compiled, s)) for s in sources], params.floor)
-    _check_floor_rise(motion, track, fl)
+    legs = _legs(motion, track.sides)
+    _check_floor_rise(motion, legs, track, fl)
     if not fl.level.flat:
         # A tilted captured floor: cleaned in the judge's levelled frame, on its level floor, and turned back.
         lv = fl.level
@@ -700,14 +701,6 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
             rotations=np.where(same_joint[..., None], motion.rotations, back.rotations),
         )
         return replace(flat, motion=back, floor=fl)
-    legs = []
-    for side in track.sides:
-        ankle = feet[side][0]
-        knee = int(skel.parents[ankle])
-        hip = int(skel.parents[knee])
-        if knee <= 0 or hip <= 0:
-            raise MjmotionError(f"{motion.name}: the {side} foot {skel.names[ankle]!r} needs a knee and a hip above it")
-        legs.append((hip, knee, ankle))
     toes = [feet[side][1] for side in track.sides]
     ankles = pose.joint_positions[:, [a for _, _, a in legs]]
     # Every sole point in its ankle's frame (T, F, P, 3): constant for a rigid foot, moving with a toe joint.
@@ -754,15 +747,27 @@ def cleanup(motion: Motion, params: CleanupParams = CleanupParams(), sources: Se
     )
 
 
-def _check_floor_rise(motion: Motion, track: ft.FootTrack, fl: floors.Floor) -> None:
-    """Refuse a floor (given, or the sources') more than :data:`MAX_FLOOR_RAISE` of the leg above the
-    floor ``motion`` stands on (``track``'s own stance, in the same levelled frame as ``fl``)."""
+def _legs(motion: Motion, sides: Sequence[str]) -> list[tuple[int, int, int]]:
+    """``(hip, knee, ankle)`` joint indices of each foot of ``sides``; refuses a foot without both above it."""
+    skel, feet = motion.skeleton, motion.skeleton.feet()
+    legs = []
+    for side in sides:
+        ankle = feet[side][0]
+        knee = int(skel.parents[ankle])
+        hip = int(skel.parents[knee])
+        if knee <= 0 or hip <= 0:
+            raise MjmotionError(f"{motion.name}: the {side} foot {skel.names[ankle]!r} needs a knee and a hip above it")
+        legs.append((hip, knee, ankle))
+    return legs
+
+
+def _check_floor_rise(motion: Motion, legs: Sequence[tuple[int, int, int]], track: ft.FootTrack, fl: floors.Floor) -> None:
+    """Refuse a floor (given, or the sources') more than :data:`MAX_FLOOR_RAISE` of the ``legs``' length
+    (hip to ankle, at rest) above the floor ``motion`` stands on (``track``'s own stance, in the same
+    levelled frame as ``fl``)."""
     if fl.from_ == "detected":
         return
-    rest, parents = motion.skeleton.rest_positions(), motion.skeleton.parents
-    legs = [(int(parents[k]), k, a) for a, _ in motion.skeleton.feet().values() if (k := int(parents[a])) > 0]
-    if not legs:
-        return  # (no knee above a foot: cleanup refuses the skeleton, naming the foot)
+    rest = motion.skeleton.rest_positions()
     leg = float(np.mean([np.linalg.norm(rest[h] - rest[k]) + np.linalg.norm(rest[k] - rest[a]) for h, k, a in legs]))
     stance = track.detected_floor()
     if fl.height - stance > MAX_FLOOR_RAISE * leg:
